@@ -1,0 +1,45 @@
+"""Install sim_bridge: the pybullet simulator, its ROS 2 bridge node and the lockstep runner."""
+
+from glob import glob
+import os
+
+from setuptools import find_packages, setup
+
+package_name = 'sim_bridge'
+share = os.path.join('share', package_name)
+
+
+def tree(source, destination):
+    """Return data_files entries copying the folder ``source`` to ``destination`` as a tree."""
+    return [(os.path.join(destination, os.path.relpath(folder, source)),
+             [os.path.join(folder, name) for name in names])
+            for folder, _, names in os.walk(source) if names]
+
+
+setup(
+    name=package_name,
+    version='0.1.0',
+    packages=find_packages(exclude=['test', 'test.*']),
+    data_files=[
+        ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
+        (share, ['package.xml']),
+        (os.path.join(share, 'launch'), glob('launch/*.launch.py')),
+        (os.path.join(share, 'params'), glob('params/*.yaml')),
+        # The worlds and models live at the workspace's top level (see README).
+        *tree('../worlds', os.path.join(share, 'worlds')),
+        *tree('../models', os.path.join(share, 'models')),
+    ],
+    install_requires=['setuptools', 'numpy', 'pybullet', 'rosbags', 'matplotlib', 'PyYAML'],
+    zip_safe=False,
+    maintainer='Laser Lab Kit maintainers',
+    maintainer_email='laser-lab@example.org',
+    description='pybullet stand-in for Gazebo, ROS 2 bridge node, lockstep runner and grader.',
+    license='Apache-2.0',
+    entry_points={
+        'console_scripts': [
+            'sim_bridge = sim_bridge.bridge:main',
+            'lab_run = sim_bridge.run:main',
+            'lab_grade = sim_bridge.grade:main',
+        ],
+    },
+)
