@@ -1,0 +1,1 @@
+"""scan_pkg: the laser lab nodes and their pure scan geometry and behaviour cores."""
