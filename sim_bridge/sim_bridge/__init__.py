@@ -1,0 +1,1 @@
+"""sim_bridge: pybullet stand-in for Gazebo, its ROS 2 bridge, and the lockstep runner."""

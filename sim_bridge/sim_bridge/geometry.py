@@ -1,0 +1,328 @@
+"""
+Plain geometry of the simulated world: 3-D primitives, their 2-D floor outlines, distances.
+
+A :class:`Shape` is a box, an upright cylinder or a sphere, placed by its centre and a rotation
+about the vertical axis (the only rotation a floor obstacle needs). Its :class:`Footprint` is
+its vertical projection on the floor: what a round robot driving on the floor can bump into.
+:func:`signed_distance` and :class:`FootprintSet` measure how far points are from footprints;
+:func:`triangulate` turns a shape into a triangle mesh for the ray caster.
+
+Everything here is pure Python and numpy. Units: m and rad; angles counter-clockwise (REP-103).
+"""
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+import math
+
+import numpy as np
+
+SHAPE_KINDS = ('box', 'cylinder', 'sphere')
+FOOTPRINT_KINDS = ('circle', 'box')
+#: Largest distance (m) between a triangulated surface and the true one (see :func:`triangulate`).
+MESH_TOLERANCE = 2e-4
+#: Cap on the segments around a round mesh, so huge radii stay affordable.
+MAX_MESH_SEGMENTS = 720
+
+
+def wrap_angle(angle: float) -> float:
+    """Return ``angle`` (rad) wrapped into [-pi, pi)."""
+    return (angle + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def compose_pose(parent: tuple[float, float, float, float],
+                 child: tuple[float, float, float, float]) -> tuple[float, float, float, float]:
+    """Return the pose (x, y, z in m, yaw in rad) of ``child``, given in ``parent``'s frame."""
+    x, y, z, yaw = parent
+    cos_yaw = math.cos(yaw)
+    sin_yaw = math.sin(yaw)
+    return (x + cos_yaw * child[0] - sin_yaw * child[1],
+            y + sin_yaw * child[0] + cos_yaw * child[1],
+            z + child[2],
+            wrap_angle(yaw + child[3]))
+
+
+@dataclass(frozen=True)
+class Footprint:
+    """
+    A 2-D outline on the floor in the world frame: a circle or a rotated rectangle.
+
+    ``x``, ``y`` (m) is the centre and ``yaw`` (rad) the rectangle's rotation; ``radius`` (m)
+    sizes a circle, ``half_x`` and ``half_y`` (m) a rectangle along its own axes.
+    """
+
+    kind: str
+    x: float
+    y: float
+    yaw: float = 0.0
+    radius: float = 0.0
+    half_x: float = 0.0
+    half_y: float = 0.0
+
+    def __post_init__(self) -> None:
+        if self.kind not in FOOTPRINT_KINDS:
+            raise ValueError(f'footprint kind must be one of {FOOTPRINT_KINDS}, not {self.kind!r}')
+
+    def distance(self, x: float, y: float) -> float:
+        """Return the signed distance from the point (x, y) to the edge (m); negative inside."""
+        dx = x - self.x
+        dy = y - self.y
+        if self.kind == 'circle':
+            return math.hypot(dx, dy) - self.radius
+        cos_yaw = math.cos(self.yaw)
+        sin_yaw = math.sin(self.yaw)
+        return _box_distance(cos_yaw * dx + sin_yaw * dy, cos_yaw * dy - sin_yaw * dx,
+                             self.half_x, self.half_y)
+
+    def bounds(self) -> tuple[float, float, float, float]:
+        """Return the axis-aligned bounding box (xmin, ymin, xmax, ymax) in m."""
+        if self.kind == 'circle':
+            extent_x = extent_y = self.radius
+        else:
+            cos_yaw = abs(math.cos(self.yaw))
+            sin_yaw = abs(math.sin(self.yaw))
+            extent_x = cos_yaw * self.half_x + sin_yaw * self.half_y
+            extent_y = sin_yaw * self.half_x + cos_yaw * self.half_y
+        return (self.x - extent_x, self.y - extent_y, self.x + extent_x, self.y + extent_y)
+
+    def outline(self, segments: int = 64) -> np.ndarray:
+        """
+        Return the closed outline as a (K, 2) array of points (m), e.g. for plotting.
+
+        A circle gets ``segments`` points; a rectangle its four corners (counter-clockwise).
+        """
+        if self.kind == 'circle':
+            angles = np.linspace(0.0, 2.0 * math.pi, segments, endpoint=False)
+            return np.column_stack((self.x + self.radius * np.cos(angles),
+                                    self.y + self.radius * np.sin(angles)))
+        corners = np.array([[1.0, -1.0], [1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0]])
+        corners *= (self.half_x, self.half_y)
+        cos_yaw = math.cos(self.yaw)
+        sin_yaw = math.sin(self.yaw)
+        rotation = np.array([[cos_yaw, -sin_yaw], [sin_yaw, cos_yaw]])
+        return corners @ rotation.T + (self.x, self.y)
+
+
+def _box_distance(local_x: float, local_y: float, half_x: float, half_y: float) -> float:
+    """Return the signed distance (m) from a point in a rectangle's frame to its edge."""
+    over_x = abs(local_x) - half_x
+    over_y = abs(local_y) - half_y
+    if over_x > 0.0 or over_y > 0.0:
+        return math.hypot(max(over_x, 0.0), max(over_y, 0.0))
+    return max(over_x, over_y)
+
+
+def signed_distance(points: np.ndarray, footprints: Sequence[Footprint]) -> np.ndarray:
+    """
+    Return, for (N, 2) points (m), the (N,) distances (m) to the nearest footprint edge.
+
+    Negative inside a footprint; +inf for every point when there are no footprints.
+    """
+    return FootprintSet(footprints).distance(points)
+
+
+class FootprintSet:
+    """
+    A fixed set of footprints prepared for fast distance queries.
+
+    :meth:`nearest` answers for one point in pure Python (a few microseconds for the dozen
+    footprints of a lab world, cheaper than any numpy call); :meth:`distance` is vectorised for
+    many points.
+    """
+
+    def __init__(self, footprints: Sequence[Footprint]) -> None:
+        self.footprints = tuple(footprints)
+        self._circles = [(index, fp.x, fp.y, fp.radius)
+                         for index, fp in enumerate(self.footprints) if fp.kind == 'circle']
+        self._boxes = [(index, fp.x, fp.y, math.cos(fp.yaw), math.sin(fp.yaw),
+                        fp.half_x, fp.half_y)
+                       for index, fp in enumerate(self.footprints) if fp.kind == 'box']
+
+    def __len__(self) -> int:
+        return len(self.footprints)
+
+    def nearest(self, x: float, y: float) -> tuple[float, int]:
+        """
+        Return (signed distance in m, index of the footprint) nearest to (x, y).
+
+        The index is -1 and the distance +inf when the set is empty.
+        """
+        best = math.inf
+        best_index = -1
+        hypot = math.hypot
+        for index, cx, cy, radius in self._circles:
+            distance = hypot(x - cx, y - cy) - radius
+            if distance < best:
+                best = distance
+                best_index = index
+        for index, cx, cy, cos_yaw, sin_yaw, half_x, half_y in self._boxes:
+            dx = x - cx
+            dy = y - cy
+            over_x = abs(cos_yaw * dx + sin_yaw * dy) - half_x
+            over_y = abs(cos_yaw * dy - sin_yaw * dx) - half_y
+            if over_x > 0.0 or over_y > 0.0:
+                distance = hypot(over_x if over_x > 0.0 else 0.0,
+                                 over_y if over_y > 0.0 else 0.0)
+            else:
+                distance = over_x if over_x > over_y else over_y
+            if distance < best:
+                best = distance
+                best_index = index
+        return best, best_index
+
+    def distance(self, points: np.ndarray) -> np.ndarray:
+        """Return the (N,) signed distances (m) from (N, 2) points (m) to the nearest edge."""
+        points = np.asarray(points, dtype=float).reshape(-1, 2)
+        best = np.full(len(points), np.inf)
+        for _, cx, cy, radius in self._circles:
+            np.minimum(best, np.hypot(points[:, 0] - cx, points[:, 1] - cy) - radius, out=best)
+        for _, cx, cy, cos_yaw, sin_yaw, half_x, half_y in self._boxes:
+            dx = points[:, 0] - cx
+            dy = points[:, 1] - cy
+            over_x = np.abs(cos_yaw * dx + sin_yaw * dy) - half_x
+            over_y = np.abs(cos_yaw * dy - sin_yaw * dx) - half_y
+            outside = np.hypot(np.maximum(over_x, 0.0), np.maximum(over_y, 0.0))
+            inside = np.minimum(np.maximum(over_x, over_y), 0.0)
+            np.minimum(best, outside + inside, out=best)
+        return best
+
+
+@dataclass(frozen=True)
+class Shape:
+    """
+    A 3-D collision primitive resting in (or above) the world.
+
+    ``x``, ``y``, ``z`` (m) is the centre, ``yaw`` (rad) the rotation about the vertical axis.
+    A box has full edge lengths ``size`` (m); a cylinder (axis vertical) has ``radius`` and
+    ``length`` (m); a sphere has ``radius`` (m).
+    """
+
+    kind: str
+    x: float = 0.0
+    y: float = 0.0
+    z: float = 0.0
+    yaw: float = 0.0
+    size: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    radius: float = 0.0
+    length: float = 0.0
+
+    def __post_init__(self) -> None:
+        if self.kind not in SHAPE_KINDS:
+            raise ValueError(f'shape kind must be one of {SHAPE_KINDS}, not {self.kind!r}')
+
+    @property
+    def height(self) -> float:
+        """Return the vertical extent (m)."""
+        if self.kind == 'box':
+            return self.size[2]
+        if self.kind == 'cylinder':
+            return self.length
+        return 2.0 * self.radius
+
+    def z_range(self) -> tuple[float, float]:
+        """Return the (bottom, top) heights (m)."""
+        return (self.z - 0.5 * self.height, self.z + 0.5 * self.height)
+
+    def placed(self, x: float, y: float, z: float, yaw: float) -> 'Shape':
+        """Return this shape, given in a parent frame, moved by the parent's pose (m, rad)."""
+        x, y, z, yaw = compose_pose((x, y, z, yaw), (self.x, self.y, self.z, self.yaw))
+        return Shape(self.kind, x, y, z, yaw,
+                     size=self.size, radius=self.radius, length=self.length)
+
+    def footprint(self) -> Footprint:
+        """Return the vertical projection of the shape on the floor."""
+        if self.kind == 'box':
+            return Footprint('box', self.x, self.y, self.yaw,
+                             half_x=0.5 * self.size[0], half_y=0.5 * self.size[1])
+        return Footprint('circle', self.x, self.y, radius=self.radius)
+
+
+def triangulate(shape: Shape, tolerance: float = MESH_TOLERANCE
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """
+    Return a triangle mesh of ``shape`` in its own frame (centre at the origin, no yaw).
+
+    Returns (V, 3) vertices (m) and (T, 3) vertex indices. A box is exact. Round surfaces are
+    polygons whose vertices sit slightly outside the true surface and whose faces cut slightly
+    inside it, each by at most ``tolerance`` (m), so the error is centred on the true surface
+    (up to :data:`MAX_MESH_SEGMENTS` segments around; beyond that the error grows).
+    """
+    if shape.kind == 'box':
+        return _box_mesh(*(0.5 * np.asarray(shape.size, dtype=float)))
+    if shape.kind == 'cylinder':
+        return _cylinder_mesh(shape.radius, shape.length, tolerance)
+    return _sphere_mesh(shape.radius, tolerance)
+
+
+def _box_mesh(half_x: float, half_y: float, half_z: float) -> tuple[np.ndarray, np.ndarray]:
+    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)],
+                     dtype=float)
+    faces = np.array([[0, 2, 3], [0, 3, 1], [4, 5, 7], [4, 7, 6], [0, 1, 5], [0, 5, 4],
+                      [2, 6, 7], [2, 7, 3], [0, 4, 6], [0, 6, 2], [1, 3, 7], [1, 7, 5]])
+    return signs * (half_x, half_y, half_z), faces
+
+
+def _segments(radius: float, tolerance: float) -> tuple[int, float]:
+    """
+    Return (segments, scale) for a polygon whose error about a circle is +-tolerance.
+
+    With vertices at ``scale * radius`` the vertices overshoot and the edge midpoints
+    undershoot the circle by the same amount, radius * (1 - c) / (1 + c) with c = cos(pi / n).
+    """
+    ratio = min(tolerance / radius, 0.5)
+    cos_half_step = (1.0 - ratio) / (1.0 + ratio)
+    segments = math.ceil(math.pi / math.acos(cos_half_step))
+    segments = min(max(segments, 8), MAX_MESH_SEGMENTS)
+    return segments, 2.0 / (1.0 + math.cos(math.pi / segments))
+
+
+def _cylinder_mesh(radius: float, length: float, tolerance: float
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    segments, scale = _segments(radius, tolerance)
+    angles = 2.0 * math.pi * np.arange(segments) / segments
+    ring = np.column_stack((np.cos(angles), np.sin(angles))) * (scale * radius)
+    half = 0.5 * length
+    vertices = np.vstack((np.column_stack((ring, np.full(segments, -half))),
+                          np.column_stack((ring, np.full(segments, half))),
+                          [[0.0, 0.0, -half], [0.0, 0.0, half]]))
+    low = np.arange(segments)
+    next_low = (low + 1) % segments
+    high = low + segments
+    next_high = next_low + segments
+    bottom_centre = np.full(segments, 2 * segments)
+    top_centre = bottom_centre + 1
+    faces = np.vstack((np.column_stack((low, next_low, next_high)),
+                       np.column_stack((low, next_high, high)),
+                       np.column_stack((bottom_centre, next_low, low)),
+                       np.column_stack((top_centre, high, next_high))))
+    return vertices, faces
+
+
+def _sphere_mesh(radius: float, tolerance: float) -> tuple[np.ndarray, np.ndarray]:
+    # A latitude-longitude sphere with equal polar and azimuth steps: a face centre undershoots
+    # by about radius * (1 - cos(step / 2) ** 2); the vertices are pushed out to centre the
+    # error on the true surface.
+    ratio = min(tolerance / radius, 0.5)
+    step = 2.0 * math.acos(math.sqrt((1.0 - ratio) / (1.0 + ratio)))
+    rings = min(max(math.ceil(math.pi / step), 4), MAX_MESH_SEGMENTS // 2)
+    step = math.pi / rings
+    squared_cos = math.cos(0.5 * step) ** 2
+    polar = step * np.arange(1, rings)[:, None]
+    azimuth = step * np.arange(2 * rings)[None, :]
+    grid = np.stack((np.sin(polar) * np.cos(azimuth), np.sin(polar) * np.sin(azimuth),
+                     np.cos(polar) + 0.0 * azimuth), axis=-1)
+    vertices = np.vstack(([[0.0, 0.0, 1.0]], grid.reshape(-1, 3), [[0.0, 0.0, -1.0]]))
+    vertices *= 2.0 * radius / (1.0 + squared_cos)
+    around = 2 * rings
+    column = np.arange(around)
+    following = (column + 1) % around
+    north = np.zeros(around, dtype=int)
+    south = np.full(around, len(vertices) - 1)
+    last_row = 1 + (rings - 2) * around
+    faces = [np.column_stack((north, 1 + column, 1 + following)),
+             np.column_stack((south, last_row + following, last_row + column))]
+    for row in range(rings - 2):
+        upper = 1 + row * around
+        lower = upper + around
+        faces.append(np.column_stack((upper + column, lower + column, lower + following)))
+        faces.append(np.column_stack((upper + column, lower + following, upper + following)))
+    return vertices, np.vstack(faces)

@@ -1,0 +1,244 @@
+"""
+A planar lidar made of pybullet ray casts, and the pybullet bodies it sees.
+
+:func:`build_scene` turns a world's :class:`~sim_bridge.geometry.Shape` primitives into static
+pybullet bodies; :class:`Lidar` casts one ray per beam with ``rayTestBatch`` from the laser
+frame on the robot and returns a LaserScan-shaped :class:`LaserScanData`. Readings follow
+Gazebo's ``gpu_lidar`` (gz-sensors) and REP-117:
+
+- beam i points at ``angle_min + i * angle_increment`` with
+  ``angle_increment = (max_angle - min_angle) / (beams - 1)``; a single beam points at
+  ``min_angle`` with increment 0 (and ``angle_max`` reported as ``min_angle``);
+- nothing within ``range_max`` → ``+inf``; a true range below ``range_min`` → ``-inf``;
+- otherwise the true range plus Gaussian noise (from the simulator's seeded generator),
+  clamped to [range_min, range_max].
+
+Every shape is given to pybullet as a static triangle mesh (exact for boxes, within
+:data:`~sim_bridge.geometry.MESH_TOLERANCE` for round ones): Bullet's ray test against its
+cylinder and sphere primitives runs an iterative convex cast several times slower per ray (see
+``test/bench/bench_simulator.py``), which would cap a 1081-beam lidar far below 100x real time.
+"""
+
+from dataclasses import dataclass
+import math
+from operator import itemgetter
+
+import numpy as np
+import pybullet
+
+from sim_bridge.geometry import MESH_TOLERANCE, Shape, triangulate
+from sim_bridge.sdf import LidarConfig
+
+#: Rays per ``rayTestBatch`` call. pybullet refuses more than MAX_RAY_INTERSECTION_BATCH_SIZE
+#: and, at exactly that many, silently returns one result fewer; so stay one below.
+RAY_BATCH_SIZE = pybullet.MAX_RAY_INTERSECTION_BATCH_SIZE - 1
+#: Thickness (m) of a sized floor, a thin box whose top face is z = 0.
+FLOOR_THICKNESS = 0.01
+SHAPE_COLOURS = {'box': (0.80, 0.50, 0.20, 1.0), 'cylinder': (0.20, 0.60, 0.30, 1.0),
+                 'sphere': (0.70, 0.20, 0.20, 1.0)}
+FLOOR_COLOUR = (0.85, 0.85, 0.85, 1.0)
+_FRACTION = itemgetter(2)
+
+
+@dataclass(frozen=True)
+class LaserScanData:
+    """
+    One scan, shaped like sensor_msgs/LaserScan (angles in rad, ranges in m, times in s).
+
+    ``ranges`` and ``intensities`` are float64 arrays (intensities are 0, as from Gazebo
+    without retro-reflectors); ``stamp`` is the simulation time of the scan and ``frame_id``
+    the laser frame. All beams are cast at once, so ``time_increment`` is 0.
+    """
+
+    ranges: np.ndarray
+    intensities: np.ndarray
+    angle_min: float
+    angle_max: float
+    angle_increment: float
+    time_increment: float
+    scan_time: float
+    range_min: float
+    range_max: float
+    stamp: float
+    frame_id: str
+
+
+def cast_rays(client: int, starts: np.ndarray, ends: np.ndarray, *,
+              batch_size: int = RAY_BATCH_SIZE, threads: int = 1) -> np.ndarray:
+    """
+    Return the distance (m) from each start to the first surface towards its end.
+
+    ``starts`` and ``ends`` are (N, 3) world points (m); +inf where the segment hits nothing.
+    Batches larger than ``batch_size`` are cast in chunks; ``threads`` is pybullet's
+    ``numThreads`` (1: this thread only, 0: Bullet's choice).
+    """
+    starts = np.asarray(starts, dtype=float).reshape(-1, 3)
+    ends = np.asarray(ends, dtype=float).reshape(-1, 3)
+    lengths = np.linalg.norm(ends - starts, axis=1)
+    fractions = _fractions(client, starts, ends, batch_size, threads)
+    distances = fractions * lengths
+    distances[fractions >= 1.0] = np.inf
+    return distances
+
+
+def _fractions(client: int, starts: np.ndarray, ends: np.ndarray, batch_size: int,
+               threads: int) -> np.ndarray:
+    """
+    Return each ray's hit fraction along its segment (1.0: no hit).
+
+    pybullet reads (N, 3) float64 arrays a little faster than lists, and far faster than a
+    list mixed with an array (see the benchmark).
+    """
+    count = len(ends)
+    if count <= batch_size:
+        results = pybullet.rayTestBatch(starts, ends, numThreads=threads,
+                                        physicsClientId=client)
+        return np.fromiter(map(_FRACTION, results), dtype=float, count=count)
+    return np.concatenate([
+        _fractions(client, starts[first:first + batch_size], ends[first:first + batch_size],
+                   batch_size, threads)
+        for first in range(0, count, batch_size)])
+
+
+def build_scene(client: int, shapes: tuple[Shape, ...] | list[Shape], *,
+                floor_size: tuple[float, float] | None = None, meshes: bool = True,
+                visuals: bool = False, tolerance: float = MESH_TOLERANCE) -> list[int]:
+    """
+    Create the floor and a static pybullet body per shape; return their ids in that order.
+
+    ``floor_size`` (x, y in m) makes the floor a thin box centred on the origin, None an
+    endless plane. ``meshes`` gives shapes to pybullet as triangle meshes (fast, see the
+    module text) instead of its primitives; ``visuals`` adds coloured primitives to look at
+    in the GUI.
+    """
+    bodies = [_floor(client, floor_size, visuals)]
+    for shape in shapes:
+        if meshes:
+            vertices, faces = triangulate(shape, tolerance)
+            collision = pybullet.createCollisionShape(
+                pybullet.GEOM_MESH, vertices=vertices.tolist(), indices=faces.ravel().tolist(),
+                flags=pybullet.GEOM_FORCE_CONCAVE_TRIMESH, physicsClientId=client)
+        else:
+            collision = pybullet.createCollisionShape(physicsClientId=client,
+                                                      **_primitive(shape, 'height'))
+        visual = -1
+        if visuals:
+            visual = pybullet.createVisualShape(rgbaColor=SHAPE_COLOURS[shape.kind],
+                                                physicsClientId=client,
+                                                **_primitive(shape, 'length'))
+        bodies.append(pybullet.createMultiBody(
+            baseMass=0.0, baseCollisionShapeIndex=collision, baseVisualShapeIndex=visual,
+            basePosition=(shape.x, shape.y, shape.z),
+            baseOrientation=pybullet.getQuaternionFromEuler((0.0, 0.0, shape.yaw)),
+            physicsClientId=client))
+    # Bullet fills its broadphase bounding boxes lazily; rays only find bodies it has updated.
+    pybullet.performCollisionDetection(physicsClientId=client)
+    return bodies
+
+
+def _primitive(shape: Shape, length_keyword: str) -> dict:
+    """
+    Return pybullet's shape arguments; cylinders' length is 'height' or 'length'.
+
+    createCollisionShape calls a cylinder's length 'height', createVisualShape 'length'.
+    """
+    if shape.kind == 'box':
+        return {'shapeType': pybullet.GEOM_BOX,
+                'halfExtents': [0.5 * size for size in shape.size]}
+    if shape.kind == 'cylinder':
+        return {'shapeType': pybullet.GEOM_CYLINDER, 'radius': shape.radius,
+                length_keyword: shape.length}
+    return {'shapeType': pybullet.GEOM_SPHERE, 'radius': shape.radius}
+
+
+def _floor(client: int, floor_size: tuple[float, float] | None, visuals: bool) -> int:
+    if floor_size is None:
+        collision = pybullet.createCollisionShape(pybullet.GEOM_PLANE, physicsClientId=client)
+        return pybullet.createMultiBody(0.0, collision, physicsClientId=client)
+    half_extents = (0.5 * floor_size[0], 0.5 * floor_size[1], 0.5 * FLOOR_THICKNESS)
+    collision = pybullet.createCollisionShape(pybullet.GEOM_BOX, halfExtents=half_extents,
+                                              physicsClientId=client)
+    visual = -1
+    if visuals:
+        visual = pybullet.createVisualShape(pybullet.GEOM_BOX, halfExtents=half_extents,
+                                            rgbaColor=FLOOR_COLOUR, physicsClientId=client)
+    return pybullet.createMultiBody(0.0, collision, visual,
+                                    basePosition=(0.0, 0.0, -0.5 * FLOOR_THICKNESS),
+                                    physicsClientId=client)
+
+
+def beam_directions(config: LidarConfig) -> np.ndarray:
+    """Return the (beams, 3) unit beam directions in the robot's base frame."""
+    angles = config.min_angle + config.angle_increment * np.arange(config.beams)
+    in_laser = np.column_stack((np.cos(angles), np.sin(angles), np.zeros(config.beams)))
+    roll, pitch, yaw = config.pose[3:]
+    return in_laser @ _rotation(roll, pitch, yaw).T
+
+
+def _rotation(roll: float, pitch: float, yaw: float) -> np.ndarray:
+    """Return SDF's roll-pitch-yaw rotation matrix, Rz(yaw) Ry(pitch) Rx(roll)."""
+    cr, sr = math.cos(roll), math.sin(roll)
+    cp, sp = math.cos(pitch), math.sin(pitch)
+    cy, sy = math.cos(yaw), math.sin(yaw)
+    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+                     [-sp, cp * sr, cp * cr]])
+
+
+class Lidar:
+    """
+    A lidar on the robot casting rays into one pybullet client.
+
+    ``rng`` supplies the noise (the only randomness); ``threads`` is pybullet's numThreads.
+    """
+
+    def __init__(self, client: int, config: LidarConfig, rng: np.random.Generator, *,
+                 threads: int = 1) -> None:
+        self.client = client
+        self.config = config
+        self.rng = rng
+        self.threads = threads
+        self._reach = beam_directions(config) * config.range_max
+        self._starts = np.empty_like(self._reach)
+        self._noisy = config.noise_stddev > 0.0 or config.noise_mean != 0.0
+
+    def origin(self, pose: tuple[float, float, float]) -> tuple[float, float, float]:
+        """Return where the laser frame is (m, world frame) for the robot pose (m, m, rad)."""
+        x, y, yaw = pose
+        offset_x, offset_y, height = self.config.pose[:3]
+        cos_yaw = math.cos(yaw)
+        sin_yaw = math.sin(yaw)
+        return (x + cos_yaw * offset_x - sin_yaw * offset_y,
+                y + sin_yaw * offset_x + cos_yaw * offset_y, height)
+
+    def true_ranges(self, pose: tuple[float, float, float]) -> np.ndarray:
+        """Return the noise-free distance (m) along each beam, +inf beyond range_max."""
+        origin = self.origin(pose)
+        cos_yaw = math.cos(pose[2])
+        sin_yaw = math.sin(pose[2])
+        reach = self._reach
+        ends = np.empty_like(reach)
+        ends[:, 0] = origin[0] + cos_yaw * reach[:, 0] - sin_yaw * reach[:, 1]
+        ends[:, 1] = origin[1] + sin_yaw * reach[:, 0] + cos_yaw * reach[:, 1]
+        ends[:, 2] = origin[2] + reach[:, 2]
+        self._starts[:] = origin
+        fractions = _fractions(self.client, self._starts, ends, RAY_BATCH_SIZE, self.threads)
+        ranges = fractions * self.config.range_max
+        ranges[fractions >= 1.0] = np.inf
+        return ranges
+
+    def scan(self, pose: tuple[float, float, float], stamp: float = 0.0) -> LaserScanData:
+        """Return the scan from the robot pose (x m, y m, yaw rad) at time ``stamp`` (s)."""
+        config = self.config
+        true = self.true_ranges(pose)
+        ranges = true
+        if self._noisy:
+            noise = self.rng.normal(config.noise_mean, config.noise_stddev, len(true))
+            ranges = np.clip(true + noise, config.range_min, config.range_max)
+        ranges[true >= config.range_max] = np.inf
+        ranges[true < config.range_min] = -np.inf
+        return LaserScanData(
+            ranges=ranges, intensities=np.zeros(len(ranges)), angle_min=config.min_angle,
+            angle_max=config.last_angle, angle_increment=config.angle_increment,
+            time_increment=0.0, scan_time=config.scan_period, range_min=config.range_min,
+            range_max=config.range_max, stamp=stamp, frame_id=config.frame_id)

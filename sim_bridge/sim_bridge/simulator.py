@@ -1,0 +1,279 @@
+"""
+The simulator: a world, a differential-drive robot with a round footprint, and its lidar.
+
+Pure (no rclpy): the ROS 2 bridge node and the lockstep runner drive it by calling
+:meth:`Simulator.set_command`, :meth:`Simulator.step` and :meth:`Simulator.scan` on simulated
+time. One pybullet client in DIRECT mode per simulator (the GUI on request), so several
+simulators coexist in one process; the lidar noise comes from a generator seeded by ``seed``,
+the only randomness, so one seed makes a run bit-identical.
+
+Collisions are checked analytically on the floor: the robot's circle against the obstacles'
+footprints (:class:`~sim_bridge.geometry.FootprintSet`, about a microsecond per check in a lab
+world, which also gives the clearance; pybullet's getClosestPoints takes some 20 times longer,
+see ``test/bench/bench_simulator.py``). A motion that would
+make them overlap stops where they touch, to within :data:`CONTACT_RESOLUTION` (the robot keeps
+turning, which a round robot can do in contact); its forward speed drops to 0. Each new contact
+is logged once as a :class:`Collision`: contact starts when the robot is blocked or comes within
+:data:`CONTACT_DISTANCE` of an obstacle and ends when it is more than :data:`RELEASE_DISTANCE`
+away again.
+"""
+
+from dataclasses import dataclass, replace
+import math
+import os
+import weakref
+
+import numpy as np
+import pybullet
+
+from sim_bridge.geometry import FootprintSet, wrap_angle
+from sim_bridge.lidar import build_scene, LaserScanData, Lidar
+from sim_bridge.robot import DiffDrive, DriveLimits, integrate_arc
+from sim_bridge.sdf import LidarConfig
+from sim_bridge.world import World
+
+#: Body-to-obstacle distance (m) at or below which the robot touches an obstacle.
+CONTACT_DISTANCE = 1e-3
+#: Body-to-obstacle distance (m) the robot must exceed before a new contact counts again.
+RELEASE_DISTANCE = 1e-2
+#: Longest move (as a fraction of the robot radius) between two collision checks, so that the
+#: robot cannot jump over a thin wall in one step.
+MAX_MOVE_PER_CHECK = 0.5
+#: How close (m) a blocked robot is brought to the obstacle it would otherwise penetrate.
+CONTACT_RESOLUTION = 1e-6
+#: Conservative-advancement steps before bisection takes over (see _last_free_fraction).
+CONTACT_ADVANCES = 8
+ROBOT_COLOUR = (0.1, 0.3, 0.8, 1.0)
+
+
+@dataclass(frozen=True)
+class Collision:
+    """A new contact: simulation time (s), robot centre (m) and the obstacle's name."""
+
+    time: float
+    x: float
+    y: float
+    obstacle: str
+
+
+class Simulator:
+    """
+    A world with one robot: command it, step it, scan, and read its ground truth.
+
+    ``world`` is a :class:`~sim_bridge.world.World` or a world name/path. ``lidar`` replaces
+    the robot model's lidar; ``lidar_samples`` and ``lidar_noise_stddev`` (m) override just
+    its beam count and noise; ``limits`` are the drive's :class:`~sim_bridge.robot.DriveLimits`;
+    ``command_timeout`` (s, sim time): with no new command for longer than this the robot is
+    told to stop (None: a command holds until the next); ``gui`` opens the pybullet window
+    (one per process); ``ray_threads`` is pybullet's numThreads for the lidar (1: no extra
+    threads); ``collision_meshes`` False gives pybullet primitives instead of meshes (slower;
+    for comparison).
+    """
+
+    def __init__(self, world: World | str | os.PathLike, *, seed: int = 0,
+                 lidar: LidarConfig | None = None, lidar_samples: int | None = None,
+                 lidar_noise_stddev: float | None = None, limits: DriveLimits | None = None,
+                 command_timeout: float | None = None, gui: bool = False,
+                 ray_threads: int = 1, collision_meshes: bool = True) -> None:
+        if not isinstance(world, World):
+            world = World.load(world)
+        self.world = world
+        config = lidar or world.robot.lidar
+        if config is None:
+            raise ValueError(f"robot model '{world.robot_model}' ({world.robot.path}) has no "
+                             'lidar <sensor>; add one or pass lidar=LidarConfig(...)')
+        if lidar_samples is not None:
+            config = replace(config, samples=lidar_samples)
+        if lidar_noise_stddev is not None:
+            config = replace(config, noise_stddev=lidar_noise_stddev)
+        if command_timeout is not None and not command_timeout > 0.0:
+            raise ValueError(f'command_timeout must be positive (s) or None, got '
+                             f'{command_timeout!r}')
+        self.lidar_config = config
+        self.command_timeout = command_timeout
+        self.robot_radius = world.robot.radius
+        self.limits = limits or DriveLimits()
+        self.seed = seed
+        self.gui = gui
+        self.collisions: list[Collision] = []
+        self._drive = DiffDrive(world.robot_start, self.limits)
+        self._footprints = FootprintSet(world.footprints())
+        self._owners = world.footprint_owners()
+        self._time_ns = 0
+        self._command_time_ns = 0
+        self._in_contact = False
+        self._clearance = self._footprints.nearest(*world.robot_start[:2])[0] - self.robot_radius
+        client = pybullet.connect(pybullet.GUI if gui else pybullet.DIRECT)
+        if client < 0:
+            raise RuntimeError('cannot start pybullet' + (
+                ' with a GUI: is there a display, and no other pybullet window?' if gui else ''))
+        self.physics_client = client
+        self._finalizer = weakref.finalize(self, _disconnect, client)
+        self.bodies = build_scene(client, world.shapes(), floor_size=world.floor_size,
+                                  meshes=collision_meshes, visuals=gui)
+        self._lidar = Lidar(client, config, np.random.default_rng(seed), threads=ray_threads)
+        self.robot_body = self._robot_body() if gui else None
+
+    @property
+    def time(self) -> float:
+        """Return the simulation time in s."""
+        return self._time_ns / 1e9
+
+    @property
+    def time_ns(self) -> int:
+        """Return the simulation time (ns), exact."""
+        return self._time_ns
+
+    @property
+    def pose(self) -> tuple[float, float, float]:
+        """Return the robot's ground-truth pose: x (m), y (m), yaw (rad) in the world."""
+        return self._drive.pose
+
+    @property
+    def velocity(self) -> tuple[float, float]:
+        """Return the velocity the robot achieved: v (m/s) forward, w (rad/s) counter-clockwise."""
+        return self._drive.velocity
+
+    @property
+    def command(self) -> tuple[float, float]:
+        """Return the command in force (after clamping): v (m/s), w (rad/s)."""
+        return self._drive.command
+
+    @property
+    def in_contact(self) -> bool:
+        """Return whether the robot is touching an obstacle now."""
+        return self._in_contact
+
+    def set_command(self, linear: float, angular: float) -> str | None:
+        """
+        Command forward speed (m/s) and turn rate (rad/s) until the next command.
+
+        Returns a warning text when the command was rejected (not finite: the robot is told to
+        stop) or clamped to the drive limits, else None.
+        """
+        self._command_time_ns = self._time_ns
+        return self._drive.set_command(linear, angular)
+
+    def step(self, dt: float) -> None:
+        """Advance the robot and the clock by dt (s)."""
+        if not (isinstance(dt, (int, float)) and math.isfinite(dt) and dt > 0.0):
+            raise ValueError(f'step needs a positive finite dt in s, got {dt!r}')
+        if self.command_timeout is not None and \
+                self._time_ns - self._command_time_ns > self.command_timeout * 1e9:
+            self._drive.set_command(0.0, 0.0)
+        pose, blocked_after = self._move(dt)
+        self._drive.pose = pose
+        if blocked_after is not None:
+            self._drive.halt()
+        contact_time = self.time + (dt if blocked_after is None else blocked_after)
+        self._time_ns += round(dt * 1e9)
+        distance, index = self._footprints.nearest(pose[0], pose[1])
+        self._clearance = distance - self.robot_radius
+        if blocked_after is not None or self._clearance <= CONTACT_DISTANCE:
+            if not self._in_contact:
+                self.collisions.append(Collision(contact_time, pose[0], pose[1],
+                                                 self._owners[index]))
+            self._in_contact = True
+        elif self._clearance > RELEASE_DISTANCE:
+            self._in_contact = False
+        if self.robot_body is not None:
+            self._show_robot()
+
+    def _move(self, dt: float) -> tuple[tuple[float, float, float], float | None]:
+        """
+        Return the robot's pose after dt (s) of driving, and when (s) it was blocked, or None.
+
+        The move is checked in pieces short enough not to jump over a thin wall.
+        """
+        linear, angular = self._drive.accelerate(dt)
+        pose = self._drive.pose
+        radius = self.robot_radius
+        pieces = max(1, math.ceil(abs(linear) * dt / (MAX_MOVE_PER_CHECK * radius)))
+        piece = dt / pieces
+        for index in range(pieces):
+            candidate = integrate_arc(pose, linear, angular, piece)
+            if self._footprints.nearest(candidate[0], candidate[1])[0] >= radius:
+                pose = candidate
+                continue
+            free = self._last_free_fraction(pose, linear, angular, piece)
+            stop = integrate_arc(pose, linear, angular, free * piece)
+            blocked_after = (index + free) * piece
+            # A round robot turns freely in contact: it keeps turning for the rest of the step.
+            yaw = wrap_angle(stop[2] + angular * (dt - blocked_after))
+            return (stop[0], stop[1], yaw), blocked_after
+        return pose, None
+
+    def _last_free_fraction(self, pose: tuple[float, float, float], linear: float,
+                            angular: float, dt: float) -> float:
+        """
+        Return the largest fraction of the move (pose, v, w, dt) that keeps the robot free.
+
+        Conservative advancement first: the centre moves no farther than the arc length, so
+        advancing by the current gap never overshoots the contact (exact in one or two steps
+        head-on, and free when already touching); bisection finishes grazing approaches.
+        """
+        nearest = self._footprints.nearest
+        radius = self.robot_radius
+        length = abs(linear) * dt
+        free = 0.0
+        gap = nearest(pose[0], pose[1])[0] - radius
+        for _ in range(CONTACT_ADVANCES):
+            if gap <= CONTACT_RESOLUTION:
+                return free
+            trial_fraction = free + gap / length
+            if trial_fraction >= 1.0:
+                break
+            trial = integrate_arc(pose, linear, angular, trial_fraction * dt)
+            trial_gap = nearest(trial[0], trial[1])[0] - radius
+            if trial_gap < 0.0:
+                break
+            free, gap = trial_fraction, trial_gap
+        blocked = 1.0
+        while (blocked - free) * length > CONTACT_RESOLUTION:
+            middle = 0.5 * (free + blocked)
+            trial = integrate_arc(pose, linear, angular, middle * dt)
+            if nearest(trial[0], trial[1])[0] >= radius:
+                free = middle
+            else:
+                blocked = middle
+        return free
+
+    def scan(self) -> LaserScanData:
+        """Return a lidar scan from the robot's current pose, stamped with the current time."""
+        return self._lidar.scan(self._drive.pose, self.time)
+
+    def clearance(self) -> float:
+        """Return the distance (m) from the robot's body to the nearest obstacle outline."""
+        return self._clearance
+
+    def close(self) -> None:
+        """Disconnect from pybullet; the simulator cannot scan afterwards."""
+        self._finalizer()
+
+    def __enter__(self) -> 'Simulator':
+        return self
+
+    def __exit__(self, *exc_info) -> None:
+        self.close()
+
+    def _robot_body(self) -> int:
+        """Return a visual-only robot body for the GUI: rays pass through it."""
+        height = max(self.world.robot.height, 0.05)
+        visual = pybullet.createVisualShape(pybullet.GEOM_CYLINDER, radius=self.robot_radius,
+                                            length=height, rgbaColor=ROBOT_COLOUR,
+                                            visualFramePosition=(0.0, 0.0, 0.5 * height),
+                                            physicsClientId=self.physics_client)
+        body = pybullet.createMultiBody(0.0, -1, visual, physicsClientId=self.physics_client)
+        self._show_robot(body)
+        return body
+
+    def _show_robot(self, body: int | None = None) -> None:
+        x, y, yaw = self._drive.pose
+        pybullet.resetBasePositionAndOrientation(
+            self.robot_body if body is None else body, (x, y, 0.0),
+            pybullet.getQuaternionFromEuler((0.0, 0.0, yaw)), physicsClientId=self.physics_client)
+
+
+def _disconnect(client: int) -> None:
+    if pybullet.isConnected(physicsClientId=client):
+        pybullet.disconnect(physicsClientId=client)

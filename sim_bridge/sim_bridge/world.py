@@ -1,0 +1,526 @@
+"""
+World files: load, validate and describe a simulated world.
+
+World file format (YAML)
+========================
+
+A world file is a YAML mapping with these keys, all optional. Lengths are in metres, angles
+in radians (counter-clockwise, REP-103); ``[x, y]`` are floor coordinates. Every key not
+listed here is an error, so a typo never goes unnoticed::
+
+    name: room                  # defaults to the file name without .yaml
+    description: free text
+
+    floor:                      # optional; without it the floor is an endless plane
+      size: [12, 10]            # floor rectangle centred on the origin, x and y sizes
+
+    robot:
+      model: lab_robot          # a model folder from models/ (default lab_robot)
+      pose: [0.0, -1.5, 0.0]    # start: x, y, yaw (default [0, 0, 0])
+
+    walls:                      # each entry is one straight wall or one rectangular room
+      - name: divider           # optional (default wall_<index>)
+        start: [-3.5, 1.5]      # ends of the wall's centre line
+        end: [-1.5, 1.5]
+        thickness: 0.15         # optional (default 0.15)
+        height: 1.0             # optional (default 1.0)
+      - name: outer             # a room: four walls named outer_north/_south/_east/_west
+        room: [8, 6]            # free inside size, x and y, between the walls' inner faces
+        center: [0, 0]          # optional (default [0, 0])
+        thickness: 0.15         # optional, as above
+        height: 1.0             # optional, as above
+
+    obstacles:                  # each entry needs a unique name and a type
+      - name: box               # type cube needs size: [x, y, z]
+        type: cube
+        size: [1, 1, 1]
+        pose: [2.0, 0.0, 0.3]   # x, y, yaw; yaw is optional (default 0)
+      - name: pillar            # type cylinder needs radius and length (axis vertical)
+        type: cylinder
+        radius: 0.5
+        length: 1.0
+        pose: [0.0, 2.2]
+      - name: ball              # type sphere needs radius
+        type: sphere
+        radius: 0.5
+        pose: [-2.5, -1.5]
+        z: 0.5                  # optional height of the centre (default: resting on the floor)
+      - name: block             # type model places a model folder from models/ (or from
+        type: model             # GZ_SIM_RESOURCE_PATH / GAZEBO_MODEL_PATH) by name and pose
+        model: obstacle_box
+        pose: [1.5, -2.0, 0.0]
+        z: 0.0                  # optional height of the model's origin (default 0, the floor)
+
+    target: block               # optional: the obstacle a wall follower circles (grading)
+    bounds: [-5, -4, 5, 4]      # optional: xmin, ymin, xmax, ymax of the area used for
+                                # coverage; default: the walls' extent, or without walls the
+                                # obstacles and the robot start plus 1 m all round
+
+Numbers must be numbers (``1.0e3``, not ``1e3``, which YAML 1.1 reads as text), sizes and radii
+positive. The robot must start clear of every obstacle. A file breaking any rule is rejected
+with a :class:`WorldError` naming the file, the entry and the field, e.g.
+``worlds/room.yaml: obstacles[2] (box_a): 'size': must be 3 positive numbers, got [1, -1, 1]``.
+
+What the simulator sees: every obstacle is one or more :class:`~sim_bridge.geometry.Shape`
+primitives (walls and cubes are boxes); the robot collides with their floor outlines
+(:class:`~sim_bridge.geometry.Footprint`, the vertical projection, whatever the height) and the
+lidar sees their 3-D shapes.
+"""
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
+import math
+import os
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from sim_bridge import paths
+from sim_bridge.geometry import Footprint, Shape, wrap_angle
+from sim_bridge.sdf import load_model, Model, SdfError
+
+DEFAULT_ROBOT_MODEL = 'lab_robot'
+DEFAULT_WALL_THICKNESS = 0.15
+DEFAULT_WALL_HEIGHT = 1.0
+#: Margin (m) around obstacles and robot start for the default bounds of a world without walls.
+BOUNDS_MARGIN = 1.0
+OBSTACLE_TYPES = ('cube', 'cylinder', 'sphere', 'model')
+
+_TOP_KEYS = ('name', 'description', 'floor', 'robot', 'walls', 'obstacles', 'target', 'bounds')
+_FLOOR_KEYS = ('size',)
+_ROBOT_KEYS = ('model', 'pose')
+_WALL_KEYS = ('name', 'start', 'end', 'room', 'center', 'thickness', 'height')
+_OBSTACLE_KEYS = {
+    'cube': ('name', 'type', 'pose', 'z', 'size'),
+    'cylinder': ('name', 'type', 'pose', 'z', 'radius', 'length'),
+    'sphere': ('name', 'type', 'pose', 'z', 'radius'),
+    'model': ('name', 'type', 'pose', 'z', 'model'),
+}
+
+
+class WorldError(ValueError):
+    """A world file that cannot be used; says which file, entry and field, and why."""
+
+    def __init__(self, file: str, entry: str | None, field_name: str | None,
+                 problem: str) -> None:
+        self.file = file
+        self.entry = entry
+        self.field = field_name
+        self.problem = problem
+        parts = [file, entry, repr(field_name) if field_name else None, problem]
+        super().__init__(': '.join(part for part in parts if part))
+
+
+@dataclass(frozen=True)
+class Obstacle:
+    """
+    One named thing in the world the robot must not hit.
+
+    ``kind`` is 'cube', 'cylinder', 'sphere', 'wall' or 'model'; ``shapes`` are its 3-D
+    primitives in the world frame, ``footprints`` their floor outlines; ``pose`` (x, y in m,
+    yaw in rad) is where the entry placed it; ``model`` names its model folder, if any.
+    """
+
+    name: str
+    kind: str
+    shapes: tuple[Shape, ...]
+    pose: tuple[float, float, float]
+    model: str | None = None
+    footprints: tuple[Footprint, ...] = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, 'footprints', tuple(shape.footprint() for shape in self.shapes))
+
+    def distance(self, x: float, y: float) -> float:
+        """Return the signed distance from the floor point (x, y) to the outline (m)."""
+        return min(footprint.distance(x, y) for footprint in self.footprints)
+
+
+@dataclass(frozen=True)
+class World:
+    """
+    A loaded world: obstacles, the robot's model and start pose, a target and bounds.
+
+    ``robot_start`` is (x m, y m, yaw rad); ``robot`` the parsed robot model (its ``radius`` is
+    the robot's footprint, its ``lidar`` the sensor); ``bounds`` (xmin, ymin, xmax, ymax in m)
+    the area used for coverage; ``floor_size`` (x, y in m) or None for an endless floor.
+    """
+
+    name: str
+    path: Path | None
+    obstacles: tuple[Obstacle, ...]
+    robot_start: tuple[float, float, float]
+    robot_model: str
+    robot: Model
+    target: str | None
+    bounds: tuple[float, float, float, float]
+    floor_size: tuple[float, float] | None = None
+    description: str = ''
+
+    @classmethod
+    def load(cls, name_or_path: str | os.PathLike) -> 'World':
+        """
+        Load a shipped world by name (``room``) or any world file by path.
+
+        Raises FileNotFoundError for an unknown world and :class:`WorldError` for a bad file.
+        """
+        path = paths.find_world(name_or_path)
+        label = _display_path(path)
+        try:
+            data = yaml.load(path.read_text(encoding='utf-8'), Loader=_StrictLoader)
+        except yaml.YAMLError as error:
+            mark = getattr(error, 'problem_mark', None)
+            where = f'line {mark.line + 1}, column {mark.column + 1}: ' if mark else ''
+            problem = getattr(error, 'problem', None) or str(error)
+            raise WorldError(label, None, None, f'invalid YAML: {where}{problem}') from None
+        return _Parser(label).world(data, path)
+
+    @classmethod
+    def from_dict(cls, data: Any, source: str = '<dict>') -> 'World':
+        """Build a world from an already parsed mapping; ``source`` names it in errors."""
+        return _Parser(source).world(data, None)
+
+    def obstacle(self, name: str) -> Obstacle:
+        """Return the obstacle called ``name``; KeyError when there is none."""
+        for obstacle in self.obstacles:
+            if obstacle.name == name:
+                return obstacle
+        raise KeyError(f"world '{self.name}' has no obstacle '{name}'")
+
+    def shapes(self) -> tuple[Shape, ...]:
+        """Return every obstacle's 3-D primitives."""
+        return tuple(shape for obstacle in self.obstacles for shape in obstacle.shapes)
+
+    def footprints(self) -> tuple[Footprint, ...]:
+        """Return every obstacle's floor outlines, in obstacle order."""
+        return tuple(fp for obstacle in self.obstacles for fp in obstacle.footprints)
+
+    def footprint_owners(self) -> tuple[str, ...]:
+        """Return, for each entry of :meth:`footprints`, the name of its obstacle."""
+        return tuple(obstacle.name for obstacle in self.obstacles
+                     for _ in obstacle.footprints)
+
+    def with_robot_start(self, x: float, y: float, yaw: float) -> 'World':
+        """
+        Return this world with the robot starting at (x m, y m, yaw rad) instead.
+
+        Raises :class:`WorldError` when the robot would start overlapping an obstacle.
+        """
+        pose = (float(x), float(y), wrap_angle(float(yaw)))
+        if not all(math.isfinite(value) for value in pose):
+            raise WorldError(self._label(), 'robot', 'pose', f'must be finite, got {pose}')
+        _check_robot_clear(self._label(), pose, self.robot.radius, self.obstacles)
+        return replace(self, robot_start=pose)
+
+    def mirrored_start(self) -> 'World':
+        """
+        Return this world with the robot turned round on its start (yaw + pi).
+
+        A wall-follow world starts with the target on the robot's right (a clockwise run);
+        turned round on the same spot the robot has it on its left at the same distance, the
+        counter-clockwise start.
+        """
+        x, y, yaw = self.robot_start
+        return self.with_robot_start(x, y, yaw + math.pi)
+
+    def _label(self) -> str:
+        return _display_path(self.path) if self.path is not None else self.name
+
+
+class _StrictLoader(yaml.SafeLoader):
+    """YAML's safe loader, except that a key given twice in one mapping is an error."""
+
+    def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict:
+        seen = set()
+        for key_node, _ in node.value:
+            key = self.construct_object(key_node, deep=deep)
+            if key in seen:
+                raise yaml.constructor.ConstructorError(
+                    None, None, f'duplicate key {key!r}', key_node.start_mark)
+            seen.add(key)
+        return super().construct_mapping(node, deep=deep)
+
+
+def _display_path(path: Path) -> str:
+    """Return ``path`` relative to the working directory when it is below it."""
+    try:
+        return str(path.resolve().relative_to(Path.cwd()))
+    except ValueError:
+        return str(path)
+
+
+def _check_robot_clear(label: str, pose: tuple[float, float, float], radius: float,
+                       obstacles: tuple[Obstacle, ...]) -> None:
+    distance, name = min(((obstacle.distance(pose[0], pose[1]), obstacle.name)
+                          for obstacle in obstacles), default=(math.inf, ''))
+    if distance < radius:
+        raise WorldError(label, 'robot', 'pose',
+                         f'the robot (radius {radius:g} m) at ({pose[0]:g}, {pose[1]:g}) '
+                         f"overlaps obstacle '{name}'")
+
+
+class _Parser:
+    """Turns the parsed YAML of one file into a World, raising WorldError on the first fault."""
+
+    def __init__(self, label: str) -> None:
+        self.label = label
+
+    def fail(self, entry: str | None, field_name: str | None, problem: str) -> WorldError:
+        return WorldError(self.label, entry, field_name, problem)
+
+    def world(self, data: Any, path: Path | None) -> World:
+        if data is None:
+            data = {}
+        if not isinstance(data, Mapping):
+            raise self.fail(None, None, f'must be a mapping of keys, got {_kind(data)}')
+        self.check_keys(data, _TOP_KEYS, None)
+        name = data.get('name', path.stem if path is not None else self.label)
+        if not isinstance(name, str) or not name:
+            raise self.fail(None, 'name', f'must be a non-empty text, got {name!r}')
+        description = data.get('description', '')
+        if not isinstance(description, str):
+            raise self.fail(None, 'description', f'must be text, got {_kind(description)}')
+        floor_size = self.floor(data.get('floor'))
+        robot_model, robot, robot_start = self.robot(data.get('robot'))
+        obstacles = []
+        declared = {}
+        for index, entry in enumerate(self.entries(data, 'walls')):
+            where, walls = self.walls(entry, index)
+            self.add_unique(declared, walls, where)
+            obstacles += walls
+        for index, entry in enumerate(self.entries(data, 'obstacles')):
+            where, obstacle = self.obstacle(entry, index)
+            self.add_unique(declared, [obstacle], where)
+            obstacles.append(obstacle)
+        target = data.get('target')
+        if target is not None:
+            names = [obstacle.name for obstacle in obstacles]
+            if not isinstance(target, str):
+                raise self.fail(None, 'target', f'must be an obstacle name, got {_kind(target)}')
+            if target not in names:
+                raise self.fail(None, 'target', f"names no obstacle ('{target}'); obstacles: "
+                                f"{', '.join(names) or 'none'}")
+        _check_robot_clear(self.label, robot_start, robot.radius, tuple(obstacles))
+        if 'bounds' in data:
+            bounds = self.bounds(data['bounds'])
+        else:
+            bounds = _default_bounds(obstacles, robot_start, robot.radius)
+        return World(name=name, path=path, obstacles=tuple(obstacles), robot_start=robot_start,
+                     robot_model=robot_model, robot=robot, target=target, bounds=bounds,
+                     floor_size=floor_size, description=description)
+
+    def entries(self, data: Mapping, key: str) -> list:
+        value = data.get(key)
+        if value is None:
+            return []
+        if not isinstance(value, list):
+            raise self.fail(None, key, f'must be a list of entries, got {_kind(value)}')
+        return value
+
+    def check_keys(self, entry: Mapping, allowed: tuple[str, ...], where: str | None) -> None:
+        for key in entry:
+            if key not in allowed:
+                raise self.fail(where, str(key),
+                                f"unknown key; expected one of {', '.join(allowed)}")
+
+    def add_unique(self, declared: dict[str, str], obstacles: list[Obstacle],
+                   where: str) -> None:
+        """Check the obstacles of entry ``where`` have new names and record them."""
+        for obstacle in obstacles:
+            if obstacle.name in declared:
+                raise self.fail(where, 'name', f"duplicate name '{obstacle.name}' (also used "
+                                f'by {declared[obstacle.name]})')
+            declared[obstacle.name] = where
+
+    def floor(self, value: Any) -> tuple[float, float] | None:
+        if value is None:
+            return None
+        if not isinstance(value, Mapping):
+            raise self.fail('floor', None, f'must be a mapping, got {_kind(value)}')
+        self.check_keys(value, _FLOOR_KEYS, 'floor')
+        if 'size' not in value:
+            return None
+        return self.positives(value['size'], 'floor', 'size', 2)
+
+    def robot(self, value: Any) -> tuple[str, Model, tuple[float, float, float]]:
+        if value is None:
+            value = {}
+        if not isinstance(value, Mapping):
+            raise self.fail('robot', None, f'must be a mapping, got {_kind(value)}')
+        self.check_keys(value, _ROBOT_KEYS, 'robot')
+        name = value.get('model', DEFAULT_ROBOT_MODEL)
+        model = self.model(name, 'robot')
+        if not model.shapes:
+            raise self.fail('robot', 'model', f"model '{name}' has no collision shape to give "
+                            'the robot a footprint')
+        pose = self.pose(value.get('pose', [0.0, 0.0, 0.0]), 'robot')
+        return name, model, pose
+
+    def model(self, name: Any, where: str) -> Model:
+        if not isinstance(name, str) or not name:
+            raise self.fail(where, 'model', f'must be a model name, got {_kind(name)}')
+        try:
+            return load_model(paths.find_model(name))
+        except FileNotFoundError as error:
+            raise self.fail(where, 'model', str(error)) from None
+        except SdfError as error:
+            raise self.fail(where, 'model', f"model '{name}' is broken: {error}") from None
+
+    def walls(self, entry: Any, index: int) -> tuple[str, list[Obstacle]]:
+        if not isinstance(entry, Mapping):
+            raise self.fail(f'walls[{index}]', None, f'must be a mapping, got {_kind(entry)}')
+        name = entry.get('name', f'wall_{index}')
+        where = f'walls[{index}] ({name})'
+        if not isinstance(name, str) or not name:
+            raise self.fail(f'walls[{index}]', 'name', f'must be a non-empty text, got {name!r}')
+        self.check_keys(entry, _WALL_KEYS, where)
+        thickness = self.positive(entry.get('thickness', DEFAULT_WALL_THICKNESS), where,
+                                  'thickness')
+        height = self.positive(entry.get('height', DEFAULT_WALL_HEIGHT), where, 'height')
+        if 'room' in entry:
+            for key in ('start', 'end'):
+                if key in entry:
+                    raise self.fail(where, key, "a wall entry has either 'room' or "
+                                    "'start' and 'end', not both")
+            size_x, size_y = self.positives(entry['room'], where, 'room', 2)
+            center_x, center_y = self.numbers(entry.get('center', [0.0, 0.0]), where,
+                                              'center', 2)
+            half_x = 0.5 * size_x + 0.5 * thickness
+            half_y = 0.5 * size_y + 0.5 * thickness
+            outer_x = size_x + 2.0 * thickness
+            sides = (('north', 0.0, half_y, outer_x), ('south', 0.0, -half_y, outer_x),
+                     ('east', half_x, 0.0, size_y), ('west', -half_x, 0.0, size_y))
+            return where, [_wall(f'{name}_{side}', center_x + dx, center_y + dy,
+                                 0.0 if side in ('north', 'south') else 0.5 * math.pi,
+                                 length, thickness, height)
+                           for side, dx, dy, length in sides]
+        if 'center' in entry:
+            raise self.fail(where, 'center', "only a 'room' wall entry has a center")
+        for key in ('start', 'end'):
+            if key not in entry:
+                raise self.fail(where, key, "missing; a wall needs 'start' and 'end' (or "
+                                "'room')")
+        start = self.numbers(entry['start'], where, 'start', 2)
+        end = self.numbers(entry['end'], where, 'end', 2)
+        length = math.hypot(end[0] - start[0], end[1] - start[1])
+        if length <= 0.0:
+            raise self.fail(where, 'end', 'must differ from start')
+        return where, [_wall(name, 0.5 * (start[0] + end[0]), 0.5 * (start[1] + end[1]),
+                             math.atan2(end[1] - start[1], end[0] - start[0]), length,
+                             thickness, height)]
+
+    def obstacle(self, entry: Any, index: int) -> tuple[str, Obstacle]:
+        if not isinstance(entry, Mapping):
+            raise self.fail(f'obstacles[{index}]', None,
+                            f'must be a mapping, got {_kind(entry)}')
+        name = entry.get('name')
+        if not isinstance(name, str) or not name:
+            raise self.fail(f'obstacles[{index}]', 'name',
+                            'missing' if name is None else f'must be text, got {_kind(name)}')
+        where = f'obstacles[{index}] ({name})'
+        kind = entry.get('type')
+        if kind not in OBSTACLE_TYPES:
+            problem = 'missing' if kind is None else f'unknown type {kind!r}'
+            raise self.fail(where, 'type', f"{problem}; use one of {', '.join(OBSTACLE_TYPES)}")
+        self.check_keys(entry, _OBSTACLE_KEYS[kind], where)
+        if 'pose' not in entry:
+            raise self.fail(where, 'pose', 'missing; give [x, y] or [x, y, yaw]')
+        x, y, yaw = self.pose(entry['pose'], where)
+        z = self.number(entry['z'], where, 'z') if 'z' in entry else None
+        if kind == 'model':
+            if 'model' not in entry:
+                raise self.fail(where, 'model', 'missing; name a model folder')
+            model = self.model(entry['model'], where)
+            if not model.shapes:
+                raise self.fail(where, 'model', f"model '{entry['model']}' has no collision "
+                                'shapes')
+            shapes = tuple(shape.placed(x, y, z or 0.0, yaw) for shape in model.shapes)
+            return where, Obstacle(name, 'model', shapes, (x, y, yaw), model=entry['model'])
+        if kind == 'cube':
+            shape = Shape('box', size=self.positives(self.required(entry, 'size', where), where,
+                                                     'size', 3))
+        elif kind == 'cylinder':
+            shape = Shape('cylinder',
+                          radius=self.positive(self.required(entry, 'radius', where), where,
+                                               'radius'),
+                          length=self.positive(self.required(entry, 'length', where), where,
+                                               'length'))
+        else:
+            shape = Shape('sphere', radius=self.positive(self.required(entry, 'radius', where),
+                                                         where, 'radius'))
+        centre_z = 0.5 * shape.height if z is None else z
+        return where, Obstacle(name, kind, (shape.placed(x, y, centre_z, yaw),), (x, y, yaw))
+
+    def required(self, entry: Mapping, key: str, where: str) -> Any:
+        if key not in entry:
+            raise self.fail(where, key, f"missing; a {entry['type']} needs it")
+        return entry[key]
+
+    def bounds(self, value: Any) -> tuple[float, float, float, float]:
+        xmin, ymin, xmax, ymax = self.numbers(value, None, 'bounds', 4)
+        if xmin >= xmax or ymin >= ymax:
+            raise self.fail(None, 'bounds', f'must be [xmin, ymin, xmax, ymax] with xmin < xmax '
+                            f'and ymin < ymax, got {value}')
+        return xmin, ymin, xmax, ymax
+
+    def pose(self, value: Any, where: str) -> tuple[float, float, float]:
+        if not isinstance(value, list) or len(value) not in (2, 3):
+            raise self.fail(where, 'pose', f'must be [x, y] or [x, y, yaw], got {value!r}')
+        numbers = self.numbers(value, where, 'pose', len(value))
+        return (numbers[0], numbers[1], wrap_angle(numbers[2]) if len(numbers) == 3 else 0.0)
+
+    def numbers(self, value: Any, where: str | None, key: str, count: int) -> tuple[float, ...]:
+        if not isinstance(value, list) or len(value) != count \
+                or not all(_is_number(item) for item in value):
+            raise self.fail(where, key, f'must be {count} numbers, got {value!r}')
+        return tuple(float(item) for item in value)
+
+    def positives(self, value: Any, where: str | None, key: str,
+                  count: int) -> tuple[float, ...]:
+        if not isinstance(value, list) or len(value) != count \
+                or not all(_is_number(item) and item > 0 for item in value):
+            raise self.fail(where, key, f'must be {count} positive numbers, got {value!r}')
+        return tuple(float(item) for item in value)
+
+    def number(self, value: Any, where: str | None, key: str) -> float:
+        if not _is_number(value):
+            raise self.fail(where, key, f'must be a number, got {value!r}')
+        return float(value)
+
+    def positive(self, value: Any, where: str | None, key: str) -> float:
+        number = self.number(value, where, key)
+        if number <= 0.0:
+            raise self.fail(where, key, f'must be a positive number, got {value!r}')
+        return number
+
+
+def _is_number(value: Any) -> bool:
+    return (isinstance(value, (int, float)) and not isinstance(value, bool)
+            and math.isfinite(value))
+
+
+def _kind(value: Any) -> str:
+    return f'{value!r} ({type(value).__name__})'
+
+
+def _wall(name: str, x: float, y: float, yaw: float, length: float, thickness: float,
+          height: float) -> Obstacle:
+    shape = Shape('box', x, y, 0.5 * height, wrap_angle(yaw), size=(length, thickness, height))
+    return Obstacle(name, 'wall', (shape,), (x, y, shape.yaw))
+
+
+def _default_bounds(obstacles: list[Obstacle], robot_start: tuple[float, float, float],
+                    robot_radius: float) -> tuple[float, float, float, float]:
+    walls = [fp for obstacle in obstacles if obstacle.kind == 'wall'
+             for fp in obstacle.footprints]
+    if walls:
+        boxes = [fp.bounds() for fp in walls]
+        margin = 0.0
+    else:
+        x, y = robot_start[:2]
+        boxes = [fp.bounds() for obstacle in obstacles for fp in obstacle.footprints]
+        boxes.append((x - robot_radius, y - robot_radius, x + robot_radius, y + robot_radius))
+        margin = BOUNDS_MARGIN
+    return (min(box[0] for box in boxes) - margin, min(box[1] for box in boxes) - margin,
+            max(box[2] for box in boxes) + margin, max(box[3] for box in boxes) + margin)
