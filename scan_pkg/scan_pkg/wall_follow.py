@@ -1,0 +1,60 @@
+"""Follow a wall: keep an obstacle on one side at a set distance, and circle it."""
+
+from dataclasses import fields
+
+import rclpy
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.qos import qos_profile_sensor_data
+from rclpy.signals import SignalHandlerOptions
+from sensor_msgs.msg import LaserScan
+
+from scan_pkg.behaviors.wall_follow import WallFollowConfig, WallFollower
+from scan_pkg.cmd_vel import CmdVelPublisher
+from scan_pkg.report import read_scan
+
+
+class WallFollow(Node):
+    """
+    Subscribe to ``scan`` and publish one ``cmd_vel`` per scan.
+
+    A command is computed from a scan, so it is sent when one arrives: no staler than the
+    scan, and when scans stop, commands stop and the base's command timeout halts the robot.
+    Parameters: the fields of :class:`WallFollowConfig` (defaults in
+    ``params/wall_follow.yaml``) and ``stamped`` (see :class:`CmdVelPublisher`).
+    """
+
+    def __init__(self):
+        super().__init__('wall_follow')
+        config = WallFollowConfig(**{field.name: self.declare_parameter(
+            field.name, field.default).value for field in fields(WallFollowConfig)})
+        self.follower = WallFollower(config, on_event=self.get_logger().info)
+        self.cmd_vel = CmdVelPublisher(self)
+        self.create_subscription(LaserScan, 'scan', self.on_scan, qos_profile_sensor_data)
+
+    def on_scan(self, msg):
+        now = self.get_clock().now().nanoseconds * 1e-9
+        scan = read_scan(msg, self.get_logger())
+        if scan is not None:
+            self.follower.update_scan(scan, now)
+        self.cmd_vel.publish(*self.follower.command(now))
+
+
+def main(args=None):
+    # Without rclpy's signal handler, Ctrl-C raises KeyboardInterrupt in spin while the
+    # context is still valid, so the robot can be stopped before shutting down.
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    node = WallFollow()
+    try:
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if rclpy.ok():
+            node.cmd_vel.stop()
+        node.destroy_node()
+        rclpy.try_shutdown()
+
+
+if __name__ == '__main__':
+    main()

@@ -1,0 +1,70 @@
+"""Wander: drive straight, and turn in place by more than 90 deg when the way is blocked."""
+
+from dataclasses import fields
+
+from nav_msgs.msg import Odometry
+import rclpy
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.qos import qos_profile_sensor_data
+from rclpy.signals import SignalHandlerOptions
+from sensor_msgs.msg import LaserScan
+
+from scan_pkg.behaviors.wander import WanderConfig, Wanderer, yaw_from_quaternion
+from scan_pkg.cmd_vel import CmdVelPublisher
+from scan_pkg.report import read_scan
+
+
+class Wanderbot(Node):
+    """
+    Subscribe to ``scan`` and ``odom``; publish ``cmd_vel`` at ``control_rate`` (Hz).
+
+    Parameters: the fields of :class:`WanderConfig` (defaults in ``params/wanderbot.yaml``),
+    ``control_rate`` (Hz) and ``stamped`` (see :class:`CmdVelPublisher`).
+    """
+
+    def __init__(self):
+        super().__init__('wanderbot')
+        config = WanderConfig(**{field.name: self.declare_parameter(
+            field.name, field.default).value for field in fields(WanderConfig)})
+        self.wanderer = Wanderer(config, on_event=self.get_logger().info)
+        self.cmd_vel = CmdVelPublisher(self)
+        self.create_subscription(LaserScan, 'scan', self.on_scan, qos_profile_sensor_data)
+        self.create_subscription(Odometry, 'odom', self.on_odom, qos_profile_sensor_data)
+        control_rate = self.declare_parameter('control_rate', 20.0).value
+        self.create_timer(1.0 / control_rate, self.on_timer)
+
+    def seconds(self) -> float:
+        return self.get_clock().now().nanoseconds * 1e-9
+
+    def on_scan(self, msg):
+        scan = read_scan(msg, self.get_logger())
+        if scan is not None:
+            self.wanderer.update_scan(scan, self.seconds())
+
+    def on_odom(self, msg):
+        q = msg.pose.pose.orientation
+        self.wanderer.update_odom(yaw_from_quaternion(q.x, q.y, q.z, q.w), self.seconds())
+
+    def on_timer(self):
+        self.cmd_vel.publish(*self.wanderer.command(self.seconds()))
+
+
+def main(args=None):
+    # Without rclpy's signal handler, Ctrl-C raises KeyboardInterrupt in spin while the
+    # context is still valid, so the robot can be stopped before shutting down.
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    node = Wanderbot()
+    try:
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if rclpy.ok():
+            node.cmd_vel.stop()
+        node.destroy_node()
+        rclpy.try_shutdown()
+
+
+if __name__ == '__main__':
+    main()
