@@ -104,7 +104,11 @@ def check_params_file(node_name, config_class, node_parameters):
         name: type(value) for name, value in defaults.items()}
 
 
+# Captured at import: when the fixture runs, the name 'conftest' may be another folder's.
+_SCAN_BUILDERS = sys.modules[__name__]
+
+
 @pytest.fixture(scope='session')
 def shapes():
     """Give tests this module's scan builders: ``shapes.cast_scan(...)`` and the rest."""
-    return sys.modules[__name__]
+    return _SCAN_BUILDERS
