@@ -1,0 +1,47 @@
+"""
+Start the simulator with the world of a lab task, and the task's scan_pkg node.
+
+``ros2 launch sim_bridge lab.launch.py task:=wall_follow`` (tasks: see sim_bridge.lab_tasks);
+``world:=...`` overrides the task's world, ``gui:=true`` opens the pybullet window.
+"""
+
+from launch import LaunchDescription
+from launch.actions import DeclareLaunchArgument, IncludeLaunchDescription, OpaqueFunction
+from launch.launch_description_sources import PythonLaunchDescriptionSource
+from launch.substitutions import LaunchConfiguration, PathJoinSubstitution
+from launch_ros.actions import Node
+from launch_ros.substitutions import FindPackageShare
+
+from sim_bridge.lab_tasks import LAB_TASKS
+
+
+def start_task(context):
+    task_name = LaunchConfiguration('task').perform(context)
+    if task_name not in LAB_TASKS:
+        raise ValueError(f"unknown task '{task_name}': choose one of {', '.join(LAB_TASKS)}")
+    task = LAB_TASKS[task_name]
+    world = LaunchConfiguration('world').perform(context) or task.world
+    share = FindPackageShare('sim_bridge')
+    return [
+        IncludeLaunchDescription(
+            PythonLaunchDescriptionSource(
+                PathJoinSubstitution([share, 'launch', 'sim.launch.py'])),
+            launch_arguments={'world': world, 'gui': LaunchConfiguration('gui'),
+                              'rviz': LaunchConfiguration('rviz')}.items(),
+        ),
+        Node(package='scan_pkg', executable=task.node, output='screen',
+             parameters=[{'use_sim_time': True}]),
+    ]
+
+
+def generate_launch_description():
+    return LaunchDescription([
+        DeclareLaunchArgument('task', default_value='scan_ahead',
+                              description=f"lab task: {', '.join(LAB_TASKS)}"),
+        DeclareLaunchArgument('world', default_value='',
+                              description="world to use instead of the task's"),
+        DeclareLaunchArgument('gui', default_value='false',
+                              description='open the pybullet window'),
+        DeclareLaunchArgument('rviz', default_value='false', description='start RViz'),
+        OpaqueFunction(function=start_task),
+    ])

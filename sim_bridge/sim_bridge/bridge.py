@@ -1,0 +1,171 @@
+"""
+The simulator as a ROS 2 node: it stands in for Gazebo and its ROS bridge in the lab.
+
+Publishes ``scan`` (sensor_msgs/LaserScan), ``odom`` (nav_msgs/Odometry), TF odom → base_link,
+static TF base_link → laser, ``clock`` (rosgraph_msgs/Clock) and ``collisions``
+(geometry_msgs/PointStamped); obeys ``cmd_vel`` (geometry_msgs/Twist, or TwistStamped when
+``cmd_vel_stamped`` is true). One timer steps the physics at ``physics_rate`` (Hz), paced at
+``real_time_factor`` × wall-clock speed; the other nodes run with ``use_sim_time:=true``.
+"""
+
+import math
+
+from geometry_msgs.msg import PointStamped, TransformStamped, Twist, TwistStamped
+from nav_msgs.msg import Odometry
+import rclpy
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.time import Time
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import LaserScan
+from tf2_ros import StaticTransformBroadcaster, TransformBroadcaster
+
+from sim_bridge.robot import DriveLimits
+from sim_bridge.simulator import Simulator
+from sim_bridge.world import World
+
+NANOSECONDS_PER_SECOND = 10 ** 9
+
+
+def quaternion_from_euler(roll: float, pitch: float, yaw: float
+                          ) -> tuple[float, float, float, float]:
+    """Return the (x, y, z, w) quaternion of fixed-axis roll, pitch, yaw rotations (rad)."""
+    cr, sr = math.cos(roll / 2.0), math.sin(roll / 2.0)
+    cp, sp = math.cos(pitch / 2.0), math.sin(pitch / 2.0)
+    cy, sy = math.cos(yaw / 2.0), math.sin(yaw / 2.0)
+    return (sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy,
+            cr * cp * sy - sr * sp * cy, cr * cp * cy + sr * sp * sy)
+
+
+class SimBridge(Node):
+    """Step the simulator on a timer and bridge it to ROS topics."""
+
+    def __init__(self, **kwargs):
+        super().__init__('sim_bridge', **kwargs)
+        world = World.load(self.declare_parameter('world', 'obstacles').value)
+        start = self.declare_parameter('start_pose', list(world.robot_start)).value
+        self.frames = {name: self.declare_parameter(name + '_frame', name).value
+                       for name in ('odom', 'base_link', 'laser')}
+        limits = DriveLimits(**{name: self.declare_parameter(name, default).value
+                                for name, default in vars(DriveLimits()).items()})
+        self.sim = Simulator(
+            world.with_robot_start(*start),
+            seed=self.declare_parameter('seed', 0).value,
+            limits=limits,
+            command_timeout=self.declare_parameter('cmd_vel_timeout', 0.5).value,
+            lidar_samples=self.optional('lidar_samples', 0),
+            lidar_noise_stddev=self.optional('lidar_noise_stddev', -1.0),
+            gui=self.declare_parameter('gui', False).value)
+        physics_rate = self.declare_parameter('physics_rate', 100.0).value
+        self.step_ns = round(NANOSECONDS_PER_SECOND / physics_rate)
+        self.steps_per_scan = max(1, round(physics_rate / self.sim.lidar_config.update_rate))
+        self.steps_per_odom = max(1, round(
+            physics_rate / self.declare_parameter('odom_rate', 50.0).value))
+        self.steps = 0
+        self.collisions_reported = 0
+
+        self.scan_pub = self.create_publisher(LaserScan, 'scan', 10)
+        self.odom_pub = self.create_publisher(Odometry, 'odom', 10)
+        self.clock_pub = self.create_publisher(Clock, 'clock', 10)
+        self.collision_pub = self.create_publisher(PointStamped, 'collisions', 10)
+        self.tf_broadcaster = TransformBroadcaster(self)
+        StaticTransformBroadcaster(self).sendTransform(self.laser_transform())
+        stamped = self.declare_parameter('cmd_vel_stamped', False).value
+        self.create_subscription(TwistStamped if stamped else Twist, 'cmd_vel',
+                                 self.on_cmd_vel, 10)
+        real_time_factor = self.declare_parameter('real_time_factor', 1.0).value
+        self.create_timer(1.0 / physics_rate / real_time_factor, self.step)
+
+    def optional(self, name, unset):
+        """Declare a parameter whose default ``unset`` means 'as the robot model says'."""
+        value = self.declare_parameter(name, unset).value
+        return None if value == unset else value
+
+    def on_cmd_vel(self, msg):
+        twist = getattr(msg, 'twist', msg)
+        warning = self.sim.set_command(twist.linear.x, twist.angular.z)
+        if warning:
+            self.get_logger().warn(f'cmd_vel: {warning}', throttle_duration_sec=1.0)
+
+    def step(self):
+        self.sim.step(self.step_ns / NANOSECONDS_PER_SECOND)
+        self.steps += 1
+        stamp = Time(nanoseconds=self.steps * self.step_ns).to_msg()
+        self.clock_pub.publish(Clock(clock=stamp))
+        if self.steps % self.steps_per_scan == 0:
+            self.scan_pub.publish(self.scan_message(stamp))
+        if self.steps % self.steps_per_odom == 0:
+            self.publish_odometry(stamp)
+        for collision in self.sim.collisions[self.collisions_reported:]:
+            self.report_collision(collision, stamp)
+        self.collisions_reported = len(self.sim.collisions)
+
+    def scan_message(self, stamp) -> LaserScan:
+        scan = self.sim.scan()
+        msg = LaserScan(angle_min=float(scan.angle_min), angle_max=float(scan.angle_max),
+                        angle_increment=float(scan.angle_increment),
+                        time_increment=float(scan.time_increment),
+                        scan_time=float(scan.scan_time), range_min=float(scan.range_min),
+                        range_max=float(scan.range_max), ranges=scan.ranges)
+        msg.header.stamp = stamp
+        msg.header.frame_id = self.frames['laser']
+        return msg
+
+    def publish_odometry(self, stamp):
+        x, y, yaw = self.sim.pose
+        linear, angular = self.sim.velocity
+        odom = Odometry(child_frame_id=self.frames['base_link'])
+        odom.header.stamp = stamp
+        odom.header.frame_id = self.frames['odom']
+        odom.pose.pose.position.x, odom.pose.pose.position.y = float(x), float(y)
+        orientation = odom.pose.pose.orientation
+        orientation.x, orientation.y, orientation.z, orientation.w = quaternion_from_euler(
+            0.0, 0.0, yaw)
+        odom.twist.twist.linear.x, odom.twist.twist.angular.z = float(linear), float(angular)
+        self.odom_pub.publish(odom)
+        self.tf_broadcaster.sendTransform(self.transform(
+            stamp, 'odom', 'base_link', (x, y, 0.0), (0.0, 0.0, yaw)))
+
+    def laser_transform(self) -> TransformStamped:
+        pose = self.sim.lidar_config.pose
+        return self.transform(Time().to_msg(), 'base_link', 'laser', pose[:3], pose[3:])
+
+    def transform(self, stamp, parent, child, translation, rotation_rpy) -> TransformStamped:
+        transform = TransformStamped()
+        transform.header.stamp = stamp
+        transform.header.frame_id = self.frames[parent]
+        transform.child_frame_id = self.frames[child]
+        offset = transform.transform.translation
+        offset.x, offset.y, offset.z = (float(value) for value in translation)
+        rotation = transform.transform.rotation
+        rotation.x, rotation.y, rotation.z, rotation.w = quaternion_from_euler(*rotation_rpy)
+        return transform
+
+    def report_collision(self, collision, stamp):
+        self.get_logger().warn(f'collision with {collision.obstacle} at t={collision.time:.2f} s,'
+                               f' x={collision.x:.2f} m, y={collision.y:.2f} m')
+        point = PointStamped()
+        point.header.stamp = stamp
+        point.header.frame_id = self.frames['odom']
+        point.point.x, point.point.y = float(collision.x), float(collision.y)
+        self.collision_pub.publish(point)
+
+    def destroy_node(self):
+        self.sim.close()
+        return super().destroy_node()
+
+
+def main(args=None):
+    rclpy.init(args=args)
+    node = SimBridge()
+    try:
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+
+
+if __name__ == '__main__':
+    main()
