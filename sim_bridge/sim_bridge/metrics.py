@@ -1,0 +1,261 @@
+"""
+Score a run from its trace: laps, wall distance, turns, stationary time, coverage, clearance.
+
+Each score is a plain function of numpy arrays (units in its docstring); ``compute_metrics``
+assembles them into the JSON-ready dict the runner writes as ``metrics.json`` and the grader's
+criteria read. Pure: numpy and contourpy only, no rclpy, no pybullet.
+"""
+
+import math
+from typing import Any, Iterable, Mapping, Sequence
+
+import contourpy
+import numpy as np
+
+from sim_bridge.geometry import Footprint, signed_distance
+from sim_bridge.run_trace import Trace
+
+# A stop-and-turn manoeuvre: turning faster than this (rad/s) ...
+TURN_MIN_ANGULAR = 0.1
+# ... and, at some moment of it, driving slower than this (m/s).
+TURN_MAX_LINEAR = 0.02
+# Turning pauses shorter than this (s) belong to the same manoeuvre (a controller re-planning).
+TURN_MAX_GAP = 0.25
+# Moving less than this (m) from where a pause began counts as standing still.
+STATIONARY_RADIUS = 0.05
+# Side (m) of the square cells of the coverage grid.
+COVERAGE_CELL = 0.5
+
+#: What ``compute_metrics`` returns: each key's kind ('number', 'list', 'text') or, for a
+#: nested dict, the kinds of its keys. Scenario criteria are checked against it.
+METRIC_KINDS = {
+    'sim_time_s': 'number', 'wall_time_s': 'number', 'real_time_factor': 'number',
+    'collisions': 'number', 'collision_events': 'list', 'min_clearance_m': 'number',
+    'distance_m': 'number', 'laps': 'number', 'lap_times_s': 'list',
+    'wall_distance_m': {'mean': 'number', 'mae': 'number', 'rms': 'number',
+                        'setpoint': 'number'},
+    'turns_deg': 'list', 'max_stationary_s': 'number', 'coverage': 'number',
+    'node_errors': 'list',
+}
+
+
+def finite_or_none(value: float | None) -> float | None:
+    """Return ``value`` as a plain float, or None when it is missing, NaN or infinite."""
+    if value is None:
+        return None
+    value = float(value)
+    return value if math.isfinite(value) else None
+
+
+def path_length(x: np.ndarray, y: np.ndarray) -> float:
+    """Return the length (m) of the polyline through the points (``x``, ``y``) (m)."""
+    if len(x) < 2:
+        return 0.0
+    return float(np.hypot(np.diff(x), np.diff(y)).sum())
+
+
+def footprint_area(footprint: Footprint) -> float:
+    """Return the floor area (m²) of a footprint."""
+    if footprint.kind == 'circle':
+        return math.pi * footprint.radius ** 2
+    return 4.0 * footprint.half_x * footprint.half_y
+
+
+def footprints_centre(footprints: Sequence[Footprint]) -> tuple[float, float]:
+    """Return the area-weighted centroid (x m, y m) of the footprints' centres."""
+    weights = np.array([footprint_area(footprint) for footprint in footprints])
+    centres = np.array([(footprint.x, footprint.y) for footprint in footprints])
+    if weights.sum() <= 0.0:
+        return tuple(float(value) for value in centres.mean(axis=0))
+    return tuple(float(value) for value in weights @ centres / weights.sum())
+
+
+def laps_around(time: np.ndarray, x: np.ndarray, y: np.ndarray,
+                centre: tuple[float, float]) -> tuple[int, list[float]]:
+    """
+    Count the robot's completed loops around ``centre`` (m) and time each of them.
+
+    The angle of the robot's position (m) about the centre is unwrapped over the run; the net
+    angle divided by 2π and truncated toward zero is the signed lap count (positive
+    counter-clockwise). Lap k ends the first time the net angle reaches k·2π in that
+    direction; the second value lists each lap's duration (s), the first lap counted from the
+    first sample.
+    """
+    if len(time) < 2:
+        return 0, []
+    turned = np.unwrap(np.arctan2(y - centre[1], x - centre[0]))
+    turned -= turned[0]
+    laps = int(turned[-1] / (2.0 * math.pi))
+    direction = 1.0 if laps >= 0 else -1.0
+    ends = [time[0]]
+    for lap in range(1, abs(laps) + 1):
+        index = int(np.argmax(direction * turned >= lap * 2.0 * math.pi))
+        ends.append(time[index])
+    return laps, [float(end - start) for start, end in zip(ends, ends[1:])]
+
+
+def distance_stats(distances: np.ndarray, setpoint: float | None) -> dict[str, float | None]:
+    """Summarise distances (m): their mean, and their MAE and RMS error against ``setpoint``."""
+    stats = {'mean': None, 'mae': None, 'rms': None, 'setpoint': finite_or_none(setpoint)}
+    if len(distances) == 0:
+        return stats
+    stats['mean'] = finite_or_none(distances.mean())
+    if setpoint is not None:
+        error = distances - setpoint
+        stats['mae'] = finite_or_none(np.abs(error).mean())
+        stats['rms'] = finite_or_none(np.sqrt(np.square(error).mean()))
+    return stats
+
+
+def true_runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """Return the (first, last) indices, inclusive, of each maximal run of True in ``mask``."""
+    edges = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
+    return list(zip(np.flatnonzero(edges == 1).tolist(),
+                    (np.flatnonzero(edges == -1) - 1).tolist()))
+
+
+def stop_and_turn_angles(time: np.ndarray, linear: np.ndarray, angular: np.ndarray,
+                         yaw: np.ndarray) -> list[float]:
+    """
+    Return the heading change (deg, absolute) of each stop-and-turn manoeuvre.
+
+    A manoeuvre is a maximal period of turning faster than ``TURN_MIN_ANGULAR`` (rad/s), with
+    pauses shorter than ``TURN_MAX_GAP`` (s) bridged, during which the robot at some moment
+    drives slower than ``TURN_MAX_LINEAR`` (m/s). Counting the whole turning period, not only
+    its stopped part, keeps the rotation made while the robot was still braking (velocity and
+    acceleration limits) in the angle. ``time`` in s, ``linear`` m/s, ``angular`` rad/s,
+    ``yaw`` rad.
+    """
+    merged: list[list[int]] = []
+    for first, last in true_runs(np.abs(angular) > TURN_MIN_ANGULAR):
+        if merged and time[first] - time[merged[-1][1]] <= TURN_MAX_GAP:
+            merged[-1][1] = last
+        else:
+            merged.append([first, last])
+    heading = np.unwrap(yaw)
+    slow = np.abs(linear) < TURN_MAX_LINEAR
+    return [math.degrees(abs(heading[last] - heading[max(first - 1, 0)]))
+            for first, last in merged if slow[first:last + 1].any()]
+
+
+def longest_stationary(time: np.ndarray, x: np.ndarray, y: np.ndarray,
+                       radius: float = STATIONARY_RADIUS) -> float:
+    """
+    Return the longest time (s) the robot stayed within ``radius`` (m) of where it paused.
+
+    A pause starts at a sample and lasts while the following positions (m) stay within the
+    radius of it; the next pause starts at the first sample outside. Turning in place is
+    standing still.
+    """
+    count = len(time)
+    longest = 0.0
+    start = 0
+    while start < count - 1:
+        window = 64
+        while True:
+            stop = min(count, start + window)
+            away = np.hypot(x[start + 1:stop] - x[start], y[start + 1:stop] - y[start]) > radius
+            if away.any() or stop == count:
+                break
+            window *= 2
+        leave = start + 1 + int(np.argmax(away)) if away.any() else count
+        longest = max(longest, float(time[leave - 1] - time[start]))
+        start = leave
+    return longest
+
+
+def coverage(x: np.ndarray, y: np.ndarray, bounds: tuple[float, float, float, float],
+             obstacles: Sequence[Footprint], robot_radius: float,
+             cell: float = COVERAGE_CELL) -> float | None:
+    """
+    Return the fraction of free grid cells the robot's centre visited, or None if none is free.
+
+    The grid of ``cell``-sided squares (m) starts at the lower corner of ``bounds`` (xmin, ymin,
+    xmax, ymax, m); a cell is free when its centre lies farther than ``robot_radius`` (m) from
+    every obstacle footprint, i.e. the robot could stand there.
+    """
+    xmin, ymin, xmax, ymax = bounds
+    columns = max(1, math.ceil((xmax - xmin) / cell - 1e-9))
+    rows = max(1, math.ceil((ymax - ymin) / cell - 1e-9))
+    column, row = np.meshgrid(np.arange(columns), np.arange(rows), indexing='ij')
+    centres = np.column_stack((xmin + (column.ravel() + 0.5) * cell,
+                               ymin + (row.ravel() + 0.5) * cell))
+    inside = (centres[:, 0] <= xmax) & (centres[:, 1] <= ymax)
+    free = inside.copy()
+    if obstacles:
+        free &= signed_distance(centres, obstacles) > robot_radius
+    if not free.any():
+        return None
+    visited = np.zeros(columns * rows, dtype=bool)
+    ix = np.floor((np.asarray(x) - xmin) / cell).astype(int)
+    iy = np.floor((np.asarray(y) - ymin) / cell).astype(int)
+    on_grid = (ix >= 0) & (ix < columns) & (iy >= 0) & (iy < rows)
+    visited[ix[on_grid] * rows + iy[on_grid]] = True
+    return float((visited & free).sum() / free.sum())
+
+
+def offset_path_length(footprints: Sequence[Footprint], distance: float,
+                       resolution: float = 0.005) -> float:
+    """
+    Return the length (m) of the loop at ``distance`` (m) from the footprints' surface.
+
+    This is the path a perfect wall follower drives around the footprints. The loop is traced
+    as the level line of the signed distance on a grid of ``resolution`` (m); the longest
+    line is the outer loop.
+    """
+    reach = distance + 2.0 * resolution + max(
+        max(footprint.radius, math.hypot(footprint.half_x, footprint.half_y))
+        for footprint in footprints)
+    xs = np.arange(min(f.x for f in footprints) - reach,
+                   max(f.x for f in footprints) + reach, resolution)
+    ys = np.arange(min(f.y for f in footprints) - reach,
+                   max(f.y for f in footprints) + reach, resolution)
+    grid_x, grid_y = np.meshgrid(xs, ys)
+    distances = signed_distance(np.column_stack((grid_x.ravel(), grid_y.ravel())),
+                                footprints).reshape(grid_x.shape)
+    lines = contourpy.contour_generator(xs, ys, distances).lines(distance)
+    return max(path_length(line[:, 0], line[:, 1]) for line in lines)
+
+
+def compute_metrics(trace: Trace, world: Any, *, setpoint: float | None = None,
+                    wall_time_s: float,
+                    node_errors: Iterable[Mapping[str, str]] = ()) -> dict[str, Any]:
+    """
+    Score a run; return a JSON-serialisable dict (plain floats and ints, None for no value).
+
+    ``world`` is the run's ``World`` (obstacles, target, bounds); ``setpoint`` (m) the wall
+    distance the node aims for, if it has one; ``wall_time_s`` (s) how long the run took;
+    ``node_errors`` the failures to report, each a mapping with ``node`` and ``error``.
+    """
+    time, x, y = trace.array('time'), trace.array('x'), trace.array('y')
+    sim_time = float(time[-1]) if len(time) else 0.0
+    clearance = trace.array('clearance')
+    clearance = clearance[np.isfinite(clearance)]
+    laps, lap_times = 0, []
+    wall_distance = distance_stats(np.empty(0), None)
+    if world.target is not None and len(time):
+        target = world.obstacle(world.target).footprints
+        laps, lap_times = laps_around(time, x, y, footprints_centre(target))
+        wall_distance = distance_stats(signed_distance(np.column_stack((x, y)), target),
+                                       setpoint)
+    obstacles = [footprint for obstacle in world.obstacles for footprint in obstacle.footprints]
+    return {
+        'sim_time_s': sim_time,
+        'wall_time_s': finite_or_none(wall_time_s),
+        'real_time_factor': finite_or_none(sim_time / wall_time_s) if wall_time_s > 0 else None,
+        'collisions': len(trace.collisions),
+        'collision_events': [
+            {'time': float(event.time), 'x': float(event.x), 'y': float(event.y),
+             'obstacle': str(event.obstacle)} for event in trace.collisions],
+        'min_clearance_m': finite_or_none(clearance.min()) if len(clearance) else None,
+        'distance_m': path_length(x, y),
+        'laps': laps,
+        'lap_times_s': lap_times,
+        'wall_distance_m': wall_distance,
+        'turns_deg': stop_and_turn_angles(time, trace.array('linear'), trace.array('angular'),
+                                          trace.array('yaw')),
+        'max_stationary_s': longest_stationary(time, x, y),
+        'coverage': coverage(x, y, world.bounds, obstacles, trace.robot_radius),
+        'node_errors': [{'node': str(error['node']), 'error': str(error['error'])}
+                        for error in node_errors],
+    }

@@ -1,0 +1,404 @@
+"""
+Scenario files for the grader: what to run, for how long, and what a pass is.
+
+Scenario file format (YAML)
+===========================
+
+A scenario is a YAML mapping; every key not listed here is an error::
+
+    description: wall_follow clockwise around the box    # optional free text
+    world: wall_follow_box        # a shipped world's name, or a world file's path
+    nodes: [wall_follow]          # TARGETs run with the simulator: a console script, a module
+                                  # or a file path.py[:ClassName]
+    params:                       # optional: parameters per node name, as in a ROS params
+      wall_follow:                # file ('sim_bridge' is the simulator's node); the value
+        side: right               # $seed stands for each run's seed
+        distance: 0.5
+    duration: 76.2                # simulated seconds
+    seeds: [1, 2, 3]              # one run per seed; or  seed: 1  (default 0)
+    start: mirrored               # optional robot start: 'mirrored' (turned round on the
+                                  # world's start: the target on its left) or [x, y, yaw]
+    criteria:                     # every one must hold for a run to pass
+      - len(node_errors) == 0
+      - collisions == 0
+      - laps <= -1
+      - wall_distance_m.mae <= 0.10
+      - all(turns_deg) > 90
+
+Relative paths (a world file, a node file) are relative to the scenario file. The scenario's
+name is the file name without ``.yaml``.
+
+Criteria
+--------
+``<value> <op> <number>`` where ``<op>`` is one of ``<  <=  ==  !=  >=  >`` and ``<value>`` a
+metric of ``metrics.json`` (``collisions``; a nested one with a dot, ``wall_distance_m.mae``)
+or a function of a list metric: ``min(turns_deg)``, ``max(...)``, ``len(...)``, ``all(...)``
+(every entry satisfies the comparison; true for an empty list), ``any(...)``; ``abs(laps)``
+for a number. The number may be ``inf`` or ``-inf``. Nothing is evaluated as Python. A metric
+that has no value (null, e.g. no wall distance without a target) fails its criterion.
+"""
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
+import math
+import operator
+import os
+from pathlib import Path
+import re
+from typing import Any, Callable
+
+import yaml
+
+from sim_bridge.metrics import METRIC_KINDS
+
+SCENARIO_SUFFIX = '.yaml'
+#: A parameter value replaced by each run's seed, so a node's own randomness follows it.
+SEED_PLACEHOLDER = '$seed'
+_KEYS = ('description', 'world', 'nodes', 'params', 'duration', 'seed', 'seeds', 'start',
+         'criteria')
+_REQUIRED = ('world', 'nodes', 'duration', 'criteria')
+_OPERATORS: dict[str, Callable[[Any, Any], bool]] = {
+    '<=': operator.le, '>=': operator.ge, '==': operator.eq, '!=': operator.ne,
+    '<': operator.lt, '>': operator.gt}
+_FUNCTIONS = ('min', 'max', 'len', 'all', 'any', 'abs')
+_NAME = r'[A-Za-z_][A-Za-z0-9_]*'
+_CRITERION = re.compile(
+    rf'^\s*(?:(?P<function>{_NAME})\s*\(\s*(?P<inner>{_NAME}(?:\.{_NAME})*)\s*\)'
+    rf'|(?P<plain>{_NAME}(?:\.{_NAME})*))'
+    r'\s*(?P<op><=|>=|==|!=|<|>)\s*'
+    r'(?P<number>[-+]?(?:inf|(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?))\s*$')
+
+
+class ScenarioError(ValueError):
+    """A scenario file that cannot be used; the message names the file and the field."""
+
+
+def format_value(value: Any) -> str:
+    """Return a short text for a measured value: 4 significant digits for floats."""
+    if value is None:
+        return 'null'
+    if isinstance(value, bool) or not isinstance(value, float):
+        return str(value)
+    return f'{value:.4g}'
+
+
+@dataclass(frozen=True)
+class CriterionResult:
+    """One criterion judged on one run's metrics: ``value`` is what was measured (JSON-able)."""
+
+    criterion: str
+    passed: bool
+    value: Any
+    shown: str
+
+    def as_dict(self) -> dict[str, Any]:
+        """Return the result for the JSON report."""
+        return {'criterion': self.criterion, 'passed': self.passed, 'value': self.value,
+                'shown': self.shown}
+
+
+@dataclass(frozen=True)
+class Criterion:
+    """A parsed pass criterion ``function(path) op threshold`` (``function`` may be None)."""
+
+    text: str
+    path: tuple[str, ...]
+    op: str
+    threshold: float
+    function: str | None = None
+
+    def evaluate(self, metrics: Mapping[str, Any]) -> CriterionResult:
+        """Judge the criterion on a run's metrics."""
+        value = metrics
+        for key in self.path:
+            value = value.get(key) if isinstance(value, Mapping) else None
+        compare = _OPERATORS[self.op]
+
+        def holds(number: Any) -> bool:
+            return isinstance(number, (int, float)) and compare(number, self.threshold)
+
+        if self.function in ('all', 'any'):
+            values = list(value or [])
+            passed = (all if self.function == 'all' else any)(holds(item) for item in values)
+            shown = (f'{len(values)} values, min {format_value(min(values))}, max '
+                     f'{format_value(max(values))}' if values else 'no values')
+            return CriterionResult(self.text, passed, values, shown)
+        if self.function in ('min', 'max'):
+            value = (min if self.function == 'min' else max)(value) if value else None
+        elif self.function == 'len':
+            value = len(value) if value is not None else None
+        elif self.function == 'abs' and value is not None:
+            value = abs(value)
+        return CriterionResult(self.text, holds(value), value, format_value(value))
+
+
+def parse_criterion(text: str) -> Criterion:
+    """
+    Parse ``<value> <op> <number>`` (see the module docstring); ValueError says what is wrong.
+
+    The metric must be one ``compute_metrics`` produces, of a kind the function fits.
+    """
+    if not isinstance(text, str):
+        raise ValueError(f'must be a text like "collisions == 0", got {text!r}')
+    match = _CRITERION.match(text)
+    if match is None:
+        raise ValueError(f"cannot read '{text}': expected '<metric> <op> <number>' with <op> "
+                         f"one of {' '.join(_OPERATORS)}, e.g. 'laps <= -1' or "
+                         "'min(turns_deg) > 90'")
+    function = match['function']
+    dotted = match['inner'] or match['plain']
+    if function is not None and function not in _FUNCTIONS:
+        raise ValueError(f"'{text}': unknown function '{function}'; use one of "
+                         f"{', '.join(_FUNCTIONS)}")
+    kind = _metric_kind(dotted)
+    if kind is None:
+        raise ValueError(f"'{text}': unknown metric '{dotted}'; metrics are "
+                         f"{', '.join(_metric_names())}")
+    needed = 'number' if function in (None, 'abs') else 'list'
+    if kind != needed:
+        hint = (f'use min({dotted}), max(...), len(...), all(...) or any(...)'
+                if kind == 'list' else f'{function}() needs a list metric')
+        raise ValueError(f"'{text}': '{dotted}' is a {kind}; {hint}")
+    return Criterion(text.strip(), tuple(dotted.split('.')), match['op'],
+                     float(match['number']), function)
+
+
+def _metric_kind(dotted: str) -> str | None:
+    kind: Any = METRIC_KINDS
+    for key in dotted.split('.'):
+        if not isinstance(kind, dict) or key not in kind:
+            return None
+        kind = kind[key]
+    return kind if isinstance(kind, str) else 'group of metrics'
+
+
+def _metric_names() -> list[str]:
+    return [f'{key}.{sub}' if isinstance(kind, dict) else key
+            for key, kind in METRIC_KINDS.items()
+            for sub in (kind if isinstance(kind, dict) else [None])]
+
+
+@dataclass(frozen=True)
+class ScenarioRun:
+    """One run of a scenario: the scenario with one of its seeds."""
+
+    scenario: 'Scenario'
+    seed: int
+
+    @property
+    def name(self) -> str:
+        """Return ``<scenario>/seed_<n>``, also the run's output folder below the grade's."""
+        return f'{self.scenario.name}/seed_{self.seed}'
+
+    @property
+    def params(self) -> dict[str, dict[str, Any]]:
+        """Return the node parameters with ``$seed`` replaced by this run's seed."""
+        return {node: {name: self.seed if value == SEED_PLACEHOLDER else value
+                       for name, value in values.items()}
+                for node, values in self.scenario.params.items()}
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """
+    A loaded scenario file (see the module docstring for the format).
+
+    ``duration_s`` in s; ``start`` is None, 'mirrored' or (x m, y m, yaw rad); ``params`` maps
+    node names to parameter values; ``world`` and file ``nodes`` are resolved paths or names.
+    """
+
+    name: str
+    path: Path | None
+    world: str
+    nodes: tuple[str, ...]
+    duration_s: float
+    criteria: tuple[Criterion, ...]
+    seeds: tuple[int, ...] = (0,)
+    params: dict[str, dict[str, Any]] = field(default_factory=dict)
+    start: str | tuple[float, float, float] | None = None
+    description: str = ''
+
+    def runs(self) -> list[ScenarioRun]:
+        """Return one run per seed."""
+        return [ScenarioRun(self, seed) for seed in self.seeds]
+
+    def judge(self, metrics: Mapping[str, Any]) -> list[CriterionResult]:
+        """Judge every criterion on one run's metrics."""
+        return [criterion.evaluate(metrics) for criterion in self.criteria]
+
+    def with_node_override(self, override: str) -> 'Scenario':
+        """
+        Return the scenario with a node replaced, e.g. by a student's file.
+
+        ``override`` is ``TARGET`` or ``NODE=TARGET``. With ``NODE=``, the nodes named NODE
+        (by console script, module or file name) are replaced and a scenario without one is
+        returned unchanged. Without it, the nodes of the same name as TARGET are replaced, or
+        else the only node; a scenario with several nodes and none of that name is an error.
+        """
+        node, equals, target = override.partition('=')
+        if not equals:
+            node, target = '', override
+        if not target:
+            raise ScenarioError(f"--node-override '{override}': expected TARGET or NODE=TARGET")
+        wanted = node if equals else target_name(target)
+        matching = [index for index, current in enumerate(self.nodes)
+                    if target_name(current) == wanted]
+        if not matching and not equals:
+            if len(self.nodes) != 1:
+                raise ScenarioError(
+                    f"--node-override '{override}': scenario {self.name} runs "
+                    f"{', '.join(self.nodes)}; say which one to replace with NODE={target}")
+            matching = [0]
+        nodes = list(self.nodes)
+        for index in matching:
+            nodes[index] = target
+        return replace(self, nodes=tuple(nodes))
+
+
+def target_name(target: str) -> str:
+    """Return the name a TARGET goes by: its console script, last module part or file stem."""
+    where = target.partition(':')[0]
+    if where.endswith('.py') or '/' in where:
+        return Path(where).stem
+    return where.rpartition('.')[2]
+
+
+def load_scenario(path: str | os.PathLike) -> Scenario:
+    """Load and validate a scenario file; ScenarioError names the file and the field."""
+    path = Path(path)
+    label = str(path)
+    try:
+        data = yaml.safe_load(path.read_text(encoding='utf-8'))
+    except OSError as error:
+        raise ScenarioError(f'{label}: cannot read: {error.strerror or error}') from None
+    except yaml.YAMLError as error:
+        mark = getattr(error, 'problem_mark', None)
+        where = f' at line {mark.line + 1}, column {mark.column + 1}' if mark else ''
+        problem = getattr(error, 'problem', None) or error
+        raise ScenarioError(f'{label}: invalid YAML{where}: {problem}') from None
+    return scenario_from_dict(data, path.stem, path)
+
+
+def scenario_from_dict(data: Any, name: str, path: Path | None = None) -> Scenario:
+    """Validate a parsed scenario called ``name``, read from the file ``path`` if any."""
+    label = str(path) if path is not None else f'<scenario {name}>'
+    base = path.parent if path is not None else None
+
+    def fail(field_name: str | None, problem: str) -> ScenarioError:
+        return ScenarioError(': '.join(part for part in (label, field_name, problem) if part))
+
+    if not isinstance(data, Mapping):
+        raise fail(None, f'must be a mapping of keys, got {_kind(data)}')
+    for key in data:
+        if key not in _KEYS:
+            raise fail(str(key), f"unknown key; expected one of {', '.join(_KEYS)}")
+    for key in _REQUIRED:
+        if key not in data:
+            raise fail(key, 'missing')
+    if 'seed' in data and 'seeds' in data:
+        raise fail('seeds', "give either 'seed' or 'seeds', not both")
+
+    world = data['world']
+    if not isinstance(world, str) or not world:
+        raise fail('world', f'must be a world name or path, got {_kind(world)}')
+    nodes = data['nodes']
+    if isinstance(nodes, str):
+        nodes = [nodes]
+    if not isinstance(nodes, list) or not nodes:
+        raise fail('nodes', f'must be a non-empty list of TARGETs, got {_kind(nodes)}')
+    for index, node in enumerate(nodes):
+        if not isinstance(node, str) or not node:
+            raise fail(f'nodes[{index}]', f'must be a TARGET text, got {_kind(node)}')
+
+    duration = data['duration']
+    if not _is_number(duration) or not 0 < duration < math.inf:
+        raise fail('duration', f'must be a positive number of seconds, got {duration!r}')
+
+    seeds = data.get('seeds', [data.get('seed', 0)])
+    if not isinstance(seeds, list) or not seeds:
+        raise fail('seeds', f'must be a non-empty list of integers, got {_kind(seeds)}')
+    for index, seed in enumerate(seeds):
+        if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+            field_name = f'seeds[{index}]' if 'seeds' in data else 'seed'
+            raise fail(field_name, f'must be a non-negative integer, got {seed!r}')
+    if len(set(seeds)) != len(seeds):
+        raise fail('seeds', f'has repeated seeds: {seeds}')
+
+    params = data.get('params') or {}
+    if not isinstance(params, Mapping):
+        raise fail('params', f'must map node names to parameters, got {_kind(params)}')
+    for node, values in params.items():
+        if not isinstance(values, Mapping):
+            raise fail(f'params.{node}', f'must map parameter names to values, '
+                       f'got {_kind(values)}')
+        for parameter, value in values.items():
+            if not _is_parameter_value(value):
+                raise fail(f'params.{node}.{parameter}', 'must be a bool, number, text or a '
+                           f'list of one of them, got {_kind(value)}')
+
+    start = data.get('start')
+    if start is not None and start != 'mirrored':
+        if not (isinstance(start, list) and len(start) == 3 and all(map(_is_number, start))):
+            raise fail('start', f"must be 'mirrored' or [x, y, yaw], got {start!r}")
+        start = tuple(float(value) for value in start)
+
+    criteria = data['criteria']
+    if not isinstance(criteria, list) or not criteria:
+        raise fail('criteria', f'must be a non-empty list of criteria, got {_kind(criteria)}')
+    parsed = []
+    for index, text in enumerate(criteria):
+        try:
+            parsed.append(parse_criterion(text))
+        except ValueError as error:
+            raise fail(f'criteria[{index}]', str(error)) from None
+
+    description = data.get('description', '')
+    if not isinstance(description, str):
+        raise fail('description', f'must be text, got {_kind(description)}')
+    return Scenario(name=name, path=path,
+                    world=_resolve(world, base, SCENARIO_SUFFIX),
+                    nodes=tuple(_resolve(node, base, '.py') for node in nodes),
+                    duration_s=float(duration), criteria=tuple(parsed), seeds=tuple(seeds),
+                    params={str(node): dict(values) for node, values in params.items()},
+                    start=start, description=description)
+
+
+def load_scenarios(paths: list[str | os.PathLike]) -> list[Scenario]:
+    """Load scenario files; a folder stands for every ``*.yaml`` in it, sorted by name."""
+    files = []
+    for path in map(Path, paths):
+        if path.is_dir():
+            found = sorted(path.glob(f'*{SCENARIO_SUFFIX}'))
+            if not found:
+                raise ScenarioError(f'{path}: no {SCENARIO_SUFFIX} scenario files in it')
+            files += found
+        else:
+            files.append(path)
+    return [load_scenario(file) for file in files]
+
+
+def _resolve(reference: str, base: Path | None, suffix: str) -> str:
+    """Anchor a file reference (``path/x.py:Class``, ``../w.yaml``) at the scenario's folder."""
+    where, colon, rest = reference.partition(':')
+    if base is None or not (where.endswith(suffix) or '/' in where) or Path(where).is_absolute():
+        return reference
+    return str(base / where) + colon + rest
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and \
+        not math.isnan(value)
+
+
+def _is_parameter_value(value: Any) -> bool:
+    scalar = (bool, int, float, str)
+    if isinstance(value, list):
+        return all(isinstance(item, scalar) for item in value)
+    return isinstance(value, scalar)
+
+
+def _kind(value: Any) -> str:
+    if value is None:
+        return 'nothing'
+    return {dict: 'a mapping', list: 'a list', str: f'the text {value!r}'}.get(
+        type(value), f'{type(value).__name__} {value!r}')

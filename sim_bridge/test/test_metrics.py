@@ -1,0 +1,228 @@
+"""Scores of synthetic runs whose laps, distances, turns and pauses are known by construction."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from sim_bridge.geometry import Footprint
+from sim_bridge.metrics import (compute_metrics, coverage, footprints_centre, laps_around,
+                                longest_stationary, METRIC_KINDS, offset_path_length,
+                                stop_and_turn_angles)
+from sim_bridge.run_trace import CollisionEvent, Trace
+from sim_bridge.world import World
+
+STEP = 0.01  # s, the runner's physics step
+
+
+def make_world(obstacles, target=None, bounds=None, robot_pose=(4.0, -1.0, 0.0)):
+    data = {'obstacles': obstacles, 'target': target, 'robot': {'pose': list(robot_pose)}}
+    if bounds is not None:
+        data['bounds'] = list(bounds)
+    return World.from_dict(data, 'test world')
+
+
+PILLAR = {'name': 'pillar', 'type': 'cylinder', 'radius': 1.0, 'length': 1.0, 'pose': [1.0, 2.0]}
+PILLAR_WORLD = make_world([PILLAR], 'pillar', (-3.0, -2.0, 5.0, 6.0))
+
+
+def make_trace(x, y, yaw=None, linear=None, angular=None, clearance=None, robot_radius=0.2):
+    count = len(x)
+    columns = {'time': STEP * np.arange(1, count + 1), 'x': x, 'y': y,
+               'yaw': np.zeros(count) if yaw is None else yaw,
+               'linear': np.zeros(count) if linear is None else linear,
+               'angular': np.zeros(count) if angular is None else angular,
+               'clearance': np.ones(count) if clearance is None else clearance}
+    trace = Trace(robot_radius=robot_radius)
+    for index in range(count):
+        trace.append(**{name: values[index] for name, values in columns.items()})
+    return trace
+
+
+def circle_path(turns, radius=1.5, centre=(1.0, 2.0), steps_per_turn=600, start_angle=0.3):
+    angles = start_angle + np.linspace(0.0, 2.0 * math.pi * turns,
+                                       int(abs(turns) * steps_per_turn) + 1)
+    return centre[0] + radius * np.cos(angles), centre[1] + radius * np.sin(angles)
+
+
+def drive(commands):
+    """Integrate (linear m/s, angular rad/s, duration s) segments into a unicycle trace."""
+    linear = np.concatenate([np.full(round(duration / STEP), v) for v, _, duration in commands])
+    angular = np.concatenate([np.full(round(duration / STEP), w) for _, w, duration in commands])
+    yaw = np.cumsum(angular) * STEP
+    x = np.cumsum(linear * np.cos(yaw)) * STEP
+    y = np.cumsum(linear * np.sin(yaw)) * STEP
+    return make_trace(x, y, yaw=np.angle(np.exp(1j * yaw)), linear=linear, angular=angular)
+
+
+def metrics_of(trace, world=PILLAR_WORLD, **kwargs):
+    return compute_metrics(trace, world, wall_time_s=kwargs.pop('wall_time_s', 1.0), **kwargs)
+
+
+@pytest.mark.parametrize('turns, laps', [(2.3, 2), (-2.3, -2), (1.05, 1), (-1.05, -1),
+                                         (0.5, 0), (-0.97, 0)])
+def test_laps_count_completed_loops_signed_by_direction(turns, laps):
+    assert metrics_of(make_trace(*circle_path(turns)))['laps'] == laps
+
+
+def test_each_lap_time_is_the_duration_of_that_loop():
+    x, y = circle_path(-2.5, steps_per_turn=1000)
+    laps, lap_times = laps_around(STEP * np.arange(len(x)), x, y, (1.0, 2.0))
+    assert laps == -2
+    assert lap_times == pytest.approx([10.0, 10.0], abs=2 * STEP)
+
+
+def test_going_round_and_coming_back_is_no_lap():
+    x_out, y_out = circle_path(0.8)
+    x_back, y_back = circle_path(-0.8, start_angle=0.3 + 0.8 * 2 * math.pi)
+    trace = make_trace(np.concatenate((x_out, x_back)), np.concatenate((y_out, y_back)))
+    assert metrics_of(trace)['laps'] == 0
+
+
+def test_a_target_of_several_footprints_is_circled_about_their_area_centroid():
+    # The L model: a 2.5 m x 1 m arm centred at (0, -0.75) and a 1 m x 1.5 m one at (-0.75, 0.5).
+    world = make_world([{'name': 'l', 'type': 'model', 'model': 'obstacle_l_shape',
+                         'pose': [0.0, 0.0, 0.0]}], 'l', robot_pose=(3.0, 3.0, 0.0))
+    assert footprints_centre(world.obstacle('l').footprints) == pytest.approx((-0.28125,) * 2)
+    assert metrics_of(make_trace(*circle_path(-1.2, radius=2.0, centre=(0.0, 0.0))),
+                      world)['laps'] == -1
+
+
+def test_without_target_laps_are_zero_and_wall_distances_null():
+    world = make_world([PILLAR], None, PILLAR_WORLD.bounds)
+    metrics = metrics_of(make_trace(*circle_path(1.5)), world, setpoint=0.5)
+    assert metrics['laps'] == 0
+    assert metrics['lap_times_s'] == []
+    assert metrics['wall_distance_m'] == {'mean': None, 'mae': None, 'rms': None,
+                                          'setpoint': None}
+
+
+def test_wall_distance_is_measured_from_the_robot_centre_to_the_target_surface():
+    # Alternating 0.4 m and 0.6 m from the pillar's surface (radius 1).
+    x, y = circle_path(1.0)
+    radius = np.where(np.arange(len(x)) % 2 == 0, 1.4, 1.6)
+    x, y = 1.0 + (x - 1.0) / 1.5 * radius, 2.0 + (y - 2.0) / 1.5 * radius
+    stats = metrics_of(make_trace(x, y), setpoint=0.45)['wall_distance_m']
+    errors = np.where(np.arange(len(x)) % 2 == 0, -0.05, 0.15)
+    assert stats['mean'] == pytest.approx(0.5, abs=1e-3)
+    assert stats['mae'] == pytest.approx(np.abs(errors).mean(), abs=1e-9)
+    assert stats['rms'] == pytest.approx(math.sqrt(np.square(errors).mean()), abs=1e-9)
+    assert stats['setpoint'] == 0.45
+
+
+def test_wall_distance_errors_are_null_without_setpoint():
+    stats = metrics_of(make_trace(*circle_path(1.0)))['wall_distance_m']
+    assert stats['mean'] == pytest.approx(0.5)
+    assert stats['mae'] is None and stats['rms'] is None and stats['setpoint'] is None
+
+
+def test_stop_and_turn_manoeuvres_are_measured_in_degrees():
+    trace = drive([(0.5, 0.0, 2.0), (0.0, 1.0, math.radians(120)), (0.5, 0.0, 2.0),
+                   (0.0, -1.5, math.radians(200) / 1.5), (0.5, 0.0, 1.0)])
+    assert metrics_of(trace)['turns_deg'] == pytest.approx([120.0, 200.0], abs=1.0)
+
+
+def test_turning_while_driving_is_not_a_stop_and_turn():
+    trace = drive([(0.3, 0.5, 6.0), (0.3, -0.5, 6.0)])
+    assert metrics_of(trace)['turns_deg'] == []
+
+
+def test_a_turn_includes_the_rotation_made_while_still_braking_and_short_pauses():
+    trace = drive([(0.5, 0.0, 1.0), (0.2, 1.0, 0.3), (0.0, 1.0, 1.0), (0.0, 0.0, 0.1),
+                   (0.0, 1.0, 0.5), (0.5, 0.0, 1.0)])
+    turns = stop_and_turn_angles(trace.array('time'), trace.array('linear'),
+                                 trace.array('angular'), trace.array('yaw'))
+    assert turns == pytest.approx([math.degrees(1.8)], abs=1.0)
+
+
+def test_longest_stationary_period_counts_turning_in_place_as_standing_still():
+    trace = drive([(0.0, 0.0, 3.0), (0.5, 0.0, 2.0), (0.0, 0.8, 7.0), (0.5, 0.0, 1.0)])
+    # Driving at 0.5 m/s stays within the 0.05 m radius for up to 0.1 s before and after.
+    assert 7.0 <= metrics_of(trace)['max_stationary_s'] <= 7.2
+
+
+def test_jitter_smaller_than_the_radius_is_stationary():
+    rng = np.random.default_rng(0)
+    count = 1000
+    x, y = rng.uniform(-0.02, 0.02, count), rng.uniform(-0.02, 0.02, count)
+    assert longest_stationary(STEP * np.arange(count), x, y) == pytest.approx(STEP * (count - 1))
+
+
+def test_a_robot_always_moving_is_never_stationary_long():
+    trace = drive([(0.3, 0.2, 30.0)])
+    assert metrics_of(trace)['max_stationary_s'] < 0.2
+
+
+def test_coverage_is_the_share_of_free_cells_visited():
+    # 8 x 4 cells of 0.5 m; the box makes 4 cells not free; the path visits the bottom row.
+    box = {'name': 'box', 'type': 'cube', 'size': [1.0, 1.0, 1.0], 'pose': [3.0, 1.5]}
+    world = make_world([box], None, (0.0, 0.0, 4.0, 2.0), robot_pose=(0.5, 0.5, 0.0))
+    x = np.linspace(0.01, 3.99, 400)
+    trace = make_trace(x, np.full_like(x, 0.25), robot_radius=0.2)
+    assert metrics_of(trace, world)['coverage'] == pytest.approx(8 / 28)
+
+
+def test_cells_too_close_to_an_obstacle_for_the_robot_are_not_free():
+    wall = [Footprint('box', 1.0, 0.5, half_x=1.0, half_y=0.05)]
+    centres_row = np.array([0.25, 0.75, 1.25, 1.75])
+    low = coverage(centres_row, np.full(4, 0.25), (0.0, 0.0, 2.0, 1.0), wall, 0.1)
+    blocked = coverage(centres_row, np.full(4, 0.25), (0.0, 0.0, 2.0, 1.0), wall, 0.25)
+    assert low == pytest.approx(0.5)
+    assert blocked is None
+
+
+def test_collisions_clearance_distance_and_speed_up():
+    trace = make_trace(np.linspace(0.0, 3.0, 301), np.zeros(301),
+                       clearance=np.linspace(1.0, 0.0, 301) + 0.1)
+    trace.collisions.append(CollisionEvent(1.0, 1.0, 0.0, 'pillar'))
+    trace.collisions.append(CollisionEvent(2.5, 2.5, 0.0, 'pillar'))
+    metrics = metrics_of(trace, wall_time_s=0.01)
+    assert metrics['collisions'] == 2
+    assert metrics['collision_events'][1] == {'time': 2.5, 'x': 2.5, 'y': 0.0,
+                                              'obstacle': 'pillar'}
+    assert metrics['min_clearance_m'] == pytest.approx(0.1)
+    assert metrics['distance_m'] == pytest.approx(3.0)
+    assert metrics['sim_time_s'] == pytest.approx(3.01)
+    assert metrics['real_time_factor'] == pytest.approx(301.0)
+
+
+def test_metrics_are_plain_json_even_for_an_empty_run():
+    metrics = metrics_of(Trace(robot_radius=0.2), wall_time_s=0.0,
+                         node_errors=[{'node': 'wall_follow', 'error': 'ValueError: boom'}])
+    text = json.dumps(metrics, allow_nan=False)
+    assert json.loads(text) == metrics
+    assert metrics['node_errors'] == [{'node': 'wall_follow', 'error': 'ValueError: boom'}]
+    assert metrics['real_time_factor'] is None and metrics['min_clearance_m'] is None
+
+
+def test_metrics_of_a_real_trace_hold_only_builtin_types():
+    metrics = metrics_of(drive([(0.5, 0.0, 2.0), (0.0, 1.0, 2.0)]), setpoint=0.5)
+    assert json.loads(json.dumps(metrics, allow_nan=False)) == metrics
+
+
+def test_metrics_have_the_keys_and_kinds_criteria_are_checked_against():
+    metrics = metrics_of(drive([(0.5, 0.0, 2.0), (0.0, 1.0, 2.0)]), setpoint=0.5)
+    kinds = {'number': (int, float), 'list': list}
+
+    def check(values, schema):
+        assert values.keys() == schema.keys()
+        for key, kind in schema.items():
+            if isinstance(kind, dict):
+                check(values[key], kind)
+            else:
+                assert isinstance(values[key], kinds[kind]), key
+    check(metrics, METRIC_KINDS)
+
+
+@pytest.mark.parametrize('footprints, distance, expected', [
+    ((Footprint('circle', 0.0, 0.0, radius=1.0),), 0.5, 2 * math.pi * 1.5),
+    ((Footprint('box', 1.0, -1.0, yaw=0.4, half_x=1.0, half_y=0.5),), 0.5, 6.0 + math.pi),
+    # An L: its outline is as long as its bounding box's (7 m); the offset loop adds an arc at
+    # each of the five convex corners and cuts 2 d at the concave one.
+    ((Footprint('box', 0.0, 0.0, half_x=1.0, half_y=0.25),
+      Footprint('box', -0.75, 0.5, half_x=0.25, half_y=0.75)), 0.3,
+     7.0 + 0.3 * 2.5 * math.pi - 2 * 0.3),
+])
+def test_offset_path_length_matches_the_analytic_perimeter(footprints, distance, expected):
+    assert offset_path_length(footprints, distance) == pytest.approx(expected, rel=2e-3)

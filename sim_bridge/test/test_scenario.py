@@ -1,0 +1,199 @@
+"""Scenario files and pass criteria: parsing, judging, validation errors, node overrides."""
+
+from pathlib import Path
+import textwrap
+
+import pytest
+
+from sim_bridge.scenario import (load_scenario, load_scenarios, parse_criterion, ScenarioError,
+                                 target_name)
+
+METRICS = {
+    'collisions': 0, 'laps': -2, 'min_clearance_m': 0.21, 'turns_deg': [104.5, 171.0, 95.25],
+    'lap_times_s': [], 'node_errors': [], 'coverage': None,
+    'wall_distance_m': {'mean': 0.52, 'mae': 0.043, 'rms': 0.05, 'setpoint': 0.5},
+}
+
+
+@pytest.mark.parametrize('text, passed, shown', [
+    ('collisions == 0', True, '0'),
+    ('collisions != 0', False, '0'),
+    ('laps <= -1', True, '-2'),
+    ('laps>=1', False, '-2'),
+    ('abs(laps) >= 2', True, '2'),
+    ('wall_distance_m.mae <= 0.10', True, '0.043'),
+    ('wall_distance_m.mae < 4.3e-2', False, '0.043'),
+    ('min_clearance_m >= 0.15', True, '0.21'),
+    ('min(turns_deg) > 90', True, '95.25'),
+    ('max(turns_deg) < 171', False, '171'),
+    ('len(node_errors) == 0', True, '0'),
+    ('all(turns_deg) > 100', False, '3 values, min 95.25, max 171'),
+    ('any(turns_deg) > 170', True, '3 values, min 95.25, max 171'),
+    ('all(lap_times_s) < 10', True, 'no values'),
+    ('any(lap_times_s) < 10', False, 'no values'),
+    ('min(lap_times_s) < 10', False, 'null'),
+    ('coverage >= 0.1', False, 'null'),
+    ('max_stationary_s < inf', False, 'null'),
+])
+def test_criteria_judge_the_measured_value(text, passed, shown):
+    result = parse_criterion(text).evaluate(METRICS)
+    assert (result.passed, result.shown) == (passed, shown)
+    assert result.criterion == text.strip()
+
+
+def test_a_criterion_result_keeps_the_raw_value_for_the_report():
+    assert parse_criterion('min(turns_deg) > 90').evaluate(METRICS).as_dict() == {
+        'criterion': 'min(turns_deg) > 90', 'passed': True, 'value': 95.25, 'shown': '95.25'}
+
+
+@pytest.mark.parametrize('text, message', [
+    ('laps =< -1', "cannot read 'laps =< -1'"),
+    ('laps <= one', 'cannot read'),
+    ('laps <=', 'cannot read'),
+    ("__import__('os').system('true') == 0", 'cannot read'),
+    ('collisions == 0 or True', 'cannot read'),
+    ('lapz <= -1', "unknown metric 'lapz'; metrics are sim_time_s"),
+    ('wall_distance_m.median <= 1', "unknown metric 'wall_distance_m.median'"),
+    ('turns_deg > 90', "'turns_deg' is a list; use min(turns_deg)"),
+    ('min(laps) > 1', 'min() needs a list metric'),
+    ('wall_distance_m > 0', "'wall_distance_m' is a group of metrics"),
+    ('sum(turns_deg) > 90', "unknown function 'sum'"),
+])
+def test_unreadable_or_unknown_criteria_are_refused_with_the_reason(text, message):
+    with pytest.raises(ValueError, match=message.replace('(', r'\(').replace(')', r'\)')):
+        parse_criterion(text)
+
+
+def write(folder: Path, name: str, text: str) -> Path:
+    path = folder / name
+    path.write_text(textwrap.dedent(text))
+    return path
+
+
+VALID = textwrap.dedent("""\
+    description: follow the box
+    world: wall_follow_box
+    nodes: [wall_follow, ../students/wf.py:Follower]
+    params:
+      wall_follow: {side: left, distance: 0.5, seed: $seed}
+    duration: 76.2
+    seeds: [1, 2, 3]
+    start: mirrored
+    criteria:
+      - laps >= 1
+      - collisions == 0
+""")
+
+
+def test_a_scenario_file_loads_with_paths_relative_to_it(tmp_path):
+    scenario = load_scenario(write(tmp_path, 'box_ccw.yaml', VALID))
+    assert scenario.name == 'box_ccw'
+    assert scenario.world == 'wall_follow_box'
+    assert scenario.nodes == ('wall_follow', f'{tmp_path}/../students/wf.py:Follower')
+    assert scenario.duration_s == 76.2 and scenario.start == 'mirrored'
+    assert [criterion.text for criterion in scenario.criteria] == ['laps >= 1', 'collisions == 0']
+    assert scenario.description == 'follow the box'
+
+
+def test_each_seed_is_a_run_with_its_own_output_name_and_seeded_params(tmp_path):
+    runs = load_scenario(write(tmp_path, 'box_ccw.yaml', VALID)).runs()
+    assert [run.name for run in runs] == ['box_ccw/seed_1', 'box_ccw/seed_2', 'box_ccw/seed_3']
+    assert runs[1].params == {'wall_follow': {'side': 'left', 'distance': 0.5, 'seed': 2}}
+
+
+def test_defaults_one_seed_zero_and_the_world_start(tmp_path):
+    scenario = load_scenario(write(tmp_path, 's.yaml', """\
+        world: worlds/mine.yaml
+        nodes: scan_ahead
+        duration: 5
+        criteria: [collisions == 0]
+    """))
+    assert scenario.seeds == (0,) and scenario.start is None and scenario.params == {}
+    assert scenario.world == f'{tmp_path}/worlds/mine.yaml'
+    assert scenario.nodes == ('scan_ahead',)
+
+
+def test_a_start_pose_is_three_numbers(tmp_path):
+    scenario = load_scenario(write(tmp_path, 's.yaml', VALID.replace('mirrored', '[1, 2.5, -3]')))
+    assert scenario.start == (1.0, 2.5, -3.0)
+
+
+@pytest.mark.parametrize('change, field, problem', [
+    (('duration: 76.2', 'duration: -1'), 'duration', 'must be a positive number of seconds'),
+    (('duration: 76.2', 'duration: .nan'), 'duration', 'positive number'),
+    (('duration: 76.2\n', ''), 'duration', 'missing'),
+    (('world: wall_follow_box', 'world: [a]'), 'world', 'must be a world name or path'),
+    (('nodes: [wall_follow, ../students/wf.py:Follower]', 'nodes: []'), 'nodes', 'non-empty'),
+    (('nodes: [wall_follow, ../students/wf.py:Follower]', 'nodes: [wall_follow, 3]'),
+     'nodes[1]', 'must be a TARGET text'),
+    (('seeds: [1, 2, 3]', 'seeds: [1, true]'), 'seeds[1]', 'non-negative integer'),
+    (('seeds: [1, 2, 3]', 'seeds: [1, 1]'), 'seeds', 'repeated seeds'),
+    (('seeds: [1, 2, 3]', 'seed: 1.5'), 'seed', 'non-negative integer'),
+    (('seeds: [1, 2, 3]', 'seeds: [1]\nseed: 2'), 'seeds', "either 'seed' or 'seeds'"),
+    (('start: mirrored', 'start: [1, 2]'), 'start', "must be 'mirrored' or [x, y, yaw]"),
+    (('start: mirrored', 'start: mirror'), 'start', "must be 'mirrored'"),
+    (('{side: left, distance: 0.5, seed: $seed}', '7'), 'params.wall_follow',
+     'must map parameter names to values'),
+    (('distance: 0.5', 'distance: {a: 1}'), 'params.wall_follow.distance',
+     'must be a bool, number, text or a list'),
+    (('  - collisions == 0', '  - collisions = 0'), 'criteria[1]', "cannot read 'collisions = 0'"),
+    (('criteria:\n  - laps >= 1\n  - collisions == 0', 'criteria: []'), 'criteria',
+     'non-empty list'),
+    (('description: follow the box', 'descripton: follow the box'), 'descripton',
+     'unknown key; expected one of description, world'),
+])
+def test_every_invalid_field_is_named_with_its_file(tmp_path, change, field, problem):
+    path = write(tmp_path, 'broken.yaml', VALID.replace(*change))
+    with pytest.raises(ScenarioError) as error:
+        load_scenario(path)
+    assert str(error.value).startswith(f'{path}: {field}: ')
+    assert problem in str(error.value)
+
+
+def test_unreadable_files_are_named(tmp_path):
+    with pytest.raises(ScenarioError, match=r'missing.yaml: cannot read'):
+        load_scenario(tmp_path / 'missing.yaml')
+    with pytest.raises(ScenarioError, match=r'bad.yaml: invalid YAML at line \d+, column \d+'):
+        load_scenario(write(tmp_path, 'bad.yaml', 'world: a\nnodes: [b\n'))
+    with pytest.raises(ScenarioError, match=r'list.yaml: must be a mapping of keys, got a list'):
+        load_scenario(write(tmp_path, 'list.yaml', '- a\n'))
+    (tmp_path / 'empty').mkdir()
+    with pytest.raises(ScenarioError, match='empty: no .yaml scenario files'):
+        load_scenarios([tmp_path / 'empty'])
+
+
+def test_a_folder_stands_for_its_scenario_files_in_name_order(tmp_path):
+    for name in ('b.yaml', 'a.yaml'):
+        write(tmp_path, name, VALID)
+    (tmp_path / 'notes.txt').write_text('not a scenario')
+    assert [scenario.name for scenario in load_scenarios([tmp_path])] == ['a', 'b']
+
+
+@pytest.mark.parametrize('target, name', [
+    ('wall_follow', 'wall_follow'), ('scan_pkg.wall_follow', 'wall_follow'),
+    ('students/ana/wall_follow.py', 'wall_follow'), ('wf.py:WallFollower', 'wf'),
+    ('scan_pkg.wanderbot:Wanderbot', 'wanderbot'),
+])
+def test_target_names(target, name):
+    assert target_name(target) == name
+
+
+def test_an_override_replaces_the_node_of_the_same_name(tmp_path):
+    scenario = load_scenario(write(tmp_path, 's.yaml', VALID))
+    replaced = scenario.with_node_override('students/bo/wall_follow.py')
+    assert replaced.nodes == ('students/bo/wall_follow.py', scenario.nodes[1])
+    assert replaced.params == scenario.params
+
+
+def test_an_override_of_another_name_replaces_the_only_node(tmp_path):
+    scenario = load_scenario(write(tmp_path, 's.yaml', VALID.replace(
+        'nodes: [wall_follow, ../students/wf.py:Follower]', 'nodes: [wall_follow]')))
+    assert scenario.with_node_override('ana.py:Follower').nodes == ('ana.py:Follower',)
+
+
+def test_an_ambiguous_override_must_name_the_node(tmp_path):
+    scenario = load_scenario(write(tmp_path, 's.yaml', VALID))
+    with pytest.raises(ScenarioError, match='say which one to replace with NODE=ana.py'):
+        scenario.with_node_override('ana.py')
+    assert scenario.with_node_override('wf=ana.py').nodes == ('wall_follow', 'ana.py')
+    assert scenario.with_node_override('wanderbot=ana.py') == scenario
