@@ -1,0 +1,354 @@
+"""
+Run unmodified rclpy nodes against the simulator in one process, on simulated time.
+
+``python -m sim_bridge.run --world wall_follow_box --node wall_follow --duration 60`` runs the
+SimBridge node and the named nodes in the lockstep runtime (no ROS 2 needed), as if each had
+been started with ``ros2 run ... --ros-args --params-file <out>/params.yaml``, then writes
+``metrics.json``, ``trajectory.png`` and a rosbag2 recording ``run/`` (MCAP) to ``--out``.
+"""
+
+import argparse
+from dataclasses import dataclass
+import json
+import math
+from pathlib import Path
+import shutil
+import sys
+import time
+from typing import Any, Callable, Sequence
+
+import yaml
+
+from sim_bridge import lockstep
+from sim_bridge.lockstep.rosargs import yaml_value
+from sim_bridge.metrics import compute_metrics
+from sim_bridge.paths import find_world
+from sim_bridge.plot import plot_trajectory
+from sim_bridge.record import BagRecorder
+from sim_bridge.run_trace import CollisionEvent, ScanSnapshot, Trace
+from sim_bridge.scenario import target_name
+from sim_bridge.targets import load_node_class, TargetError
+from sim_bridge.world import World, WorldError
+
+BRIDGE_NODE = 'sim_bridge'
+SCAN_SNAPSHOTS = 5
+SETPOINT_PARAMETER = 'distance'
+PROGRESS_AFTER_S = 2.0
+GUI_FRAME_RATE = 60
+NANOSECONDS_PER_SECOND = 10 ** 9
+
+Params = dict[str, dict[str, Any]]
+
+
+class RunError(Exception):
+    """A run that could not start: unknown world, bad target or parameter, bad output folder."""
+
+
+@dataclass
+class RunResult:
+    """What a run measured (``metrics``, as in metrics.json) and where its outputs are."""
+
+    metrics: dict
+    out_dir: Path
+
+    @property
+    def ok(self) -> bool:
+        """Return True when the run completed without a node raising."""
+        return not self.metrics['node_errors']
+
+
+def parse_param(text: str) -> tuple[str, str, Any]:
+    """
+    Split ``NODE:NAME=VALUE`` into node name, parameter name and typed value.
+
+    VALUE is typed as ``--ros-args -p NAME:=VALUE`` types it (YAML: ``1`` is an integer,
+    ``1.0`` a double, ``true`` a bool, ``[1.0, 2.0]`` a double array).
+    """
+    node, colon, rest = text.partition(':')
+    name, equals, value = rest.partition('=')
+    if not (colon and equals and node and name):
+        raise RunError(f"--param '{text}': expected NODE:NAME=VALUE, "
+                       'e.g. wall_follow:distance=0.6')
+    return node, name, yaml_value(value)
+
+
+def load_world(world: str) -> World:
+    """Load a world by name or path, turning every failure into a one-line RunError."""
+    try:
+        return World.load(find_world(world))
+    except (FileNotFoundError, WorldError) as error:
+        raise RunError(str(error)) from None
+
+
+def start_pose(world: World, start: Sequence[float] | str | None) -> list[float] | None:
+    """Return the robot start override (x m, y m, yaw rad); 'mirrored' puts the target left."""
+    if start is None:
+        return None
+    if start == 'mirrored':
+        start = world.mirrored_start().robot_start
+    try:
+        world.with_robot_start(*start)
+    except (TypeError, ValueError, WorldError) as error:
+        raise RunError(f'start pose {start!r}: {error}') from None
+    return [float(value) for value in start]
+
+
+def write_params_file(path: Path, params: Params) -> None:
+    """Write per-node parameters as a ROS 2 params file (``node: ros__parameters: ...``)."""
+    document = {node: {'ros__parameters': values} for node, values in params.items()}
+    path.write_text(yaml.safe_dump(document, sort_keys=False))
+
+
+class Observer:
+    """Fill a Trace from the bridge's simulator after every physics step, and keep a few scans."""
+
+    def __init__(self, simulator, duration_s: float):
+        self.sim = simulator
+        self.trace = Trace(robot_radius=simulator.robot_radius)
+        self.snapshot_period_s = duration_s / SCAN_SNAPSHOTS
+        self.next_snapshot_s = self.snapshot_period_s / 2.0
+
+    def __call__(self, topic: str, msg: Any, t_ns: int) -> None:
+        if topic == '/clock':
+            x, y, yaw = self.sim.pose
+            linear, angular = self.sim.velocity
+            self.trace.append(time=self.sim.time, x=x, y=y, yaw=yaw, linear=linear,
+                              angular=angular, clearance=self.sim.clearance())
+        elif topic == '/scan' and self.sim.time >= self.next_snapshot_s:
+            self.trace.scans.append(self.snapshot(msg))
+            self.next_snapshot_s += self.snapshot_period_s
+
+    def snapshot(self, msg: Any) -> ScanSnapshot:
+        x, y, yaw = self.sim.pose
+        laser_x, laser_y, *_, laser_yaw = self.sim.lidar_config.pose
+        pose = (x + laser_x * math.cos(yaw) - laser_y * math.sin(yaw),
+                y + laser_x * math.sin(yaw) + laser_y * math.cos(yaw), yaw + laser_yaw)
+        return ScanSnapshot(self.sim.time, pose, list(msg.ranges), msg.angle_min,
+                            msg.angle_increment)
+
+    def finish(self) -> Trace:
+        self.trace.collisions.extend(CollisionEvent(c.time, c.x, c.y, c.obstacle)
+                                     for c in self.sim.collisions)
+        return self.trace
+
+
+class LockstepRun:
+    """The SimBridge node and the target nodes in one lockstep runtime, stepped to an end time."""
+
+    def __init__(self, runtime, params_file: Path, quiet: bool):
+        import rclpy
+        self.runtime = runtime
+        self.rclpy = rclpy
+        self.node_arguments = ['--ros-args', '--params-file', str(params_file)]
+        self.nodes = []
+        if quiet:
+            runtime.set_log_sink(lambda record: None)
+        rclpy.init(args=[])
+
+    def start(self, node_class: type, label: str):
+        """
+        Create a node as if its process had been started with ``--params-file``.
+
+        A parameter override of the wrong type is a RunError; any other exception from the
+        node's constructor is the node failing, reported as a NodeError under ``label``.
+        """
+        context = self.rclpy.utilities.get_default_context()
+        try:
+            with context.lockstep_arguments(self.node_arguments):
+                node = node_class()
+        except self.rclpy.exceptions.InvalidParameterTypeException as error:
+            raise RunError(f'{label}: {error}') from None
+        except Exception as error:
+            raise lockstep.NodeError(label, error) from error
+        self.nodes.append(node)
+        return node
+
+    def check_params(self, params: Params) -> None:
+        """Raise RunError when ``params`` names a node that is not running."""
+        unknown = set(params) - {node.get_name() for node in self.nodes}
+        if unknown:
+            raise RunError(f"parameters given for node(s) {', '.join(sorted(unknown))}, but the "
+                           f"nodes are {', '.join(node.get_name() for node in self.nodes)}")
+
+    def parameter(self, name: str) -> Any:
+        """Return the value of parameter ``name`` of the first node that has it, else None."""
+        return next((node.get_parameter(name).value for node in self.nodes
+                     if node.has_parameter(name)), None)
+
+    def advance(self, end_ns: int, step_ns: int, on_step: Callable[[int], None]) -> None:
+        """Run the loop to ``end_ns`` in steps of ``step_ns``, calling ``on_step(now_ns)``."""
+        while self.runtime.now_ns < end_ns:
+            self.runtime.run_until(min(self.runtime.now_ns + step_ns, end_ns))
+            on_step(self.runtime.now_ns)
+
+    def close(self) -> None:
+        """Destroy every node (the bridge last) and shut rclpy down."""
+        for node in reversed(self.nodes):
+            node.destroy_node()
+        self.rclpy.try_shutdown()
+
+
+def default_out_dir(world: World, targets: Sequence[str]) -> Path:
+    """Return ``out/<world>-<node>[+<node>...]``."""
+    return Path('out') / f"{world.name}-{'+'.join(target_name(t) for t in targets)}"
+
+
+def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60.0,
+                   seed: int = 0, params: Params | None = None,
+                   out_dir: Path | str | None = None,
+                   start: Sequence[float] | str | None = None, quiet: bool = False,
+                   record: bool = True, plot: bool = True, gui: bool = False,
+                   progress: Callable[[float, float], None] | None = None) -> RunResult:
+    """
+    Run ``targets`` (see sim_bridge.targets) with the simulator in ``world`` for ``duration_s``.
+
+    ``params`` maps node names to parameter overrides; ``start`` overrides the robot's start
+    pose (x m, y m, yaw rad), or is 'mirrored' to put the world's target on the robot's left.
+    ``gui`` shows the run in the pybullet window at wall-clock pace. Raises RunError when the
+    run cannot start; a node that raises during the run ends it early, is reported in
+    ``metrics['node_errors']``, and every output is written up to that point.
+    """
+    if not duration_s > 0:
+        raise RunError(f'duration must be positive (s), got {duration_s}')
+    world_model = load_world(world)
+    bridge_params = {'world': str(world_model.path), 'seed': int(seed), 'gui': bool(gui)}
+    pose = start_pose(world_model, start)
+    if pose is not None:
+        bridge_params['start_pose'] = pose
+    node_params = {**(params or {}), BRIDGE_NODE: bridge_params}
+    out_dir = Path(out_dir) if out_dir is not None else default_out_dir(world_model, targets)
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+        write_params_file(out_dir / 'params.yaml', node_params)
+    except OSError as error:
+        raise RunError(f'cannot write to {out_dir}: {error}') from None
+
+    node_errors, setpoint, wall_start = [], None, time.perf_counter()
+    with lockstep.installed_runtime() as runtime:
+        from rclpy.node import Node
+        from sim_bridge.bridge import SimBridge
+        try:
+            classes = [load_node_class(target, Node) for target in targets]
+        except TargetError as error:
+            raise RunError(str(error)) from None
+        bag = BagRecorder(out_dir / 'run', overwrite=True) if record else None
+        run = LockstepRun(runtime, out_dir / 'params.yaml', quiet)
+        try:
+            if bag is not None:
+                runtime.add_tap(bag.write)
+            observer = Observer(run.start(SimBridge, BRIDGE_NODE).sim, duration_s)
+            runtime.add_tap(observer)
+            for target, node_class in zip(targets, classes):
+                run.start(node_class, target)
+            run.check_params(node_params)
+            setpoint = run.parameter(SETPOINT_PARAMETER)
+
+            def pace(now_ns: int) -> None:
+                elapsed = time.perf_counter() - wall_start
+                if gui:
+                    time.sleep(max(0.0, now_ns / NANOSECONDS_PER_SECOND - elapsed))
+                elif progress is not None and elapsed > PROGRESS_AFTER_S:
+                    progress(now_ns / NANOSECONDS_PER_SECOND, duration_s)
+
+            run.advance(round(duration_s * NANOSECONDS_PER_SECOND),
+                        NANOSECONDS_PER_SECOND // (GUI_FRAME_RATE if gui else 1), pace)
+        except RunError:
+            if bag is not None:
+                bag.close()
+                shutil.rmtree(out_dir / 'run', ignore_errors=True)
+            raise
+        except lockstep.NodeError as error:
+            node_errors.append({'node': error.node_name, 'error': str(error)})
+        finally:
+            if bag is not None:
+                bag.close()
+            run.close()
+    metrics = compute_metrics(observer.finish(), world_model, setpoint=setpoint,
+                              wall_time_s=time.perf_counter() - wall_start,
+                              node_errors=node_errors)
+    (out_dir / 'metrics.json').write_text(json.dumps(metrics, indent=2) + '\n')
+    if plot:
+        plot_trajectory(observer.trace, world_model, out_dir / 'trajectory.png',
+                        title=f"{world_model.name}: {', '.join(map(target_name, targets))}")
+    return RunResult(metrics, out_dir)
+
+
+def summary_table(metrics: dict) -> str:
+    """Return the run's main metrics as an aligned two-column table."""
+    wall = metrics['wall_distance_m']
+    rows = [
+        ('sim time', f"{metrics['sim_time_s']:.1f} s"),
+        ('wall time', f"{metrics['wall_time_s']:.2f} s "
+                      f"({metrics['real_time_factor']:.0f}x real time)"),
+        ('distance driven', f"{metrics['distance_m']:.2f} m"),
+        ('collisions', str(metrics['collisions'])),
+        ('min clearance', f"{metrics['min_clearance_m']:.3f} m"
+         if metrics['min_clearance_m'] is not None else 'n/a'),
+        ('laps around target', str(metrics['laps'])),
+        ('wall distance mean / MAE', 'n/a' if wall['mean'] is None else
+         f"{wall['mean']:.3f} m / " + ('n/a' if wall['mae'] is None else f"{wall['mae']:.3f} m")),
+        ('stop-and-turns', f"{len(metrics['turns_deg'])}"),
+        ('longest stationary', f"{metrics['max_stationary_s']:.1f} s"),
+        ('coverage', f"{metrics['coverage']:.0%}"),
+        ('node errors', '; '.join(f"{e['node']}: {e['error']}" for e in metrics['node_errors'])
+         or 'none'),
+    ]
+    width = max(len(name) for name, _ in rows)
+    return '\n'.join(f'  {name:<{width}}  {value}' for name, value in rows)
+
+
+def print_progress(sim_s: float, duration_s: float) -> None:
+    """Redraw a one-line progress bar on stderr (a terminal only)."""
+    done = int(30 * sim_s / duration_s)
+    sys.stderr.write(f"\r[{'#' * done}{'.' * (30 - done)}] {sim_s:6.1f} / {duration_s:g} s sim")
+    sys.stderr.write('\n' if sim_s >= duration_s else '')
+    sys.stderr.flush()
+
+
+def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
+    """Parse the runner's command line."""
+    parser = argparse.ArgumentParser(
+        prog='python -m sim_bridge.run', description=__doc__.strip().splitlines()[0],
+        epilog='TARGET: a console script (wall_follow), a module (scan_pkg.wall_follow) or a '
+               '.py file, optionally followed by :ClassName.')
+    parser.add_argument('--world', required=True,
+                        help='world name (worlds/<name>.yaml) or path to a world file')
+    parser.add_argument('--node', action='append', required=True, metavar='TARGET',
+                        dest='nodes', help='node to run (repeatable)')
+    parser.add_argument('--duration', type=float, default=60.0, metavar='S',
+                        help='simulated seconds (default 60)')
+    parser.add_argument('--seed', type=int, default=0, help='seed of the run (default 0)')
+    parser.add_argument('--param', action='append', default=[], metavar='NODE:NAME=VALUE',
+                        help='parameter override, typed as --ros-args -p types it (repeatable)')
+    parser.add_argument('--out', type=Path, metavar='DIR',
+                        help='output folder (default out/<world>-<node>)')
+    parser.add_argument('--gui', action='store_true',
+                        help='show the run in the pybullet window at wall-clock pace')
+    parser.add_argument('--quiet', action='store_true',
+                        help="print only the summary, not the nodes' log lines")
+    return parser.parse_args(argv)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run from the command line; return 0 when the run completed, 1 if a node failed."""
+    args = parse_args(argv)
+    try:
+        params: Params = {}
+        for text in args.param:
+            node, name, value = parse_param(text)
+            params.setdefault(node, {})[name] = value
+        result = run_simulation(
+            args.world, args.nodes, duration_s=args.duration, seed=args.seed, params=params,
+            out_dir=args.out, quiet=args.quiet, gui=args.gui,
+            progress=print_progress if sys.stderr.isatty() and not args.quiet else None)
+    except RunError as error:
+        print(f'error: {error}', file=sys.stderr)
+        return 2
+    print(f'\nRun summary ({result.out_dir}):')
+    print(summary_table(result.metrics))
+    print(f'  outputs: {result.out_dir}/metrics.json, trajectory.png, run/ (rosbag2, MCAP)')
+    return 0 if result.ok else 1
+
+
+if __name__ == '__main__':
+    sys.exit(main())

@@ -1,0 +1,83 @@
+"""
+Find the rclpy Node class a runner TARGET names: a console script, a module or a file.
+
+TARGET forms: ``wall_follow`` (a console script, as ``ros2 run`` knows it),
+``scan_pkg.wall_follow`` (a module), ``path/to/node.py`` (any file, run as written); each
+optionally followed by
+``:ClassName`` when the module defines several Node subclasses. Modules are imported as they
+are, so the lockstep runtime must be installed first for their ``import rclpy`` to resolve.
+"""
+
+from importlib import import_module
+from importlib.metadata import entry_points
+import importlib.util
+import inspect
+from pathlib import Path
+import sys
+from types import ModuleType
+
+
+class TargetError(LookupError):
+    """A TARGET that names no loadable module or no rclpy Node subclass in it."""
+
+
+def _split(target: str) -> tuple[str, str | None]:
+    where, _, class_name = target.partition(':')
+    return where, class_name or None
+
+
+def _console_script_module(name: str) -> str | None:
+    for entry in entry_points(group='console_scripts', name=name):
+        return entry.value.partition(':')[0]
+    return None
+
+
+def _load_file(path: Path) -> ModuleType:
+    if not path.is_file():
+        raise TargetError(f'node file not found: {path}')
+    module_name = f'lockstep_target_{path.stem}_{abs(hash(path.resolve())):x}'
+    spec = importlib.util.spec_from_file_location(module_name, path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[module_name] = module
+    try:
+        spec.loader.exec_module(module)
+    except Exception:
+        del sys.modules[module_name]
+        raise
+    return module
+
+
+def load_module(where: str) -> ModuleType:
+    """Import the module a TARGET (without ``:ClassName``) names."""
+    if where.endswith('.py') or '/' in where or Path(where).is_file():
+        return _load_file(Path(where))
+    module_name = _console_script_module(where) or where
+    try:
+        return import_module(module_name)
+    except ModuleNotFoundError as error:
+        if error.name != module_name and not module_name.startswith(f'{error.name}.'):
+            raise
+        raise TargetError(f"'{where}' is neither a console script, a module nor a .py file")
+
+
+def node_classes(module: ModuleType, node_base: type) -> dict[str, type]:
+    """Return the Node subclasses defined in ``module`` (not merely imported by it), by name."""
+    return {name: value for name, value in vars(module).items()
+            if inspect.isclass(value) and issubclass(value, node_base)
+            and value is not node_base and value.__module__ == module.__name__}
+
+
+def load_node_class(target: str, node_base: type) -> type:
+    """Return the Node subclass TARGET names; ``node_base`` is the runtime's rclpy Node."""
+    where, class_name = _split(target)
+    classes = node_classes(load_module(where), node_base)
+    if class_name is not None:
+        if class_name not in classes:
+            raise TargetError(f"'{where}' has no Node subclass '{class_name}' "
+                              f"(it has: {', '.join(classes) or 'none'})")
+        return classes[class_name]
+    if len(classes) != 1:
+        found = f"several: {', '.join(classes)}" if classes else 'none'
+        raise TargetError(f"'{where}' must define exactly one rclpy Node subclass ({found}); "
+                          f'name one with {where}:ClassName')
+    return next(iter(classes.values()))
