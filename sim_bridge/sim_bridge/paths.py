@@ -1,4 +1,5 @@
-"""Find the workspace's worlds and models in a source checkout or a colcon install.
+"""
+Find the workspace's worlds and models in a source checkout or a colcon install.
 
 A source checkout (including a pip editable install) keeps ``worlds/`` and ``models/`` at the
 repository's top level, two folders above this package. A colcon install has them in the
