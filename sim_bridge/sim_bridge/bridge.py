@@ -55,7 +55,8 @@ class SimBridge(Node):
             command_timeout=self.declare_parameter('cmd_vel_timeout', 0.5).value,
             lidar_samples=self.optional('lidar_samples', 0),
             lidar_noise_stddev=self.optional('lidar_noise_stddev', -1.0),
-            gui=self.declare_parameter('gui', False).value)
+            gui=self.declare_parameter('gui', False).value,
+            draw_rays=self.declare_parameter('draw_rays', False).value)
         physics_rate = self.declare_parameter('physics_rate', 100.0).value
         self.step_ns = round(NANOSECONDS_PER_SECOND / physics_rate)
         self.steps_per_scan = max(1, round(physics_rate / self.sim.lidar_config.update_rate))

@@ -211,21 +211,39 @@ class Lidar:
         return (x + cos_yaw * offset_x - sin_yaw * offset_y,
                 y + sin_yaw * offset_x + cos_yaw * offset_y, height)
 
-    def true_ranges(self, pose: tuple[float, float, float]) -> np.ndarray:
-        """Return the noise-free distance (m) along each beam, +inf beyond range_max."""
+    def _world_points(self, pose: tuple[float, float, float], reach: np.ndarray
+                      ) -> tuple[tuple[float, float, float], np.ndarray]:
+        """Return the laser origin and the points ``reach`` (laser frame, m) in the world."""
         origin = self.origin(pose)
         cos_yaw = math.cos(pose[2])
         sin_yaw = math.sin(pose[2])
-        reach = self._reach
-        ends = np.empty_like(reach)
-        ends[:, 0] = origin[0] + cos_yaw * reach[:, 0] - sin_yaw * reach[:, 1]
-        ends[:, 1] = origin[1] + sin_yaw * reach[:, 0] + cos_yaw * reach[:, 1]
-        ends[:, 2] = origin[2] + reach[:, 2]
+        points = np.empty_like(reach)
+        points[:, 0] = origin[0] + cos_yaw * reach[:, 0] - sin_yaw * reach[:, 1]
+        points[:, 1] = origin[1] + sin_yaw * reach[:, 0] + cos_yaw * reach[:, 1]
+        points[:, 2] = origin[2] + reach[:, 2]
+        return origin, points
+
+    def true_ranges(self, pose: tuple[float, float, float]) -> np.ndarray:
+        """Return the noise-free distance (m) along each beam, +inf beyond range_max."""
+        origin, ends = self._world_points(pose, self._reach)
         self._starts[:] = origin
         fractions = _fractions(self.client, self._starts, ends, RAY_BATCH_SIZE, self.threads)
         ranges = fractions * self.config.range_max
         ranges[fractions >= 1.0] = np.inf
         return ranges
+
+    def ray_segments(self, pose: tuple[float, float, float], ranges: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray]:
+        """
+        Return the (N, 3) starts and ends (m, world frame) of the beams of a scan, for drawing.
+
+        Each ray ends at its reading, or at range_max for no return (+inf) and at the laser for
+        a reading too close (-inf).
+        """
+        fractions = np.clip(np.nan_to_num(np.asarray(ranges) / self.config.range_max,
+                                          nan=1.0, posinf=1.0, neginf=0.0), 0.0, 1.0)
+        origin, ends = self._world_points(pose, self._reach * fractions[:, np.newaxis])
+        return np.broadcast_to(origin, ends.shape), ends
 
     def scan(self, pose: tuple[float, float, float], stamp: float = 0.0) -> LaserScanData:
         """Return the scan from the robot pose (x m, y m, yaw rad) at time ``stamp`` (s)."""

@@ -30,6 +30,7 @@ from sim_bridge.geometry import FootprintSet, wrap_angle
 from sim_bridge.lidar import build_scene, LaserScanData, Lidar
 from sim_bridge.robot import DiffDrive, DriveLimits, integrate_arc
 from sim_bridge.sdf import LidarConfig
+from sim_bridge.viewer import Viewer
 from sim_bridge.world import World
 
 #: Body-to-obstacle distance (m) at or below which the robot touches an obstacle.
@@ -43,7 +44,6 @@ MAX_MOVE_PER_CHECK = 0.5
 CONTACT_RESOLUTION = 1e-6
 #: Conservative-advancement steps before bisection takes over (see _last_free_fraction).
 CONTACT_ADVANCES = 8
-ROBOT_COLOUR = (0.1, 0.3, 0.8, 1.0)
 
 
 @dataclass(frozen=True)
@@ -65,7 +65,8 @@ class Simulator:
     its beam count and noise; ``limits`` are the drive's :class:`~sim_bridge.robot.DriveLimits`;
     ``command_timeout`` (s, sim time): with no new command for longer than this the robot is
     told to stop (None: a command holds until the next); ``gui`` opens the pybullet window
-    (one per process); ``ray_threads`` is pybullet's numThreads for the lidar (1: no extra
+    (one per process) with a camera following the robot, ``draw_rays`` draws the lidar's rays
+    there; ``ray_threads`` is pybullet's numThreads for the lidar (1: no extra
     threads); ``collision_meshes`` False gives pybullet primitives instead of meshes (slower;
     for comparison).
     """
@@ -74,6 +75,7 @@ class Simulator:
                  lidar: LidarConfig | None = None, lidar_samples: int | None = None,
                  lidar_noise_stddev: float | None = None, limits: DriveLimits | None = None,
                  command_timeout: float | None = None, gui: bool = False,
+                 draw_rays: bool = False,
                  ray_threads: int = 1, collision_meshes: bool = True) -> None:
         if not isinstance(world, World):
             world = World.load(world)
@@ -112,7 +114,10 @@ class Simulator:
         self.bodies = build_scene(client, world.shapes(), floor_size=world.floor_size,
                                   meshes=collision_meshes, visuals=gui)
         self._lidar = Lidar(client, config, np.random.default_rng(seed), threads=ray_threads)
-        self.robot_body = self._robot_body() if gui else None
+        self.viewer = (Viewer(client, self.robot_radius, max(world.robot.height, 0.05),
+                              draw_rays) if gui else None)
+        if self.viewer is not None:
+            self.viewer.show_robot(self._drive.pose)
 
     @property
     def time(self) -> float:
@@ -176,8 +181,8 @@ class Simulator:
             self._in_contact = True
         elif self._clearance > RELEASE_DISTANCE:
             self._in_contact = False
-        if self.robot_body is not None:
-            self._show_robot()
+        if self.viewer is not None:
+            self.viewer.show_robot(pose)
 
     def _move(self, dt: float) -> tuple[tuple[float, float, float], float | None]:
         """
@@ -240,7 +245,11 @@ class Simulator:
 
     def scan(self) -> LaserScanData:
         """Return a lidar scan from the robot's current pose, stamped with the current time."""
-        return self._lidar.scan(self._drive.pose, self.time)
+        scan = self._lidar.scan(self._drive.pose, self.time)
+        if self.viewer is not None:
+            starts, ends = self._lidar.ray_segments(self._drive.pose, scan.ranges)
+            self.viewer.show_scan(starts, ends, np.isfinite(scan.ranges))
+        return scan
 
     def clearance(self) -> float:
         """Return the distance (m) from the robot's body to the nearest obstacle outline."""
@@ -255,23 +264,6 @@ class Simulator:
 
     def __exit__(self, *exc_info) -> None:
         self.close()
-
-    def _robot_body(self) -> int:
-        """Return a visual-only robot body for the GUI: rays pass through it."""
-        height = max(self.world.robot.height, 0.05)
-        visual = pybullet.createVisualShape(pybullet.GEOM_CYLINDER, radius=self.robot_radius,
-                                            length=height, rgbaColor=ROBOT_COLOUR,
-                                            visualFramePosition=(0.0, 0.0, 0.5 * height),
-                                            physicsClientId=self.physics_client)
-        body = pybullet.createMultiBody(0.0, -1, visual, physicsClientId=self.physics_client)
-        self._show_robot(body)
-        return body
-
-    def _show_robot(self, body: int | None = None) -> None:
-        x, y, yaw = self._drive.pose
-        pybullet.resetBasePositionAndOrientation(
-            self.robot_body if body is None else body, (x, y, 0.0),
-            pybullet.getQuaternionFromEuler((0.0, 0.0, yaw)), physicsClientId=self.physics_client)
 
 
 def _disconnect(client: int) -> None:

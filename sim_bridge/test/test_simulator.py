@@ -367,14 +367,16 @@ def test_lidar_overrides_and_a_robot_model_without_lidar(tmp_path, monkeypatch):
 def test_the_gui_robot_follows_the_pose_and_the_lidar_looks_through_it(monkeypatch):
     with Simulator('wall_follow_cylinder', lidar_noise_stddev=0.0) as headless:
         expected = headless.scan().ranges
-        assert headless.robot_body is None
+        assert headless.viewer is None
     # No display here: let the GUI code path build its bodies in a DIRECT client.
     monkeypatch.setattr(pybullet, 'GUI', pybullet.DIRECT)
-    with Simulator('wall_follow_cylinder', lidar_noise_stddev=0.0, gui=True) as simulator:
+    with Simulator('wall_follow_cylinder', lidar_noise_stddev=0.0, gui=True,
+                   draw_rays=True) as simulator:
         assert np.array_equal(simulator.scan().ranges, expected)
+        assert len(simulator.viewer.ray_items) == len(expected)
         drive(simulator, 0.3, -0.3 / 1.3, 1.0)
         position, orientation = pybullet.getBasePositionAndOrientation(
-            simulator.robot_body, physicsClientId=simulator.physics_client)
+            simulator.viewer.robot_body, physicsClientId=simulator.physics_client)
         x, y, yaw = simulator.pose
         assert position == pytest.approx((x, y, 0.0))
         assert pybullet.getEulerFromQuaternion(orientation)[2] == pytest.approx(yaw)

@@ -1,0 +1,71 @@
+"""
+The pybullet window of a simulator run with ``gui``: drawing only, no physics.
+
+A visual-only robot body (rays pass through it) follows the simulated pose, a top-down camera
+follows the robot, and the lidar's rays can be drawn as lines: green to a hit, grey for no
+return.
+"""
+
+import math
+
+import numpy as np
+import pybullet
+
+ROBOT_COLOUR = (0.1, 0.3, 0.8, 1.0)
+HIT_COLOUR = (0.1, 0.7, 0.1)
+MISS_COLOUR = (0.6, 0.6, 0.6)
+#: At most this many rays are drawn per scan (every n-th beam of a dense lidar).
+MAX_DRAWN_RAYS = 72
+#: Camera height above the floor (m) and pitch (deg; −90 is straight down, which pybullet's
+#: camera cannot take exactly).
+CAMERA_DISTANCE = 6.0
+CAMERA_PITCH_DEG = -89.0
+
+
+def drawn_beams(beams: int) -> np.ndarray:
+    """Return the indices of the beams to draw: all of them, or every n-th of a dense lidar."""
+    return np.arange(0, beams, max(1, math.ceil(beams / MAX_DRAWN_RAYS)))
+
+
+class Viewer:
+    """
+    Show a robot of ``radius`` and ``height`` (m) in the pybullet window of ``client``.
+
+    ``draw_rays`` draws each scan handed to :meth:`show_scan`.
+    """
+
+    def __init__(self, client: int, radius: float, height: float, draw_rays: bool = False):
+        self.client = client
+        self.draw_rays = draw_rays
+        self.ray_items: list[int] = []
+        visual = pybullet.createVisualShape(pybullet.GEOM_CYLINDER, radius=radius,
+                                            length=height, rgbaColor=ROBOT_COLOUR,
+                                            visualFramePosition=(0.0, 0.0, 0.5 * height),
+                                            physicsClientId=client)
+        self.robot_body = pybullet.createMultiBody(0.0, -1, visual, physicsClientId=client)
+
+    def show_robot(self, pose: tuple[float, float, float]) -> None:
+        """Move the robot to ``pose`` (x m, y m, yaw rad) and the camera above it."""
+        x, y, yaw = pose
+        pybullet.resetBasePositionAndOrientation(
+            self.robot_body, (x, y, 0.0), pybullet.getQuaternionFromEuler((0.0, 0.0, yaw)),
+            physicsClientId=self.client)
+        pybullet.resetDebugVisualizerCamera(CAMERA_DISTANCE, 0.0, CAMERA_PITCH_DEG, (x, y, 0.0),
+                                            physicsClientId=self.client)
+
+    def show_scan(self, starts: np.ndarray, ends: np.ndarray, hits: np.ndarray) -> None:
+        """
+        Draw rays from ``starts`` to ``ends`` ((N, 3) arrays, m, world frame).
+
+        ``hits`` (N booleans) tells which rays found a surface; each drawn line replaces the
+        previous scan's, so the window shows the latest scan only.
+        """
+        if not self.draw_rays:
+            return
+        for number, index in enumerate(drawn_beams(len(starts))):
+            if number == len(self.ray_items):
+                self.ray_items.append(-1)
+            self.ray_items[number] = pybullet.addUserDebugLine(
+                starts[index], ends[index], HIT_COLOUR if hits[index] else MISS_COLOUR,
+                lineWidth=1.0, replaceItemUniqueId=self.ray_items[number],
+                physicsClientId=self.client)
