@@ -20,19 +20,24 @@ def read_scan(msg: Any, logger: Any) -> Scan | None:
     """
     Return the Scan in a LaserScan-like message, or None when there is nothing to report.
 
-    What is wrong with the message (it cannot be a scan, has no beams, or holds no valid
-    reading) is logged as a warning on ``logger`` (an rclpy logger), at most every
-    ``WARNING_PERIOD_S`` seconds, so a node carries on instead of dying in its callback.
+    Nothing to report: the message cannot be a scan, has no beams, or only NaN (no beam holds
+    any information, so no range may be reported, not even the cap). What is wrong with the
+    message (that, or it holds no valid reading) is logged as a warning on ``logger`` (an rclpy
+    logger) so a node carries on instead of dying in its callback. rclpy throttles a log call
+    site, so each kind of fault has its own call: one kind never hides another.
     """
     try:
         scan = Scan.from_msg(msg)
     except ValueError as error:
-        warning, scan = f'ignoring malformed scan: {error}', None
-    else:
-        warning = scan_warning(scan)
-    if warning:
+        logger.warn(f'ignoring malformed scan: {error}', throttle_duration_sec=WARNING_PERIOD_S)
+        return None
+    if len(scan) == 0:
+        logger.warn(scan_warning(scan), throttle_duration_sec=WARNING_PERIOD_S)
+        return None
+    warning = scan_warning(scan)
+    if warning is not None:
         logger.warn(warning, throttle_duration_sec=WARNING_PERIOD_S)
-    return scan if scan is not None and len(scan) > 0 else None
+    return None if np.isnan(scan.ranges).all() else scan
 
 
 def scan_warning(scan: Scan) -> str | None:
