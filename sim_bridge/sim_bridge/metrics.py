@@ -123,8 +123,10 @@ def stop_and_turn_angles(time: np.ndarray, linear: np.ndarray, angular: np.ndarr
     pauses shorter than ``TURN_MAX_GAP`` (s) bridged, during which the robot at some moment
     drives slower than ``TURN_MAX_LINEAR`` (m/s). Counting the whole turning period, not only
     its stopped part, keeps the rotation made while the robot was still braking (velocity and
-    acceleration limits) in the angle. ``time`` in s, ``linear`` m/s, ``angular`` rad/s,
-    ``yaw`` rad.
+    acceleration limits) in the angle. A manoeuvre still open when the run ends (turning at the
+    last sample, or paused for no longer than ``TURN_MAX_GAP`` before it) is left out: its
+    final angle is unknown, and scoring the part done so far would report a short turn that
+    the robot never made. ``time`` in s, ``linear`` m/s, ``angular`` rad/s, ``yaw`` rad.
     """
     merged: list[list[int]] = []
     for first, last in true_runs(np.abs(angular) > TURN_MIN_ANGULAR):
@@ -132,6 +134,8 @@ def stop_and_turn_angles(time: np.ndarray, linear: np.ndarray, angular: np.ndarr
             merged[-1][1] = last
         else:
             merged.append([first, last])
+    if merged and time[-1] - time[merged[-1][1]] <= TURN_MAX_GAP:
+        merged.pop()
     heading = np.unwrap(yaw)
     slow = np.abs(linear) < TURN_MAX_LINEAR
     return [math.degrees(abs(heading[last] - heading[max(first - 1, 0)]))

@@ -136,6 +136,16 @@ def test_a_turn_includes_the_rotation_made_while_still_braking_and_short_pauses(
     assert turns == pytest.approx([math.degrees(1.8)], abs=1.0)
 
 
+@pytest.mark.parametrize('tail, turns', [
+    ([(0.0, 1.0, math.radians(22))], [120.0]),          # cut off by the end of the run
+    ([(0.0, 1.0, 0.4), (0.0, 0.0, 0.2)], [120.0]),      # paused within the gap at the end
+    ([(0.0, 1.0, 0.4), (0.0, 0.0, 0.5)], [120.0, math.degrees(0.4)]),  # paused longer: over
+])
+def test_a_turn_still_open_when_the_run_ends_is_not_scored(tail, turns):
+    finished = [(0.5, 0.0, 1.0), (0.0, 1.0, math.radians(120)), (0.5, 0.0, 1.0)]
+    assert metrics_of(drive(finished + tail))['turns_deg'] == pytest.approx(turns, abs=1.0)
+
+
 def test_longest_stationary_period_counts_turning_in_place_as_standing_still():
     trace = drive([(0.0, 0.0, 3.0), (0.5, 0.0, 2.0), (0.0, 0.8, 7.0), (0.5, 0.0, 1.0)])
     # Driving at 0.5 m/s stays within the 0.05 m radius for up to 0.1 s before and after.
