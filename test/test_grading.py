@@ -1,0 +1,186 @@
+"""
+Closed-loop grading: the shipped scenarios pass through the real grader, naive nodes fail them.
+
+Every seed of every scenario in ``test/scenarios/`` is one test, run in the lockstep simulator
+by ``sim_bridge.grade.run_scenario`` exactly as ``python -m sim_bridge.grade`` runs it.
+Recording and plotting are off except for one run, which checks they are written too.
+The naive nodes in ``test/naive_nodes/`` (written the way the lab's own solutions are) replace
+the scenario's node, as ``--node-override`` does, and must fail on behaviour, not by crashing.
+``pytest -s`` prints the measured figures as tables when the module ends.
+"""
+
+import json
+from pathlib import Path
+import re
+
+import pytest
+
+from sim_bridge import grade
+from sim_bridge.grade import run_scenario
+from sim_bridge.scenario import load_scenarios, ScenarioRun
+
+HERE = Path(__file__).resolve().parent
+SCENARIOS = HERE / 'scenarios'
+NAIVE_NODES = HERE / 'naive_nodes'
+NO_NODE_ERRORS = 'len(node_errors) == 0'
+COLLISION_FREE = 'collisions == 0'
+#: The run graded with its rosbag2 recording and trajectory plot written, as the demo does.
+RECORDED_RUN = 'wall_follow_box_cw/seed_1'
+#: Scenario name prefix -> naive node file that must fail that scenario on every seed.
+NAIVE_OVERRIDES = {'wall_follow_': 'naive_wall_follow.py', 'wanderbot': 'naive_wanderbot.py'}
+
+SHIPPED_RUNS = [run for scenario in load_scenarios([SCENARIOS]) for run in scenario.runs()]
+NAIVE_RUNS = [run for scenario in load_scenarios([SCENARIOS])
+              for prefix, node_file in NAIVE_OVERRIDES.items()
+              if scenario.name.startswith(prefix)
+              for run in scenario.with_node_override(str(NAIVE_NODES / node_file)).runs()]
+
+
+def run_id(run: ScenarioRun) -> str:
+    """Name a test after its run: ``<node>@<scenario>/seed_<n>``."""
+    return f'{Path(run.scenario.nodes[0].partition(":")[0]).stem}@{run.name}'
+
+
+def number(value, digits: int = 3) -> str:
+    """Format a measured number for the tables; '-' when there is none."""
+    return '-' if value is None else f'{value:.{digits}f}'
+
+
+def is_number(text: str) -> bool:
+    """Return True for a table cell that shows a number (or '-' for none)."""
+    try:
+        float(text)
+    except ValueError:
+        return text == '-'
+    return True
+
+
+def table(title: str, header: tuple[str, ...], rows: list[tuple[str, ...]]) -> str:
+    """Return a text table with a title line; columns of numbers are right-aligned."""
+    columns = list(zip(header, *rows))
+    widths = [max(map(len, column)) for column in columns]
+    numeric = [all(map(is_number, column[1:])) for column in columns]
+    lines = ['  '.join(cell.rjust(width) if right else cell.ljust(width)
+                       for cell, width, right in zip(row, widths, numeric)).rstrip()
+             for row in [header, *rows]]
+    return '\n'.join([title, lines[0], '-' * len(lines[0]), *lines[1:]])
+
+
+class Figures:
+    """The measured figures of the module's runs, printed as one table per kind of scenario."""
+
+    WALL_FOLLOW = ('run', 'laps', 'first lap s', 'MAE m', 'min clearance m', 'collisions')
+    WANDER = ('run', 'collisions', 'turns', 'min turn deg', 'max stationary s', 'coverage')
+    OTHER = ('run', 'node errors', 'collisions', 'min clearance m')
+    NAIVE = ('run', 'failed criteria')
+
+    def __init__(self) -> None:
+        self.rows: dict[tuple, list[tuple[str, ...]]] = {
+            self.WALL_FOLLOW: [], self.WANDER: [], self.OTHER: [], self.NAIVE: []}
+
+    def add(self, report: grade.RunReport) -> None:
+        """Add a shipped scenario run's figures to its kind's table."""
+        metrics, name = report.metrics, report.run.name
+        if name.startswith('wall_follow_'):
+            laps = metrics['lap_times_s']
+            self.rows[self.WALL_FOLLOW].append((
+                name, str(metrics['laps']), number(laps[0] if laps else None, 1),
+                number(metrics['wall_distance_m']['mae']), number(metrics['min_clearance_m']),
+                str(metrics['collisions'])))
+        elif name.startswith('wanderbot'):
+            turns = metrics['turns_deg']
+            self.rows[self.WANDER].append((
+                name, str(metrics['collisions']), str(len(turns)),
+                number(min(turns) if turns else None, 1), number(metrics['max_stationary_s'], 2),
+                number(metrics['coverage'], 2)))
+        else:
+            self.rows[self.OTHER].append((
+                name, str(len(metrics['node_errors'])), str(metrics['collisions']),
+                number(metrics['min_clearance_m'])))
+
+    def add_failure(self, label: str, failed: dict[str, str]) -> None:
+        """Add a run that had to fail, with the criteria it failed and their measured values."""
+        self.rows[self.NAIVE].append((label, ', '.join(
+            f'{criterion} [{shown}]' for criterion, shown in failed.items())))
+
+    def __str__(self) -> str:
+        titles = {self.WALL_FOLLOW: 'wall_follow (laps < 0: clockwise)',
+                  self.WANDER: 'wanderbot in the room, 600 s',
+                  self.OTHER: 'scan-reading nodes',
+                  self.NAIVE: 'naive nodes (must fail)'}
+        return '\n\n'.join(table(titles[header], header, rows)
+                           for header, rows in self.rows.items() if rows)
+
+
+@pytest.fixture(scope='module')
+def figures():
+    """Collect the module's figures and print them when it ends (seen with ``pytest -s``)."""
+    collected = Figures()
+    yield collected
+    print('\n\n' + str(collected))
+
+
+def failed_criteria(report: grade.RunReport) -> dict[str, str]:
+    """Return each failed criterion of a run with the value measured for it."""
+    return {result.criterion: result.shown for result in report.results if not result.passed}
+
+
+@pytest.mark.parametrize('run', SHIPPED_RUNS, ids=run_id)
+def test_shipped_scenario_run_passes_every_criterion(run, tmp_path, figures):
+    recorded = run.name == RECORDED_RUN
+    report = run_scenario(run, tmp_path, record=recorded, plot=recorded)
+    assert report.error is None, report.traceback
+    figures.add(report)
+    assert failed_criteria(report) == {}
+    assert [result.criterion for result in report.results] == \
+        [criterion.text for criterion in run.scenario.criteria]
+    if run.scenario.name == 'wanderbot':
+        assert 0.0 < report.metrics['coverage'] <= 1.0
+    if recorded:
+        assert (tmp_path / 'trajectory.png').stat().st_size > 0
+        assert (tmp_path / 'run' / 'metadata.yaml').is_file()
+        assert [path.stat().st_size > 0 for path in (tmp_path / 'run').glob('*.mcap')] == [True]
+
+
+def test_the_recorded_run_is_one_of_the_shipped_runs():
+    assert RECORDED_RUN in {run.name for run in SHIPPED_RUNS}
+
+
+@pytest.mark.parametrize('run', NAIVE_RUNS, ids=run_id)
+def test_naive_node_runs_to_the_end_but_fails_every_behaviour_criterion(run, tmp_path, figures):
+    report = run_scenario(run, tmp_path, record=False, plot=False)
+    assert report.error is None, report.traceback
+    figures.add_failure(run_id(run), failed_criteria(report))
+    behaviour = {criterion.text for criterion in run.scenario.criteria} - {NO_NODE_ERRORS}
+    assert COLLISION_FREE in behaviour
+    assert failed_criteria(report).keys() == behaviour
+
+
+def test_every_naive_node_is_graded_on_every_seed_of_its_scenarios():
+    graded = {(Path(run.scenario.nodes[0]).name, run.name) for run in NAIVE_RUNS}
+    expected = {(node_file, run.name) for run in SHIPPED_RUNS
+                for prefix, node_file in NAIVE_OVERRIDES.items()
+                if run.scenario.name.startswith(prefix)}
+    assert graded == expected
+    assert {node_file for node_file, _ in graded} == set(NAIVE_OVERRIDES.values())
+
+
+def test_grader_cli_fails_an_int_in_a_float_field_naming_the_field(tmp_path, capsys, figures):
+    node_file = NAIVE_NODES / 'int_twist.py'
+    exit_code = grade.main([str(SCENARIOS / 'scan_ahead.yaml'), '--node-override',
+                            str(node_file), '--out', str(tmp_path), '--quiet'])
+    assert exit_code == 1
+    assert re.search(rf'{re.escape(NO_NODE_ERRORS)}\s+1\s+FAIL', capsys.readouterr().out)
+    report = json.loads((tmp_path / grade.REPORT_NAME).read_text())
+    assert report['node_overrides'] == [str(node_file)]
+    [run] = report['runs']
+    assert run['nodes'] == [str(node_file)] and not run['passed'] and run['error'] is None
+    assert [criterion['criterion'] for criterion in run['criteria']
+            if not criterion['passed']] == [NO_NODE_ERRORS]
+    [error] = run['metrics']['node_errors']
+    figures.add_failure(f'int_twist@{run["run"]}', {NO_NODE_ERRORS: error['error']})
+    assert error['node'] == 'straight_ahead'
+    assert "'angular.z' must be float" in error['error'] and 'got int' in error['error']
+    out_dir = tmp_path / 'scan_ahead' / 'seed_1'
+    assert json.loads((out_dir / 'metrics.json').read_text()) == run['metrics']
+    assert (out_dir / 'trajectory.png').is_file() and (out_dir / 'run' / 'metadata.yaml').is_file()
