@@ -180,6 +180,9 @@ def format_table(reports: Iterable[RunReport], *, failures_only: bool = False) -
         name = report.run.name
         if report.error is not None:
             rows.append((name, f'error: {report.error}', '', 'FAIL'))
+        for node_error in (report.metrics or {}).get('node_errors', []):
+            rows.append((name, f"node error: {node_error['error']}", '', 'FAIL'))
+            name = ''
         for result in report.results:
             if failures_only and result.passed:
                 continue

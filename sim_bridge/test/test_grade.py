@@ -107,6 +107,18 @@ def test_table_lists_each_criterion_with_its_measured_value(tmp_path, runs):
         'box_ccw/seed_2', 'box_ccw/seed_3', 'box_ccw/seed_1']
 
 
+def test_table_shows_the_error_of_a_node_that_failed(tmp_path, runs):
+    def simulate_failing_node(world, targets, **options):
+        error = "node 'follower' published /cmd_vel: field 'angular.z' must be float"
+        return SimpleNamespace(metrics={'laps': 0, 'collisions': 0,
+                                        'node_errors': [{'node': 'follower', 'error': error}]})
+
+    report = run_scenario(runs[0], tmp_path, simulate=simulate_failing_node)
+    lines = format_table([report], failures_only=True).splitlines()
+    assert "node error: node 'follower' published /cmd_vel: field 'angular.z'" in lines[2]
+    assert lines[2].endswith('FAIL')
+
+
 def test_report_is_json_with_every_run_and_the_verdict(tmp_path, runs):
     reports = grade_runs(runs[:2], tmp_path, simulate=fake_simulate)
     write_report(reports, tmp_path / 'report.json', overrides=['ana.py'])
