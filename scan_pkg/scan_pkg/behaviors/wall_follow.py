@@ -76,7 +76,10 @@ def estimate_wall(points: np.ndarray, fit_radius: float,
     spread = near - centre
     if len(near) < 2 or not spread.any():
         return _corner_estimate(nearest)
-    along = np.linalg.eigh(spread.T @ spread)[1][:, -1]
+    # The line's direction is the principal axis of the returns: closed form for 2-D.
+    xs, ys = spread[:, 0], spread[:, 1]
+    axis = 0.5 * math.atan2(2.0 * float(xs @ ys), float(xs @ xs - ys @ ys))
+    along = np.array([math.cos(axis), math.sin(axis)])
     if along @ tangent < 0.0:
         along = -along
     offsets = spread @ along
