@@ -48,6 +48,12 @@ class SimBridge(Node):
                        for name in ('odom', 'base_link', 'laser')}
         limits = DriveLimits(**{name: self.declare_parameter(name, default).value
                                 for name, default in vars(DriveLimits()).items()})
+        # Every other parameter is read before the simulator (a pybullet client) exists, so a
+        # bad one cannot leave a client behind.
+        physics_rate = self.rate('physics_rate', 100.0)
+        odom_rate = self.rate('odom_rate', 50.0)
+        real_time_factor = self.rate('real_time_factor', 1.0)
+        stamped = self.declare_parameter('cmd_vel_stamped', False).value
         self.sim = Simulator(
             world.with_robot_start(*start),
             seed=self.declare_parameter('seed', 0).value,
@@ -57,11 +63,9 @@ class SimBridge(Node):
             lidar_noise_stddev=self.optional('lidar_noise_stddev', -1.0),
             gui=self.declare_parameter('gui', False).value,
             draw_rays=self.declare_parameter('draw_rays', False).value)
-        physics_rate = self.declare_parameter('physics_rate', 100.0).value
         self.step_ns = round(NANOSECONDS_PER_SECOND / physics_rate)
         self.steps_per_scan = max(1, round(physics_rate / self.sim.lidar_config.update_rate))
-        self.steps_per_odom = max(1, round(
-            physics_rate / self.declare_parameter('odom_rate', 50.0).value))
+        self.steps_per_odom = max(1, round(physics_rate / odom_rate))
         self.steps = 0
         self.collisions_reported = 0
 
@@ -71,11 +75,16 @@ class SimBridge(Node):
         self.collision_pub = self.create_publisher(PointStamped, 'collisions', 10)
         self.tf_broadcaster = TransformBroadcaster(self)
         StaticTransformBroadcaster(self).sendTransform(self.laser_transform())
-        stamped = self.declare_parameter('cmd_vel_stamped', False).value
         self.create_subscription(TwistStamped if stamped else Twist, 'cmd_vel',
                                  self.on_cmd_vel, 10)
-        real_time_factor = self.declare_parameter('real_time_factor', 1.0).value
         self.create_timer(1.0 / physics_rate / real_time_factor, self.step)
+
+    def rate(self, name, default):
+        """Declare a parameter that must be positive and finite: a rate in Hz, or a factor."""
+        value = self.declare_parameter(name, default).value
+        if not (math.isfinite(value) and value > 0.0):
+            raise ValueError(f"parameter '{name}' must be positive and finite, got {value!r}")
+        return value
 
     def optional(self, name, unset):
         """Declare a parameter whose default ``unset`` means 'as the robot model says'."""
