@@ -14,7 +14,9 @@ import math
 from pathlib import Path
 import shutil
 import sys
+import tempfile
 import time
+import traceback
 from typing import Any, Callable, Sequence
 
 import yaml
@@ -31,6 +33,9 @@ from sim_bridge.targets import load_node_class, TargetError
 from sim_bridge.world import World, WorldError
 
 BRIDGE_NODE = 'sim_bridge'
+#: SimBridge parameters the runner alone sets: the world the metrics are scored in, the seed
+#: and gui options, the start pose, and the pace (lockstep runs on sim time; --gui paces it).
+RUNNER_BRIDGE_PARAMETERS = ('world', 'seed', 'gui', 'start_pose', 'real_time_factor')
 SCAN_SNAPSHOTS = 5
 SETPOINT_PARAMETER = 'distance'
 PROGRESS_AFTER_S = 2.0
@@ -93,6 +98,26 @@ def start_pose(world: World, start: Sequence[float] | str | None) -> list[float]
     return [float(value) for value in start]
 
 
+def node_parameters(world: World, params: Params | None, *, seed: int, gui: bool,
+                    start: Sequence[float] | str | None) -> Params:
+    """
+    Return every node's parameters: ``params`` plus the simulator's world, seed, gui and start.
+
+    RunError when ``params`` sets one of the RUNNER_BRIDGE_PARAMETERS.
+    """
+    bridge_params = {'world': str(world.path), 'seed': int(seed), 'gui': bool(gui)}
+    pose = start_pose(world, start)
+    if pose is not None:
+        bridge_params['start_pose'] = pose
+    params = dict(params or {})
+    clash = [name for name in RUNNER_BRIDGE_PARAMETERS if name in params.get(BRIDGE_NODE, {})]
+    if clash:
+        raise RunError(f'--param {BRIDGE_NODE}:{clash[0]}: the runner sets it (use --world, '
+                       '--seed, --gui)')
+    params[BRIDGE_NODE] = {**params.get(BRIDGE_NODE, {}), **bridge_params}
+    return params
+
+
 def write_params_file(path: Path, params: Params) -> None:
     """Write per-node parameters as a ROS 2 params file (``node: ros__parameters: ...``)."""
     document = {node: {'ros__parameters': values} for node, values in params.items()}
@@ -133,7 +158,12 @@ class Observer:
 
 
 class LockstepRun:
-    """The SimBridge node and the target nodes in one lockstep runtime, stepped to an end time."""
+    """
+    The SimBridge node and the target nodes in one lockstep runtime, stepped to an end time.
+
+    What the nodes publish before :meth:`record` (while they start) is held back for the bag,
+    so that a run which cannot start has written nothing.
+    """
 
     def __init__(self, runtime, params_file: Path, quiet: bool):
         import rclpy
@@ -141,9 +171,24 @@ class LockstepRun:
         self.rclpy = rclpy
         self.node_arguments = ['--ros-args', '--params-file', str(params_file)]
         self.nodes = []
+        self.held: list[tuple[str, Any, int]] = []
+        runtime.add_tap(self.hold)
         if quiet:
             runtime.set_log_sink(lambda record: None)
         rclpy.init(args=[])
+
+    def hold(self, topic: str, msg: Any, t_ns: int) -> None:
+        """Keep a message published before the bag is open (a runtime tap)."""
+        self.held.append((topic, msg, t_ns))
+
+    def record(self, bag: BagRecorder | None) -> None:
+        """Write the held messages to ``bag`` and everything published from now on."""
+        self.runtime.remove_tap(self.hold)
+        if bag is not None:
+            for message in self.held:
+                bag.write(*message)
+            self.runtime.add_tap(bag.write)
+        self.held = []
 
     def start(self, node_class: type, label: str):
         """
@@ -162,6 +207,13 @@ class LockstepRun:
             raise lockstep.NodeError(label, error) from error
         self.nodes.append(node)
         return node
+
+    def start_simulator(self, bridge_class: type):
+        """Start the SimBridge node and return its simulator; RunError when it cannot start."""
+        try:
+            return self.start(bridge_class, BRIDGE_NODE).sim
+        except lockstep.NodeError as error:
+            raise RunError(f'{BRIDGE_NODE}: {error.original}') from None
 
     def check_params(self, params: Params) -> None:
         """Raise RunError when ``params`` names a node that is not running."""
@@ -193,6 +245,16 @@ def default_out_dir(world: World, targets: Sequence[str]) -> Path:
     return Path('out') / f"{world.name}-{'+'.join(target_name(t) for t in targets)}"
 
 
+def open_outputs(out_dir: Path, params_file: Path, record: bool) -> BagRecorder | None:
+    """Create ``out_dir`` with a copy of the params file, and the run's bag when recording."""
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(params_file, out_dir / 'params.yaml')
+        return BagRecorder(out_dir / 'run', overwrite=True) if record else None
+    except OSError as error:
+        raise RunError(f'cannot write to {out_dir}: {error}') from None
+
+
 def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60.0,
                    seed: int = 0, params: Params | None = None,
                    out_dir: Path | str | None = None,
@@ -205,43 +267,45 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
     ``params`` maps node names to parameter overrides; ``start`` overrides the robot's start
     pose (x m, y m, yaw rad), or is 'mirrored' to put the world's target on the robot's left.
     ``gui`` shows the run in the pybullet window at wall-clock pace. Raises RunError when the
-    run cannot start; a node that raises during the run ends it early, is reported in
-    ``metrics['node_errors']``, and every output is written up to that point.
+    run cannot start, before writing anything to ``out_dir``; a node that raises (while
+    starting or during the run) ends it early, is reported in ``metrics['node_errors']`` and,
+    unless ``quiet``, with its traceback on stderr, and every output is written up to that
+    point.
     """
     if not duration_s > 0:
         raise RunError(f'duration must be positive (s), got {duration_s}')
     world_model = load_world(world)
-    bridge_params = {'world': str(world_model.path), 'seed': int(seed), 'gui': bool(gui)}
-    pose = start_pose(world_model, start)
-    if pose is not None:
-        bridge_params['start_pose'] = pose
-    node_params = {**(params or {}), BRIDGE_NODE: bridge_params}
+    node_params = node_parameters(world_model, params, seed=seed, gui=gui, start=start)
     out_dir = Path(out_dir) if out_dir is not None else default_out_dir(world_model, targets)
-    try:
-        out_dir.mkdir(parents=True, exist_ok=True)
-        write_params_file(out_dir / 'params.yaml', node_params)
-    except OSError as error:
-        raise RunError(f'cannot write to {out_dir}: {error}') from None
 
     node_errors, setpoint, wall_start = [], None, time.perf_counter()
-    with lockstep.installed_runtime() as runtime:
+    with lockstep.installed_runtime() as runtime, tempfile.TemporaryDirectory() as scratch:
         from rclpy.node import Node
         from sim_bridge.bridge import SimBridge
         try:
             classes = [load_node_class(target, Node) for target in targets]
         except TargetError as error:
             raise RunError(str(error)) from None
-        bag = BagRecorder(out_dir / 'run', overwrite=True) if record else None
-        run = LockstepRun(runtime, out_dir / 'params.yaml', quiet)
+        params_file = Path(scratch) / 'params.yaml'
+        write_params_file(params_file, node_params)
+        run = LockstepRun(runtime, params_file, quiet)
+        bag = None
         try:
-            if bag is not None:
-                runtime.add_tap(bag.write)
-            observer = Observer(run.start(SimBridge, BRIDGE_NODE).sim, duration_s)
+            observer = Observer(run.start_simulator(SimBridge), duration_s)
             runtime.add_tap(observer)
-            for target, node_class in zip(targets, classes):
-                run.start(node_class, target)
-            run.check_params(node_params)
+            start_failure = None
+            try:
+                for target, node_class in zip(targets, classes):
+                    run.start(node_class, target)
+            except lockstep.NodeError as error:
+                start_failure = error
+            else:
+                run.check_params(node_params)
             setpoint = run.parameter(SETPOINT_PARAMETER)
+            bag = open_outputs(out_dir, params_file, record)
+            run.record(bag)
+            if start_failure is not None:
+                raise start_failure
 
             def pace(now_ns: int) -> None:
                 elapsed = time.perf_counter() - wall_start
@@ -252,13 +316,11 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
 
             run.advance(round(duration_s * NANOSECONDS_PER_SECOND),
                         NANOSECONDS_PER_SECOND // (GUI_FRAME_RATE if gui else 1), pace)
-        except RunError:
-            if bag is not None:
-                bag.close()
-                shutil.rmtree(out_dir / 'run', ignore_errors=True)
-            raise
         except lockstep.NodeError as error:
             node_errors.append({'node': error.node_name, 'error': str(error)})
+            if not quiet:
+                # What the node's own process would print before dying.
+                traceback.print_exception(error.original, file=sys.stderr)
         finally:
             if bag is not None:
                 bag.close()

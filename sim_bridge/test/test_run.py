@@ -1,0 +1,438 @@
+"""
+The lockstep runner (run.py): its outputs, TARGET forms, start errors and failing nodes.
+
+Runs are short (a few simulated seconds take a tenth of a wall second); a run is shared by
+several tests where they only read its outputs.
+"""
+
+from contextlib import redirect_stderr, redirect_stdout
+import io
+import json
+import math
+from pathlib import Path
+import re
+import shutil
+import sys
+import time
+
+import numpy as np
+import pytest
+from rosbags.rosbag2 import Reader
+from rosbags.typesys import get_typestore, Stores
+
+from sim_bridge import lockstep
+from sim_bridge.geometry import signed_distance
+from sim_bridge.run import main, run_simulation, RunError
+from sim_bridge.world import World
+
+FIXTURES = Path(__file__).parent / 'fixtures'
+SCAN_AHEAD_SOURCE = Path(__file__).parents[2] / 'scan_pkg' / 'scan_pkg' / 'scan_ahead.py'
+TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
+NANOSECONDS_PER_SECOND = 10 ** 9
+# Issue 4 §2: the keys metrics.json must have at least.
+REQUIRED_METRICS = ('sim_time_s', 'wall_time_s', 'real_time_factor', 'collisions',
+                    'min_clearance_m', 'distance_m', 'laps', 'wall_distance_m', 'turns_deg',
+                    'max_stationary_s', 'coverage', 'node_errors')
+REQUIRED_WALL_DISTANCE = ('mean', 'mae', 'rms', 'setpoint')
+# The bridge's rates with its default parameters and the lab robot's lidar (Hz).
+PHYSICS_RATE, ODOM_RATE, SCAN_RATE = 100, 50, 10
+LOG_LINE = re.compile(r'^\[(?P<level>[A-Z]+)\] \[(?P<sec>\d+)\.(?P<nsec>\d{9})\] '
+                      r'\[(?P<name>[\w.]+)\]: (?P<text>.*)$')
+
+
+def run_main(*argv: str) -> tuple[int, str, str]:
+    """Call the runner's ``main`` and return its exit status, stdout and stderr."""
+    out, err = io.StringIO(), io.StringIO()
+    with redirect_stdout(out), redirect_stderr(err):
+        status = main(list(argv))
+    return status, out.getvalue(), err.getvalue()
+
+
+def log_lines(text: str, name: str) -> list[tuple[float, str]]:
+    """Return (sim time s, text) of the ROS log lines of node ``name`` in console output."""
+    lines = []
+    for line in text.splitlines():
+        match = LOG_LINE.match(line)
+        if match and match['name'] == name:
+            lines.append((int(match['sec']) + int(match['nsec']) / NANOSECONDS_PER_SECOND,
+                          match['text']))
+    return lines
+
+
+def read_bag(path: Path) -> dict[str, list[tuple[int, object]]]:
+    """Return every message of a rosbag2 bag, decoded with rosbags: topic → [(t ns, msg)]."""
+    messages: dict[str, list[tuple[int, object]]] = {}
+    with Reader(path) as reader:
+        for connection, timestamp, raw in reader.messages():
+            messages.setdefault(connection.topic, []).append(
+                (timestamp, TYPESTORE.deserialize_cdr(raw, connection.msgtype)))
+    return messages
+
+
+def stamp_ns(stamp) -> int:
+    """Return a builtin_interfaces/Time as ns."""
+    return stamp.sec * NANOSECONDS_PER_SECOND + stamp.nanosec
+
+
+def load_metrics(out_dir: Path) -> dict:
+    """Return the metrics.json of a run."""
+    return json.loads((out_dir / 'metrics.json').read_text())
+
+
+def yaw_of(quaternion) -> float:
+    """Return the yaw (rad) of a rotation about z."""
+    return 2.0 * math.atan2(quaternion.z, quaternion.w)
+
+
+@pytest.fixture(scope='module')
+def scan_ahead_run(tmp_path_factory):
+    """Run scan_ahead in `obstacles` for 2 s with main; return status, stdout, stderr, out."""
+    out_dir = tmp_path_factory.mktemp('scan_ahead') / 'out'
+    status, stdout, stderr = run_main('--world', 'obstacles', '--node', 'scan_ahead',
+                                      '--duration', '2', '--out', str(out_dir))
+    return status, stdout, stderr, out_dir
+
+
+@pytest.fixture(scope='module')
+def wall_follow_runs(tmp_path_factory):
+    """Run wall_follow for 20 s twice with seed 3, once with seed 4; return the folders."""
+    base = tmp_path_factory.mktemp('wall_follow')
+    folders = {}
+    for label, seed in (('first', 3), ('again', 3), ('other_seed', 4)):
+        folders[label] = base / label
+        run_simulation('wall_follow_box', ['wall_follow'], duration_s=20.0, seed=seed,
+                       out_dir=folders[label], quiet=True, plot=label == 'first')
+    return folders
+
+
+# --- a complete run: console, metrics.json, trajectory.png, run/ -----------------------------
+
+def test_run_prints_the_nodes_log_lines_with_sim_timestamps(scan_ahead_run):
+    status, stdout, stderr, _ = scan_ahead_run
+    assert status == 0
+    lines = log_lines(stderr, 'scan_ahead')
+    scan_times = [k / SCAN_RATE for k in range(1, 2 * SCAN_RATE + 1)]
+    assert [time_s for time_s, _ in lines] == pytest.approx(scan_times)
+    world = World.load('obstacles')
+    cube = world.obstacle('cube').footprints[0]
+    # The cube's face straight ahead of the robot, which starts at the origin facing +x.
+    face_x = cube.x - cube.half_x
+    for _, text in lines:
+        match = re.fullmatch(r'Range ahead: (\d+\.\d\d) m', text)
+        assert match, text
+        assert float(match[1]) == pytest.approx(face_x - world.robot.lidar.pose[0], abs=0.05)
+    assert 'Run summary' in stdout
+
+
+def test_quiet_run_prints_no_log_lines(tmp_path):
+    status, _, stderr = run_main('--world', 'obstacles', '--node', 'scan_ahead', '--duration',
+                                 '0.5', '--quiet', '--out', str(tmp_path / 'out'))
+    assert status == 0
+    assert not log_lines(stderr, 'scan_ahead')
+
+
+def test_run_writes_metrics_with_every_required_key(scan_ahead_run):
+    *_, out_dir = scan_ahead_run
+    metrics = load_metrics(out_dir)
+    assert set(REQUIRED_METRICS) <= set(metrics)
+    assert set(REQUIRED_WALL_DISTANCE) <= set(metrics['wall_distance_m'])
+    assert metrics['sim_time_s'] == pytest.approx(2.0)
+    assert metrics['wall_time_s'] > 0.0
+    assert metrics['real_time_factor'] == pytest.approx(
+        metrics['sim_time_s'] / metrics['wall_time_s'])
+    assert metrics['collisions'] == 0
+    assert metrics['distance_m'] == 0.0       # scan_ahead does not drive
+    assert metrics['laps'] == 0                # `obstacles` has no target
+    assert metrics['wall_distance_m']['mean'] is None
+    assert metrics['node_errors'] == []
+    world = World.load('obstacles')
+    obstacles = [f for obstacle in world.obstacles for f in obstacle.footprints]
+    start = np.array([world.robot_start[:2]])
+    clearance = signed_distance(start, obstacles)[0] - world.robot.radius
+    assert metrics['min_clearance_m'] == pytest.approx(clearance, abs=1e-6)
+
+
+def test_run_writes_a_trajectory_plot(scan_ahead_run):
+    *_, out_dir = scan_ahead_run
+    assert (out_dir / 'trajectory.png').read_bytes()[:8] == b'\x89PNG\r\n\x1a\n'
+
+
+def test_run_records_a_bag_rosbags_reads_back(scan_ahead_run):
+    *_, out_dir = scan_ahead_run
+    assert (out_dir / 'run' / 'metadata.yaml').is_file()
+    assert (out_dir / 'run' / 'run.mcap').is_file()
+    messages = read_bag(out_dir / 'run')
+    duration_s = 2
+    assert {topic: len(items) for topic, items in messages.items()} == {
+        '/clock': PHYSICS_RATE * duration_s, '/odom': ODOM_RATE * duration_s,
+        '/tf': ODOM_RATE * duration_s, '/scan': SCAN_RATE * duration_s, '/tf_static': 1}
+    for timestamp, clock in messages['/clock']:
+        assert stamp_ns(clock.clock) == timestamp
+    for timestamp, scan in messages['/scan']:
+        assert stamp_ns(scan.header.stamp) == timestamp
+        assert scan.header.frame_id == 'laser'
+        assert len(scan.ranges) == 36
+    for timestamp, odom in messages['/odom']:
+        assert stamp_ns(odom.header.stamp) == timestamp
+        assert (odom.header.frame_id, odom.child_frame_id) == ('odom', 'base_link')
+        assert (odom.pose.pose.position.x, odom.pose.pose.position.y) == (0.0, 0.0)
+    (_, static), = messages['/tf_static']
+    assert [(t.header.frame_id, t.child_frame_id) for t in static.transforms] == [
+        ('base_link', 'laser')]
+
+
+def test_driving_node_run_records_its_commands(wall_follow_runs):
+    messages = read_bag(wall_follow_runs['first'] / 'run')
+    # wall_follow answers every scan with one command.
+    assert len(messages['/cmd_vel']) == len(messages['/scan']) == 20 * SCAN_RATE
+    assert len(messages['/clock']) == 20 * PHYSICS_RATE
+    speeds = [twist.linear.x for _, twist in messages['/cmd_vel']]
+    assert 0.0 < max(speeds) <= 0.3 + 1e-9
+    _, first_odom = messages['/odom'][0]
+    start = World.load('wall_follow_box').robot_start
+    assert first_odom.pose.pose.position.x == pytest.approx(start[0], abs=0.01)
+    assert first_odom.pose.pose.position.y == pytest.approx(start[1], abs=1e-6)
+
+
+# --- TARGET forms ----------------------------------------------------------------------------
+
+@pytest.mark.parametrize('target, node_name', [
+    ('scan_ahead', 'scan_ahead'),
+    ('scan_pkg.scan_ahead', 'scan_ahead'),
+    (str(FIXTURES / 'two_nodes.py') + ':Listener', 'listener'),
+], ids=['console script', 'module', 'file:Class'])
+def test_target_forms_run_the_named_node(target, node_name, tmp_path, capsys):
+    result = run_simulation('obstacles', [target], duration_s=0.3, out_dir=tmp_path,
+                            record=False, plot=False)
+    assert result.ok
+    assert [time_s for time_s, _ in log_lines(capsys.readouterr().err, node_name)] == \
+        pytest.approx([0.1, 0.2, 0.3])
+
+
+def test_target_can_be_a_copy_of_a_node_file_anywhere(tmp_path, capsys):
+    student_file = tmp_path / 'elsewhere' / 'my_scan_ahead.py'
+    student_file.parent.mkdir()
+    shutil.copy(SCAN_AHEAD_SOURCE, student_file)
+    result = run_simulation('obstacles', [str(student_file)], duration_s=0.3,
+                            out_dir=tmp_path / 'out', record=False, plot=False)
+    assert result.ok
+    assert len(log_lines(capsys.readouterr().err, 'scan_ahead')) == 3
+
+
+def test_file_target_with_class_name_picks_that_class(tmp_path):
+    result = run_simulation('obstacles', [f"{FIXTURES / 'two_nodes.py'}:Driver"],
+                            duration_s=1.0, out_dir=tmp_path, record=False, plot=False)
+    assert result.ok
+    assert result.metrics['distance_m'] > 0.05
+
+
+# --- runs that cannot start ------------------------------------------------------------------
+
+@pytest.mark.parametrize('args, mentions', [
+    (['--node', 'no_such_node'], "'no_such_node' is neither a console script"),
+    (['--node', 'missing_dir/missing.py'], 'not found: missing_dir/missing.py'),
+    (['--node', str(FIXTURES / 'no_node.py')], 'exactly one rclpy Node subclass (none)'),
+    (['--node', str(FIXTURES / 'two_nodes.py')], 'several: Listener, Driver'),
+    (['--node', str(FIXTURES / 'two_nodes.py') + ':Talker'], "no Node subclass 'Talker'"),
+    (['--node', 'scan_ahead', '--world', 'no_such_world'], "unknown world 'no_such_world'"),
+    (['--node', 'wall_follow', '--param', 'wall_follow:distance=1'],
+     "parameter 'distance' to '1' of type 'INTEGER', expecting type 'DOUBLE'"),
+    (['--node', 'scan_ahead', '--param', 'wall_follow:distance=0.6'],
+     'parameters given for node(s) wall_follow'),
+    (['--node', 'scan_ahead', '--param', 'distance=0.6'], 'expected NODE:NAME=VALUE'),
+    (['--node', 'scan_ahead', '--param', 'sim_bridge:seed=3'], 'sim_bridge:seed'),
+    (['--node', 'scan_ahead', '--param', 'sim_bridge:physics_rate=0.0'],
+     "'physics_rate' must be positive"),
+    (['--node', 'scan_ahead', '--param', 'sim_bridge:lidar_samples=-3'],
+     'samples must be a positive integer'),
+    (['--node', 'scan_ahead', '--duration', '0'], 'duration must be positive'),
+], ids=['unknown target', 'missing file', 'no Node subclass', 'two Node subclasses',
+        'unknown class', 'unknown world', 'param type', 'param for absent node',
+        'malformed param', 'param the runner sets', 'bad simulator param',
+        'bad lidar param', 'zero duration'])
+def test_start_error_is_one_line_exit_2_and_writes_nothing(args, mentions, tmp_path):
+    out_dir = tmp_path / 'out'
+    argv = ['--world', 'wall_follow_box', '--duration', '1', *args, '--out', str(out_dir)]
+    status, stdout, stderr = run_main(*argv)
+    assert status == 2
+    assert stdout == ''
+    assert stderr.startswith('error: ') and stderr.endswith('\n')
+    assert stderr.count('\n') == 1
+    assert mentions in stderr
+    assert not out_dir.exists()
+
+
+def test_output_folder_that_cannot_be_created_is_a_start_error(tmp_path):
+    not_a_folder = tmp_path / 'file'
+    not_a_folder.write_text('')
+    status, _, stderr = run_main('--world', 'obstacles', '--node', 'scan_ahead', '--out',
+                                 str(not_a_folder / 'out'))
+    assert status == 2
+    assert stderr.startswith(f"error: cannot write to {not_a_folder / 'out'}: ")
+    assert stderr.count('\n') == 1
+
+
+def test_start_error_leaves_a_previous_run_in_the_folder_untouched(tmp_path):
+    out_dir = tmp_path / 'out'
+    assert run_main('--world', 'wall_follow_box', '--node', 'wall_follow', '--duration', '0.5',
+                    '--out', str(out_dir))[0] == 0
+    before = {path: path.read_bytes() for path in out_dir.rglob('*') if path.is_file()}
+    status, _, _ = run_main('--world', 'wall_follow_box', '--node', 'wall_follow',
+                            '--param', 'wall_follow:distance=1', '--out', str(out_dir))
+    assert status == 2
+    assert {path: path.read_bytes() for path in out_dir.rglob('*') if path.is_file()} == before
+
+
+# --- nodes that fail during the run -----------------------------------------------------------
+
+def test_int_in_a_float_twist_field_fails_the_run_and_keeps_its_outputs(tmp_path):
+    out_dir = tmp_path / 'out'
+    status, _, stderr = run_main('--world', 'obstacles', '--node',
+                                 str(FIXTURES / 'int_twist.py'), '--duration', '3',
+                                 '--out', str(out_dir))
+    assert status == 1
+    metrics = load_metrics(out_dir)
+    (error,) = metrics['node_errors']
+    assert error['node'] == 'int_twist'
+    assert "'int_twist'" in error['error'] and '/cmd_vel' in error['error']
+    assert "'angular.z'" in error['error'] and 'float' in error['error']
+    assert 'Traceback' in stderr and 'int_twist.py' in stderr
+    # The node publishes its int at the first scan from t = 1 s: the run ends there.
+    assert metrics['sim_time_s'] == pytest.approx(1.0)
+    assert metrics['distance_m'] > 0.0
+    assert (out_dir / 'trajectory.png').is_file()
+    messages = read_bag(out_dir / 'run')
+    assert len(messages['/clock']) == PHYSICS_RATE
+    assert len(messages['/scan']) == SCAN_RATE
+    assert len(messages['/cmd_vel']) == SCAN_RATE - 1
+    assert all(twist.linear.x == 0.1 for _, twist in messages['/cmd_vel'])
+
+
+def test_node_raising_in_its_callback_fails_the_run(tmp_path):
+    out_dir = tmp_path / 'out'
+    status, stdout, stderr = run_main('--world', 'obstacles', '--node',
+                                      str(FIXTURES / 'raising_node.py'), '--duration', '3',
+                                      '--out', str(out_dir))
+    assert status == 1
+    assert load_metrics(out_dir)['node_errors'] == [
+        {'node': 'raiser', 'error': "node 'raiser' raised ZeroDivisionError: "
+                                    'no valid beam to average'}]
+    assert 'ZeroDivisionError: no valid beam to average' in stderr
+    assert 'raising_node.py' in stderr
+    assert 'raiser' in stdout      # the summary's node errors
+    # It raises on its fifth scan, at 0.5 s.
+    assert load_metrics(out_dir)['sim_time_s'] == pytest.approx(0.5)
+    assert len(read_bag(out_dir / 'run')['/scan']) == 5
+
+
+def test_node_raising_in_its_constructor_fails_the_run(tmp_path):
+    out_dir = tmp_path / 'out'
+    status, _, _ = run_main('--world', 'wall_follow_box', '--node', 'wall_follow', '--param',
+                            'wall_follow:side=middle', '--out', str(out_dir))
+    assert status == 1
+    (error,) = load_metrics(out_dir)['node_errors']
+    assert error['node'] == 'wall_follow' and 'side must be one of' in error['error']
+    assert read_bag(out_dir / 'run').keys() == {'/tf_static'}
+
+
+# --- determinism, parameters, start pose -----------------------------------------------------
+
+def test_same_seed_gives_identical_metrics_and_recordings(wall_follow_runs):
+    first, again = (load_metrics(wall_follow_runs[label]) for label in ('first', 'again'))
+    for varying in ('wall_time_s', 'real_time_factor'):
+        del first[varying], again[varying]
+    assert first == again
+    assert first['distance_m'] > 1.0
+    first_bag, again_bag = (read_bag(wall_follow_runs[label] / 'run')
+                            for label in ('first', 'again'))
+    assert {topic: len(items) for topic, items in first_bag.items()} == \
+        {topic: len(items) for topic, items in again_bag.items()}
+    for label in ('run.mcap', 'metadata.yaml'):
+        assert (wall_follow_runs['first'] / 'run' / label).read_bytes() == \
+            (wall_follow_runs['again'] / 'run' / label).read_bytes(), label
+
+
+def test_another_seed_gives_another_recording(wall_follow_runs):
+    assert (wall_follow_runs['first'] / 'run' / 'run.mcap').read_bytes() != \
+        (wall_follow_runs['other_seed'] / 'run' / 'run.mcap').read_bytes()
+
+
+def test_param_reaches_the_node(tmp_path):
+    status, _, _ = run_main('--world', 'wall_follow_box', '--node', 'wall_follow', '--param',
+                            'wall_follow:distance=0.6', '--duration', '20', '--quiet',
+                            '--out', str(tmp_path))
+    assert status == 0
+    wall_distance = load_metrics(tmp_path)['wall_distance_m']
+    assert wall_distance['setpoint'] == 0.6
+    # The follower holds the new distance, not its default of 0.5 m.
+    assert wall_distance['mean'] == pytest.approx(0.6, abs=0.03)
+    assert 'distance: 0.6' in (tmp_path / 'params.yaml').read_text()
+
+
+def test_simulator_param_reaches_the_bridge(tmp_path):
+    status, _, _ = run_main('--world', 'obstacles', '--node', 'scan_ahead', '--param',
+                            'sim_bridge:lidar_samples=360', '--duration', '0.2', '--quiet',
+                            '--out', str(tmp_path))
+    assert status == 0
+    assert [len(scan.ranges) for _, scan in read_bag(tmp_path / 'run')['/scan']] == [360, 360]
+
+
+def test_start_pose_inside_an_obstacle_cannot_start(tmp_path):
+    with pytest.raises(RunError, match=r'start pose \[0.0, 0.0, 0.0\]'):
+        run_simulation('wall_follow_box', ['wall_follow'], start=[0.0, 0.0, 0.0],
+                       out_dir=tmp_path / 'out')
+    assert not (tmp_path / 'out').exists()
+
+
+@pytest.mark.parametrize('side, start, direction', [('right', None, -1), ('left', 'mirrored', 1)])
+def test_mirrored_start_puts_the_target_on_the_left(side, start, direction, tmp_path):
+    result = run_simulation('wall_follow_box', ['wall_follow'], duration_s=40.0,
+                            params={'wall_follow': {'side': side}}, start=start,
+                            out_dir=tmp_path, quiet=True, plot=False)
+    assert result.metrics['collisions'] == 0
+    assert result.metrics['laps'] == direction
+    _, first_odom = read_bag(tmp_path / 'run')['/odom'][0]
+    x, y, yaw = World.load('wall_follow_box').robot_start
+    mirrored_yaw = yaw + (math.pi if start == 'mirrored' else 0.0)
+    assert math.cos(yaw_of(first_odom.pose.pose.orientation) - mirrored_yaw) == \
+        pytest.approx(1.0, abs=1e-3)
+
+
+# --- the runner leaves nothing behind in the process -----------------------------------------
+
+def test_gui_off_run_never_sleeps(monkeypatch, tmp_path):
+    def no_sleep(seconds):
+        raise AssertionError(f'time.sleep({seconds}) in a gui-off run')
+
+    monkeypatch.setattr(time, 'sleep', no_sleep)
+    result = run_simulation('obstacles', ['scan_ahead'], duration_s=2.0, out_dir=tmp_path,
+                            quiet=True, record=False, plot=False)
+    assert result.ok
+
+
+def broken_import_target(tmp_path: Path) -> str:
+    path = tmp_path / 'broken.py'
+    path.write_text('import rclpy\n\nraise ImportError("no module named scan_utils")\n')
+    return str(path)
+
+
+@pytest.mark.parametrize('make_target, outcome', [
+    (lambda tmp_path: 'scan_ahead', 'completes'),
+    (lambda tmp_path: str(FIXTURES / 'raising_node.py'), 'node error'),
+    (lambda tmp_path: 'no_such_node', RunError),
+    (broken_import_target, ImportError),
+], ids=['completed', 'node raised', 'start error', 'target import fails'])
+def test_runner_uninstalls_the_lockstep_runtime(make_target, outcome, tmp_path):
+    assert 'rclpy' not in sys.modules
+    target = make_target(tmp_path)
+    if isinstance(outcome, type):
+        with pytest.raises(outcome):
+            run_simulation('obstacles', [target], duration_s=1.0, out_dir=tmp_path / 'out',
+                           quiet=True, record=False, plot=False)
+    else:
+        result = run_simulation('obstacles', [target], duration_s=1.0,
+                                out_dir=tmp_path / 'out', quiet=True, plot=False)
+        assert result.ok == (outcome == 'completes')
+    assert not lockstep.installed()
+    assert not [name for name in sys.modules
+                if name.split('.')[0] in ('rclpy', 'sensor_msgs', 'geometry_msgs', 'tf2_ros')]
