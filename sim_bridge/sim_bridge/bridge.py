@@ -64,6 +64,7 @@ class SimBridge(Node):
             gui=self.declare_parameter('gui', False).value,
             draw_rays=self.declare_parameter('draw_rays', False).value)
         self.step_ns = round(NANOSECONDS_PER_SECOND / physics_rate)
+        self.step_s = self.step_ns / NANOSECONDS_PER_SECOND
         self.steps_per_scan = max(1, round(physics_rate / self.sim.lidar_config.update_rate))
         self.steps_per_odom = max(1, round(physics_rate / odom_rate))
         self.steps = 0
@@ -75,6 +76,12 @@ class SimBridge(Node):
         self.collision_pub = self.create_publisher(PointStamped, 'collisions', 10)
         self.tf_broadcaster = TransformBroadcaster(self)
         StaticTransformBroadcaster(self).sendTransform(self.laser_transform())
+        # Messages published every step are filled in place: publishing copies them.
+        self.clock = Clock()
+        self.odom = Odometry(child_frame_id=self.frames['base_link'])
+        self.odom.header.frame_id = self.frames['odom']
+        self.odom_transform = self.transform(self.clock.clock, 'odom', 'base_link',
+                                             (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
         self.create_subscription(TwistStamped if stamped else Twist, 'cmd_vel',
                                  self.on_cmd_vel, 10)
         self.create_timer(1.0 / physics_rate / real_time_factor, self.step)
@@ -98,10 +105,11 @@ class SimBridge(Node):
             self.get_logger().warn(f'cmd_vel: {warning}', throttle_duration_sec=1.0)
 
     def step(self):
-        self.sim.step(self.step_ns / NANOSECONDS_PER_SECOND)
+        self.sim.step(self.step_s)
         self.steps += 1
-        stamp = Time(nanoseconds=self.steps * self.step_ns).to_msg()
-        self.clock_pub.publish(Clock(clock=stamp))
+        stamp = self.clock.clock
+        stamp.sec, stamp.nanosec = divmod(self.steps * self.step_ns, NANOSECONDS_PER_SECOND)
+        self.clock_pub.publish(self.clock)
         if self.steps % self.steps_per_scan == 0:
             self.scan_pub.publish(self.scan_message(stamp))
         if self.steps % self.steps_per_odom == 0:
@@ -124,17 +132,21 @@ class SimBridge(Node):
     def publish_odometry(self, stamp):
         x, y, yaw = self.sim.pose
         linear, angular = self.sim.velocity
-        odom = Odometry(child_frame_id=self.frames['base_link'])
+        # A rotation about z only: (0, 0, sin(yaw / 2), cos(yaw / 2)).
+        half_yaw_sin, half_yaw_cos = math.sin(yaw / 2.0), math.cos(yaw / 2.0)
+        odom = self.odom
         odom.header.stamp = stamp
-        odom.header.frame_id = self.frames['odom']
-        odom.pose.pose.position.x, odom.pose.pose.position.y = float(x), float(y)
-        orientation = odom.pose.pose.orientation
-        orientation.x, orientation.y, orientation.z, orientation.w = quaternion_from_euler(
-            0.0, 0.0, yaw)
+        pose = odom.pose.pose
+        pose.position.x, pose.position.y = float(x), float(y)
+        pose.orientation.z, pose.orientation.w = half_yaw_sin, half_yaw_cos
         odom.twist.twist.linear.x, odom.twist.twist.angular.z = float(linear), float(angular)
         self.odom_pub.publish(odom)
-        self.tf_broadcaster.sendTransform(self.transform(
-            stamp, 'odom', 'base_link', (x, y, 0.0), (0.0, 0.0, yaw)))
+        self.odom_transform.header.stamp = stamp
+        translation = self.odom_transform.transform.translation
+        translation.x, translation.y = pose.position.x, pose.position.y
+        rotation = self.odom_transform.transform.rotation
+        rotation.z, rotation.w = half_yaw_sin, half_yaw_cos
+        self.tf_broadcaster.sendTransform(self.odom_transform)
 
     def laser_transform(self) -> TransformStamped:
         pose = self.sim.lidar_config.pose

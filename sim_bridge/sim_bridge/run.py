@@ -178,8 +178,8 @@ class LockstepRun:
         rclpy.init(args=[])
 
     def hold(self, topic: str, msg: Any, t_ns: int) -> None:
-        """Keep a message published before the bag is open (a runtime tap)."""
-        self.held.append((topic, msg, t_ns))
+        """Keep a copy of a message published before the bag is open (a runtime tap)."""
+        self.held.append((topic, msg._lockstep_copy(msg), t_ns))
 
     def record(self, bag: BagRecorder | None) -> None:
         """Write the held messages to ``bag`` and everything published from now on."""

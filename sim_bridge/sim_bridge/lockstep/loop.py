@@ -70,7 +70,12 @@ class Runtime:
     # --- observers -------------------------------------------------------------------------
 
     def add_tap(self, tap: Callable) -> None:
-        """Call ``tap(topic, msg, t_ns)`` on every successful publish (msg as delivered)."""
+        """
+        Call ``tap(topic, msg, t_ns)`` on every successful publish, during the publish.
+
+        ``msg`` may be the publisher's own object: a tap reads it there and then, and copies
+        what it keeps, as a subscriber's copy is not made when nobody subscribes.
+        """
         self.taps.append(tap)
 
     def remove_tap(self, tap: Callable) -> None:

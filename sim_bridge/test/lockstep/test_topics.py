@@ -181,3 +181,16 @@ def test_qos_check_compatible_reports_like_rclpy():
         QoSCompatibility.ERROR, 'ERROR: Best effort publisher and reliable subscription;')
     assert qos_check_compatible(QoSProfile(depth=10), qos_profile_sensor_data)[0] == \
         QoSCompatibility.OK
+
+
+def test_a_tap_reads_an_unsubscribed_message_during_the_publish(nodes, runtime):
+    from std_msgs.msg import Int32
+    talker, _ = nodes
+    publisher = talker.create_publisher(Int32, 'unheard', 10)
+    seen = []
+    runtime.add_tap(lambda topic, msg, t_ns: seen.append(msg.data))
+    message = int32(7)
+    publisher.publish(message)
+    message.data = 8
+    publisher.publish(message)
+    assert seen == [7, 8]

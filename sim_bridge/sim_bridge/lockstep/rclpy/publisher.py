@@ -48,16 +48,21 @@ class Publisher:
         problem = self._lockstep_check(msg)
         if problem is not None:
             raise MessageTypeError(self._lockstep_node_name, self.topic, *problem)
-        copy = self._lockstep_copy
-        wire = copy(msg)
         runtime = self._runtime
         taps = runtime.taps
+        history = self._lockstep_history
+        recipients = self._lockstep_recipients
+        if not recipients and history is None:
+            # Nothing keeps this message, and taps must not either: no copy to make.
+            for tap in taps:
+                tap(self.topic, msg, runtime.now_ns)
+            return
+        copy = self._lockstep_copy
+        wire = copy(msg)
         for tap in taps:
             tap(self.topic, wire, runtime.now_ns)
-        history = self._lockstep_history
         if history is not None:
             history.append(wire)
-        recipients = self._lockstep_recipients
         if len(recipients) == 1 and not taps and history is None:
             recipients[0]._lockstep_receive(wire)
         else:
