@@ -5,6 +5,9 @@ Start the simulator with the world of a lab task, and the task's scan_pkg node.
 ``world:=...`` overrides the task's world, ``gui:=true`` opens the pybullet window.
 """
 
+import os
+
+from ament_index_python.packages import get_package_share_directory
 from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument, IncludeLaunchDescription, OpaqueFunction
 from launch.launch_description_sources import PythonLaunchDescriptionSource
@@ -13,6 +16,12 @@ from launch_ros.actions import Node
 from launch_ros.substitutions import FindPackageShare
 
 from sim_bridge.lab_tasks import LAB_TASKS
+
+
+def task_params_files(node: str) -> list[str]:
+    """Return scan_pkg's params file for ``node`` (params/<node>.yaml) if it ships one."""
+    path = os.path.join(get_package_share_directory('scan_pkg'), 'params', node + '.yaml')
+    return [path] if os.path.isfile(path) else []
 
 
 def start_task(context):
@@ -30,7 +39,7 @@ def start_task(context):
                               'rviz': LaunchConfiguration('rviz')}.items(),
         ),
         Node(package='scan_pkg', executable=task.node, output='screen',
-             parameters=[{'use_sim_time': True}]),
+             parameters=[*task_params_files(task.node), {'use_sim_time': True}]),
     ]
 
 
