@@ -6,10 +6,12 @@ runtime is stepped with ``run_until``, so every check is at an exact sim time.
 """
 
 import math
+from pathlib import Path
 import shutil
 
 import numpy as np
 import pytest
+import yaml
 
 from sim_bridge import lockstep
 from sim_bridge.paths import find_world
@@ -443,3 +445,12 @@ def test_parameter_of_the_wrong_type_raises_as_rclpy_does(name, value, session):
 def test_rate_parameters_must_be_positive(name, session):
     with pytest.raises(ValueError, match=f"'{name}' must be positive"):
         session.bridge(**{name: 0.0})
+
+
+def test_the_installed_params_file_holds_the_nodes_own_defaults(session):
+    path = Path(__file__).resolve().parents[1] / 'params' / 'sim.yaml'
+    shipped = yaml.safe_load(path.read_text())['sim_bridge']['ros__parameters']
+    bridge = session.bridge()
+    for name, value in shipped.items():
+        default = bridge.get_parameter(name).value
+        assert (type(value), value) == (type(default), default), name
