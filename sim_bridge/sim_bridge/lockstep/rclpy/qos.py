@@ -116,6 +116,24 @@ _DEFAULTS = {
 }
 
 
+def _policy(name: str, policy: type, doc: str) -> property:
+    """Return a property storing ``policy(value)`` (a policy enum, or ValueError) as ``_name``."""
+    attribute = '_' + name
+    return property(lambda self: getattr(self, attribute),
+                    lambda self, value: setattr(self, attribute, policy(value)), doc=doc)
+
+
+def _checked(name: str, kind: type, doc: str) -> property:
+    """Return a property storing a value of type ``kind`` as ``_name``, asserting the type."""
+    attribute = '_' + name
+
+    def setter(self, value) -> None:
+        assert isinstance(value, kind)
+        setattr(self, attribute, value)
+
+    return property(lambda self: getattr(self, attribute), setter, doc=doc)
+
+
 class QoSProfile:
     """Define Quality of Service policies."""
 
@@ -135,67 +153,17 @@ class QoSProfile:
             if name != 'history':
                 setattr(self, name, kwargs.get(name, default))
 
-    history = property(lambda self: self._history,
-                       lambda self, value: setattr(self, '_history', HistoryPolicy(value)))
-    reliability = property(
-        lambda self: self._reliability,
-        lambda self, value: setattr(self, '_reliability', ReliabilityPolicy(value)))
-    durability = property(
-        lambda self: self._durability,
-        lambda self, value: setattr(self, '_durability', DurabilityPolicy(value)))
-    liveliness = property(
-        lambda self: self._liveliness,
-        lambda self, value: setattr(self, '_liveliness', LivelinessPolicy(value)))
-
-    @property
-    def depth(self) -> int:
-        """Messages kept with KEEP_LAST history."""
-        return self._depth
-
-    @depth.setter
-    def depth(self, value: int) -> None:
-        assert isinstance(value, int)
-        self._depth = value
-
-    @property
-    def lifespan(self) -> Duration:
-        """Accepted, not enforced."""
-        return self._lifespan
-
-    @lifespan.setter
-    def lifespan(self, value: Duration) -> None:
-        assert isinstance(value, Duration)
-        self._lifespan = value
-
-    @property
-    def deadline(self) -> Duration:
-        """Accepted, not enforced."""
-        return self._deadline
-
-    @deadline.setter
-    def deadline(self, value: Duration) -> None:
-        assert isinstance(value, Duration)
-        self._deadline = value
-
-    @property
-    def liveliness_lease_duration(self) -> Duration:
-        """Accepted, not enforced."""
-        return self._liveliness_lease_duration
-
-    @liveliness_lease_duration.setter
-    def liveliness_lease_duration(self, value: Duration) -> None:
-        assert isinstance(value, Duration)
-        self._liveliness_lease_duration = value
-
-    @property
-    def avoid_ros_namespace_conventions(self) -> bool:
-        """Accepted, not used."""
-        return self._avoid_ros_namespace_conventions
-
-    @avoid_ros_namespace_conventions.setter
-    def avoid_ros_namespace_conventions(self, value: bool) -> None:
-        assert isinstance(value, bool)
-        self._avoid_ros_namespace_conventions = value
+    history = _policy('history', HistoryPolicy, 'How samples are kept.')
+    reliability = _policy('reliability', ReliabilityPolicy, 'Delivery guarantee.')
+    durability = _policy('durability', DurabilityPolicy, 'Whether late joiners get history.')
+    liveliness = _policy('liveliness', LivelinessPolicy, 'Accepted, not enforced.')
+    depth = _checked('depth', int, 'Messages kept with KEEP_LAST history.')
+    lifespan = _checked('lifespan', Duration, 'Accepted, not enforced.')
+    deadline = _checked('deadline', Duration, 'Accepted, not enforced.')
+    liveliness_lease_duration = _checked('liveliness_lease_duration', Duration,
+                                         'Accepted, not enforced.')
+    avoid_ros_namespace_conventions = _checked('avoid_ros_namespace_conventions', bool,
+                                               'Accepted, not used.')
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, QoSProfile):
