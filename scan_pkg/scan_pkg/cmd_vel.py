@@ -1,7 +1,14 @@
-"""Velocity commands for the driving nodes: Twist, or TwistStamped when asked for."""
+"""
+Velocity commands for the driving nodes: Twist, or TwistStamped when asked for.
+
+Also the driving nodes' main loop, which stops the robot before the node shuts down.
+"""
 
 from geometry_msgs.msg import Twist, TwistStamped
+import rclpy
+from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
+from rclpy.signals import SignalHandlerOptions
 
 
 class CmdVelPublisher:
@@ -34,3 +41,24 @@ class CmdVelPublisher:
     def stop(self) -> None:
         """Send a zero command."""
         self.publish(0.0, 0.0)
+
+
+def spin_then_stop(node_class: type, args: list[str] | None = None) -> None:
+    """
+    Spin a driving node (one with a ``cmd_vel`` CmdVelPublisher) until Ctrl-C or shutdown.
+
+    Jazzy's demo_nodes_py main, plus a zero command before shutting down, as
+    teleop_twist_keyboard sends. rclpy's signal handler is off, so Ctrl-C raises
+    KeyboardInterrupt in spin while the context is still valid for that last publish.
+    """
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    node = node_class()
+    try:
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if rclpy.ok():
+            node.cmd_vel.stop()
+        node.destroy_node()
+        rclpy.try_shutdown()

@@ -3,15 +3,12 @@
 from dataclasses import fields
 
 from nav_msgs.msg import Odometry
-import rclpy
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data
-from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import LaserScan
 
 from scan_pkg.behaviors.wander import WanderConfig, Wanderer, yaw_from_quaternion
-from scan_pkg.cmd_vel import CmdVelPublisher
+from scan_pkg.cmd_vel import CmdVelPublisher, spin_then_stop
 from scan_pkg.report import read_scan
 
 
@@ -51,19 +48,7 @@ class Wanderbot(Node):
 
 
 def main(args=None):
-    # Without rclpy's signal handler, Ctrl-C raises KeyboardInterrupt in spin while the
-    # context is still valid, so the robot can be stopped before shutting down.
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-    node = Wanderbot()
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        if rclpy.ok():
-            node.cmd_vel.stop()
-        node.destroy_node()
-        rclpy.try_shutdown()
+    spin_then_stop(Wanderbot, args)
 
 
 if __name__ == '__main__':
