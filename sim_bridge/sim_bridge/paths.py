@@ -9,6 +9,7 @@ package's share directory. Models are also looked up the way Gazebo does, on
 
 import os
 from pathlib import Path
+import sys
 
 PACKAGE_NAME = 'sim_bridge'
 WORLD_SUFFIX = '.yaml'
@@ -23,12 +24,18 @@ def repo_root() -> Path | None:
 
 
 def share_dir() -> Path | None:
-    """Return the package's share directory of a colcon install, or None without ament."""
+    """
+    Return the package's installed share directory, or None when it is not installed.
+
+    ament's index finds a colcon install; a plain pip install puts the same data files under
+    ``<prefix>/share/sim_bridge``.
+    """
     try:
         from ament_index_python.packages import get_package_share_directory
         from ament_index_python.packages import PackageNotFoundError
     except ImportError:
-        return None
+        installed = Path(sys.prefix) / 'share' / PACKAGE_NAME
+        return installed if installed.is_dir() else None
     try:
         return Path(get_package_share_directory(PACKAGE_NAME))
     except PackageNotFoundError:

@@ -1,0 +1,56 @@
+"""Tests of finding worlds and models in a checkout, an install, and Gazebo's model paths."""
+
+from pathlib import Path
+import sys
+
+import pytest
+
+from sim_bridge import paths
+
+
+def test_a_source_checkout_finds_its_own_worlds_and_models():
+    root = paths.repo_root()
+    assert root is not None
+    assert paths.worlds_dir() == root / 'worlds'
+    assert paths.models_dir() == root / 'models'
+    assert {'obstacles', 'room'} <= set(paths.world_names())
+
+
+def test_a_pip_install_finds_the_share_directory_under_its_prefix(tmp_path, monkeypatch):
+    (tmp_path / 'share' / 'sim_bridge' / 'worlds').mkdir(parents=True)
+    monkeypatch.setattr(sys, 'prefix', str(tmp_path))
+    monkeypatch.setitem(sys.modules, 'ament_index_python', None)
+    monkeypatch.setattr(paths, 'repo_root', lambda: None)
+    assert paths.share_dir() == tmp_path / 'share' / 'sim_bridge'
+    assert paths.worlds_dir() == tmp_path / 'share' / 'sim_bridge' / 'worlds'
+
+
+def test_no_install_and_no_checkout_is_a_clear_error(tmp_path, monkeypatch):
+    monkeypatch.setattr(sys, 'prefix', str(tmp_path))
+    monkeypatch.setitem(sys.modules, 'ament_index_python', None)
+    monkeypatch.setattr(paths, 'repo_root', lambda: None)
+    with pytest.raises(FileNotFoundError, match="cannot find the 'models' folder"):
+        paths.models_dir()
+
+
+def test_find_world_takes_a_name_or_a_path_and_names_the_shipped_worlds(tmp_path):
+    assert paths.find_world('room') == paths.worlds_dir() / 'room.yaml'
+    custom = tmp_path / 'mine.yaml'
+    custom.write_text('name: mine\n')
+    assert paths.find_world(str(custom)) == custom
+    with pytest.raises(FileNotFoundError, match='shipped worlds are .*obstacles'):
+        paths.find_world('atlantis')
+    with pytest.raises(FileNotFoundError, match='world file not found'):
+        paths.find_world(str(tmp_path / 'missing.yaml'))
+
+
+def test_models_are_also_found_on_gazebos_resource_path(tmp_path, monkeypatch):
+    model = tmp_path / 'my_crate'
+    model.mkdir()
+    (model / 'model.sdf').write_text('<sdf version="1.8"/>')
+    monkeypatch.setenv('GZ_SIM_RESOURCE_PATH', str(tmp_path))
+    assert paths.find_model('my_crate') == model
+    assert paths.find_model('obstacle_box') == paths.models_dir() / 'obstacle_box'
+    with pytest.raises(FileNotFoundError, match="model 'nothing' not found"):
+        paths.find_model('nothing')
+    assert Path(tmp_path) in paths.model_search_path()
