@@ -8,6 +8,7 @@ plot and recording is.
 """
 
 import argparse
+import os
 from pathlib import Path
 import sys
 from typing import Sequence
@@ -44,7 +45,8 @@ def grade_scenarios(out_dir: Path) -> int:
         print('\n(the grading scenarios ship with the source checkout: skipped)')
         return 0
     print(f'\n=== Grading the scenarios in {root / "test" / "scenarios"} ===', flush=True)
-    return grade.main([str(root / 'test' / 'scenarios'), '--out', str(out_dir)])
+    return grade.main([str(root / 'test' / 'scenarios'), '--out', str(out_dir),
+                       '--jobs', str(os.cpu_count() or 1)])
 
 
 def main(argv: Sequence[str] | None = None) -> int:
