@@ -37,6 +37,8 @@ class Viewer:
     def __init__(self, client: int, radius: float, height: float, draw_rays: bool = False):
         self.client = client
         self.draw_rays = draw_rays
+        # The side panels (pybullet's synthetic camera previews) only hide the world.
+        pybullet.configureDebugVisualizer(pybullet.COV_ENABLE_GUI, 0, physicsClientId=client)
         self.ray_items: list[int] = []
         visual = pybullet.createVisualShape(pybullet.GEOM_CYLINDER, radius=radius,
                                             length=height, rgbaColor=ROBOT_COLOUR,
