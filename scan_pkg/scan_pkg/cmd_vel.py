@@ -10,6 +10,9 @@ from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
+#: Longest wait (s) for work in the driving nodes' spin before Python can handle Ctrl-C.
+SPIN_TIMEOUT_S = 0.1
+
 
 class CmdVelPublisher:
     """
@@ -49,12 +52,14 @@ def spin_then_stop(node_class: type, args: list[str] | None = None) -> None:
 
     Jazzy's demo_nodes_py main, plus a zero command before shutting down, as
     teleop_twist_keyboard sends. rclpy's signal handler is off, so Ctrl-C raises
-    KeyboardInterrupt in spin while the context is still valid for that last publish.
+    KeyboardInterrupt while the context is still valid for that last publish; spinning with a
+    timeout returns to Python often enough for it to be raised even when no message arrives.
     """
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     node = node_class()
     try:
-        rclpy.spin(node)
+        while rclpy.ok():
+            rclpy.spin_once(node, timeout_sec=SPIN_TIMEOUT_S)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:

@@ -272,8 +272,8 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
     unless ``quiet``, with its traceback on stderr, and every output is written up to that
     point.
     """
-    if not duration_s > 0:
-        raise RunError(f'duration must be positive (s), got {duration_s}')
+    if not (math.isfinite(duration_s) and duration_s > 0):
+        raise RunError(f'duration must be a positive number of seconds, got {duration_s}')
     world_model = load_world(world)
     node_params = node_parameters(world_model, params, seed=seed, gui=gui, start=start)
     out_dir = Path(out_dir) if out_dir is not None else default_out_dir(world_model, targets)

@@ -88,6 +88,8 @@ class Simulator:
             config = replace(config, samples=lidar_samples)
         if lidar_noise_stddev is not None:
             config = replace(config, noise_stddev=lidar_noise_stddev)
+        if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+            raise ValueError(f'seed must be a non-negative integer, got {seed!r}')
         if command_timeout is not None and not command_timeout > 0.0:
             raise ValueError(f'command_timeout must be positive (s) or None, got '
                              f'{command_timeout!r}')

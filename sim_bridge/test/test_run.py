@@ -245,11 +245,13 @@ def test_file_target_with_class_name_picks_that_class(tmp_path):
      "'physics_rate' must be positive"),
     (['--node', 'scan_ahead', '--param', 'sim_bridge:lidar_samples=-3'],
      'samples must be a positive integer'),
-    (['--node', 'scan_ahead', '--duration', '0'], 'duration must be positive'),
+    (['--node', 'scan_ahead', '--duration', '0'], 'duration must be a positive number'),
+    (['--node', 'scan_ahead', '--duration', 'inf'], 'duration must be a positive number'),
+    (['--node', 'scan_ahead', '--seed', '-1'], 'seed must be a non-negative integer'),
 ], ids=['unknown target', 'missing file', 'no Node subclass', 'two Node subclasses',
         'unknown class', 'unknown world', 'param type', 'param for absent node',
         'malformed param', 'param the runner sets', 'bad simulator param',
-        'bad lidar param', 'zero duration'])
+        'bad lidar param', 'zero duration', 'infinite duration', 'negative seed'])
 def test_start_error_is_one_line_exit_2_and_writes_nothing(args, mentions, tmp_path):
     out_dir = tmp_path / 'out'
     argv = ['--world', 'wall_follow_box', '--duration', '1', *args, '--out', str(out_dir)]

@@ -380,3 +380,9 @@ def test_the_gui_robot_follows_the_pose_and_the_lidar_looks_through_it(monkeypat
         x, y, yaw = simulator.pose
         assert position == pytest.approx((x, y, 0.0))
         assert pybullet.getEulerFromQuaternion(orientation)[2] == pytest.approx(yaw)
+
+
+@pytest.mark.parametrize('seed', [-1, 1.5, True, '3'])
+def test_a_seed_that_numpy_cannot_take_is_named(seed):
+    with pytest.raises(ValueError, match='seed must be a non-negative integer'):
+        Simulator('obstacles', seed=seed)
