@@ -1,8 +1,12 @@
 """
-Velocity commands for the driving nodes: Twist, or TwistStamped when asked for.
+What the driving nodes share: their parameters, their velocity commands, their main loop.
 
-Also the driving nodes' main loop, which stops the robot before the node shuts down.
+Parameters are the fields of a controller's config dataclass; commands are Twist, or
+TwistStamped when asked for; the main loop stops the robot before the node shuts down.
 """
+
+from dataclasses import fields
+from typing import Any
 
 from geometry_msgs.msg import Twist, TwistStamped
 import rclpy
@@ -12,6 +16,17 @@ from rclpy.signals import SignalHandlerOptions
 
 #: Longest wait (s) for work in the driving nodes' spin before Python can handle Ctrl-C.
 SPIN_TIMEOUT_S = 0.1
+
+
+def declare_config(node: Node, config_class: type) -> Any:
+    """
+    Declare one parameter per field of the dataclass ``config_class``; return the config.
+
+    Each parameter is typed by the field's default (rclpy's rule); the config checks the
+    values, so a bad one stops the node at start-up with a ValueError naming it.
+    """
+    return config_class(**{field.name: node.declare_parameter(field.name, field.default).value
+                           for field in fields(config_class)})
 
 
 class CmdVelPublisher:

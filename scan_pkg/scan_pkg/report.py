@@ -16,6 +16,13 @@ NO_OBSTACLE = 'No valid obstacle readings.'
 WARNING_PERIOD_S = 5.0
 
 
+def positive_parameter(name: str, value: float) -> float:
+    """Return ``value`` if it is a positive finite number, else ValueError naming ``name``."""
+    if not (math.isfinite(value) and value > 0.0):
+        raise ValueError(f"parameter '{name}' must be a positive finite number, got {value!r}")
+    return value
+
+
 def read_scan(msg: Any, logger: Any) -> Scan | None:
     """
     Return the Scan in a LaserScan-like message, or None when there is nothing to report.
@@ -29,14 +36,14 @@ def read_scan(msg: Any, logger: Any) -> Scan | None:
     try:
         scan = Scan.from_msg(msg)
     except ValueError as error:
-        logger.warn(f'ignoring malformed scan: {error}', throttle_duration_sec=WARNING_PERIOD_S)
+        logger.warning(f'ignoring malformed scan: {error}', throttle_duration_sec=WARNING_PERIOD_S)
         return None
     if len(scan) == 0:
-        logger.warn(scan_warning(scan), throttle_duration_sec=WARNING_PERIOD_S)
+        logger.warning(scan_warning(scan), throttle_duration_sec=WARNING_PERIOD_S)
         return None
     warning = scan_warning(scan)
     if warning is not None:
-        logger.warn(warning, throttle_duration_sec=WARNING_PERIOD_S)
+        logger.warning(warning, throttle_duration_sec=WARNING_PERIOD_S)
     return None if np.isnan(scan.ranges).all() else scan
 
 

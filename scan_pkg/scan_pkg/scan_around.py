@@ -6,7 +6,7 @@ from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import LaserScan
 
-from scan_pkg.report import read_scan, regions_line
+from scan_pkg.report import positive_parameter, read_scan, regions_line
 
 
 class ScanAround(Node):
@@ -14,7 +14,8 @@ class ScanAround(Node):
 
     def __init__(self):
         super().__init__('scan_around')
-        self.max_range = self.declare_parameter('max_range', 10.0).value
+        self.max_range = positive_parameter(
+            'max_range', self.declare_parameter('max_range', 10.0).value)
         self.create_subscription(LaserScan, 'scan', self.on_scan, qos_profile_sensor_data)
 
     def on_scan(self, msg):

@@ -1,13 +1,11 @@
 """Follow a wall: keep an obstacle on one side at a set distance, and circle it."""
 
-from dataclasses import fields
-
 from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import LaserScan
 
 from scan_pkg.behaviors.wall_follow import WallFollowConfig, WallFollower
-from scan_pkg.cmd_vel import CmdVelPublisher, spin_then_stop
+from scan_pkg.cmd_vel import CmdVelPublisher, declare_config, spin_then_stop
 from scan_pkg.report import read_scan
 
 
@@ -23,8 +21,7 @@ class WallFollow(Node):
 
     def __init__(self):
         super().__init__('wall_follow')
-        config = WallFollowConfig(**{field.name: self.declare_parameter(
-            field.name, field.default).value for field in fields(WallFollowConfig)})
+        config = declare_config(self, WallFollowConfig)
         self.follower = WallFollower(config, on_event=self.get_logger().info)
         self.cmd_vel = CmdVelPublisher(self)
         self.create_subscription(LaserScan, 'scan', self.on_scan, qos_profile_sensor_data)

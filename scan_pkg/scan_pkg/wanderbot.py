@@ -1,14 +1,12 @@
 """Wander: drive straight, and turn in place by more than 90 deg when the way is blocked."""
 
-from dataclasses import fields
-
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import LaserScan
 
 from scan_pkg.behaviors.wander import WanderConfig, Wanderer, yaw_from_quaternion
-from scan_pkg.cmd_vel import CmdVelPublisher, spin_then_stop
+from scan_pkg.cmd_vel import CmdVelPublisher, declare_config, spin_then_stop
 from scan_pkg.report import read_scan
 
 
@@ -16,20 +14,18 @@ class Wanderbot(Node):
     """
     Subscribe to ``scan`` and ``odom``; publish ``cmd_vel`` at ``control_rate`` (Hz).
 
-    Parameters: the fields of :class:`WanderConfig` (defaults in ``params/wanderbot.yaml``),
-    ``control_rate`` (Hz) and ``stamped`` (see :class:`CmdVelPublisher`).
+    Parameters: the fields of :class:`WanderConfig` (defaults in ``params/wanderbot.yaml``)
+    and ``stamped`` (see :class:`CmdVelPublisher`).
     """
 
     def __init__(self):
         super().__init__('wanderbot')
-        config = WanderConfig(**{field.name: self.declare_parameter(
-            field.name, field.default).value for field in fields(WanderConfig)})
+        config = declare_config(self, WanderConfig)
         self.wanderer = Wanderer(config, on_event=self.get_logger().info)
         self.cmd_vel = CmdVelPublisher(self)
         self.create_subscription(LaserScan, 'scan', self.on_scan, qos_profile_sensor_data)
         self.create_subscription(Odometry, 'odom', self.on_odom, qos_profile_sensor_data)
-        control_rate = self.declare_parameter('control_rate', 20.0).value
-        self.create_timer(1.0 / control_rate, self.on_timer)
+        self.create_timer(1.0 / config.control_rate, self.on_timer)
 
     def seconds(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9

@@ -9,8 +9,8 @@ import pytest
 
 from scan_pkg.laser import Scan
 from scan_pkg.report import (
-    closest_line, format_range, NO_OBSTACLE, range_ahead_line, read_scan, regions_line,
-    WARNING_PERIOD_S)
+    closest_line, format_range, NO_OBSTACLE, positive_parameter, range_ahead_line, read_scan,
+    regions_line, WARNING_PERIOD_S)
 
 # The lab's scanner: 36 beams from -1.57 to +1.57 rad; beams 17 and 18 are the two nearest
 # straight ahead (+-2.6 deg), beam 0 points right (-90 deg) and beam 35 left (+90 deg).
@@ -266,13 +266,13 @@ class CallSiteThrottlingLogger(FakeLogger):
         super().__init__()
         self.sites_seen = set()
 
-    def warn(self, message, **options):
+    def warning(self, message, **options):
         caller = inspect.stack()[1]
         site = (caller.filename, caller.lineno)
         if options.get('throttle_duration_sec') and site in self.sites_seen:
             return
         self.sites_seen.add(site)
-        super().warn(message, **options)
+        super().warning(message, **options)
 
 
 def test_one_kind_of_fault_does_not_throttle_the_warning_of_another():
@@ -285,3 +285,10 @@ def test_one_kind_of_fault_does_not_throttle_the_warning_of_another():
     assert 'NaN' in warnings[0]
     assert 'no ranges' in warnings[1]
     assert 'angle_increment' in warnings[2]
+
+
+@pytest.mark.parametrize('value', [0.0, -5.0, math.nan, math.inf])
+def test_a_cap_that_cannot_be_a_range_is_refused_naming_the_parameter(value):
+    with pytest.raises(ValueError, match="parameter 'max_range' must be a positive finite"):
+        positive_parameter('max_range', value)
+    assert positive_parameter('max_range', 3.5) == 3.5

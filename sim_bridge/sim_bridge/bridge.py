@@ -102,7 +102,7 @@ class SimBridge(Node):
         twist = getattr(msg, 'twist', msg)
         warning = self.sim.set_command(twist.linear.x, twist.angular.z)
         if warning:
-            self.get_logger().warn(f'cmd_vel: {warning}', throttle_duration_sec=1.0)
+            self.get_logger().warning(f'cmd_vel: {warning}', throttle_duration_sec=1.0)
 
     def step(self):
         self.sim.step(self.step_s)
@@ -164,7 +164,7 @@ class SimBridge(Node):
         return transform
 
     def report_collision(self, collision, stamp):
-        self.get_logger().warn(f'collision with {collision.obstacle} at t={collision.time:.2f} s,'
+        self.get_logger().warning(f'collision with {collision.obstacle} at t={collision.time:.2f} s,'
                                f' x={collision.x:.2f} m, y={collision.y:.2f} m')
         point = PointStamped()
         point.header.stamp = stamp

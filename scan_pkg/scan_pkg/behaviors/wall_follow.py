@@ -35,6 +35,7 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
+from scan_pkg.behaviors import require
 from scan_pkg.behaviors.wander import corridor_distance, is_blind, obstacle_points
 from scan_pkg.laser import normalize_angle, Scan
 
@@ -122,14 +123,9 @@ class WallFollowConfig:
     def __post_init__(self):
         if self.side not in SIDES:
             raise ValueError(f"side must be one of {', '.join(SIDES)}, got {self.side!r}")
-        positive = ('distance', 'lookahead', 'heading_gain', 'max_angular', 'lost_margin',
-                    'fit_radius', 'scan_timeout', 'corner_speed')
-        for name in positive:
-            if not getattr(self, name) > 0.0:
-                raise ValueError(f'{name} must be > 0, got {getattr(self, name)!r}')
-        for name in ('speed', 'robot_radius', 'stop_margin', 'extrapolation'):
-            if not getattr(self, name) >= 0.0:
-                raise ValueError(f'{name} must be >= 0, got {getattr(self, name)!r}')
+        require(self, positive=('distance', 'lookahead', 'heading_gain', 'max_angular',
+                                'lost_margin', 'fit_radius', 'scan_timeout', 'corner_speed'),
+                non_negative=('speed', 'robot_radius', 'stop_margin', 'extrapolation'))
 
 
 class WallFollower:

@@ -28,6 +28,7 @@ from typing import Callable
 
 import numpy as np
 
+from scan_pkg.behaviors import require
 from scan_pkg.laser import normalize_angle, Scan
 
 TURN_MODES = ('random', 'constant')
@@ -141,8 +142,8 @@ class WanderConfig:
     Parameters of :class:`Wanderer`, with the wanderbot node's defaults.
 
     Distances in m, speeds in m/s and rad/s, ``turn_decel`` in rad/s², angles in degrees,
-    times in s. ``turn_decel`` shapes the end of a turn; keep it below the base's angular
-    acceleration limit.
+    times in s, ``control_rate`` (commands per second) in Hz. ``turn_decel`` shapes the end of
+    a turn; keep it below the base's angular acceleration limit.
     """
 
     speed: float = 0.5
@@ -158,16 +159,12 @@ class WanderConfig:
     odom_timeout: float = 0.5
     scan_timeout: float = 0.5
     seed: int = 0
+    control_rate: float = 20.0
 
     def __post_init__(self):
-        positive = ('obstacle_distance', 'turn_speed', 'turn_decel', 'odom_timeout',
-                    'scan_timeout', 'min_turn_deg', 'turn_deg')
-        for name in positive:
-            if not getattr(self, name) > 0.0:
-                raise ValueError(f'{name} must be > 0, got {getattr(self, name)!r}')
-        for name in ('speed', 'robot_radius', 'corridor_margin'):
-            if not getattr(self, name) >= 0.0:
-                raise ValueError(f'{name} must be >= 0, got {getattr(self, name)!r}')
+        require(self, positive=('obstacle_distance', 'turn_speed', 'turn_decel', 'odom_timeout',
+                                'scan_timeout', 'min_turn_deg', 'turn_deg', 'control_rate'),
+                non_negative=('speed', 'robot_radius', 'corridor_margin'))
         if not self.max_turn_deg >= self.min_turn_deg:
             raise ValueError(f'max_turn_deg ({self.max_turn_deg!r}) must be >= min_turn_deg '
                              f'({self.min_turn_deg!r})')

@@ -338,11 +338,11 @@ def test_any_ranges_give_finite_float_commands(ranges):
 
 @pytest.mark.parametrize('field, value', [('turn_mode', 'spin'), ('min_turn_deg', 0.0),
                                           ('max_turn_deg', 50.0), ('turn_speed', -1.0),
-                                          ('speed', math.nan)])
+                                          ('speed', math.nan), ('control_rate', 0.0)])
 def test_config_rejects_values_that_cannot_work(field, value):
     with pytest.raises(ValueError, match=field):
         WanderConfig(**{field: value})
 
 
 def test_params_file_lists_every_parameter_with_its_default(shapes):
-    shapes.check_params_file('wanderbot', WanderConfig, {'control_rate': 20.0, 'stamped': False})
+    shapes.check_params_file('wanderbot', WanderConfig, {'stamped': False})
