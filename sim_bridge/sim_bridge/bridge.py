@@ -164,8 +164,9 @@ class SimBridge(Node):
         return transform
 
     def report_collision(self, collision, stamp):
-        self.get_logger().warning(f'collision with {collision.obstacle} at t={collision.time:.2f} s,'
-                               f' x={collision.x:.2f} m, y={collision.y:.2f} m')
+        self.get_logger().warning(
+            f'collision with {collision.obstacle} at t={collision.time:.2f} s, '
+            f'x={collision.x:.2f} m, y={collision.y:.2f} m')
         point = PointStamped()
         point.header.stamp = stamp
         point.header.frame_id = self.frames['odom']

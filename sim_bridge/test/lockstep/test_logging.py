@@ -70,3 +70,31 @@ def test_loggers_are_named_after_namespace_and_node(rclpy, logs):
     node.get_logger().get_child('pid').info('x')
     get_logger('custom').info('y')
     assert [record.name for record in logs] == ['robot1.wall_follow.pid', 'custom']
+
+
+def log_from_one_line(logger, severity, text, **filters):
+    """Log as a student's helper ``log(text, level)`` does: every call from this one line."""
+    return getattr(logger, severity)(text, **filters)
+
+
+@pytest.mark.parametrize('first, then, error', [
+    (('info', {}), ('warning', {}), 'Logger severity cannot be changed between calls.'),
+    (('info', {}), ('info', {'once': True}),
+     'Requested logging filters cannot be changed between calls.'),
+    (('info', {'throttle_duration_sec': 1.0}), ('info', {'throttle_duration_sec': 2.0}),
+     'Logging filter parameters cannot be changed between calls.'),
+])
+def test_a_call_site_keeps_its_first_severity_and_filters_as_in_rclpy(
+        rclpy, logs, first, then, error):
+    logger = rclpy.create_node('helper').get_logger()
+    log_from_one_line(logger, first[0], 'first', **first[1])
+    with pytest.raises(ValueError, match=error):
+        log_from_one_line(logger, then[0], 'then', **then[1])
+    assert [record.text for record in logs] == ['first']
+
+
+def test_a_call_site_may_repeat_its_severity_and_filters(rclpy, logs):
+    logger = rclpy.create_node('helper').get_logger()
+    for text in ('one', 'two'):
+        log_from_one_line(logger, 'warning', text, skip_first=True)
+    assert [record.text for record in logs] == ['two']

@@ -8,8 +8,12 @@ console format ``[INFO] [12.340000000] [scan_ahead]: ...``).
 
 The filters are rclpy's, keyed by call site: ``once``, ``skip_first`` and
 ``throttle_duration_sec`` (throttled on sim time — the lockstep has no other clock; as with
-rclpy's default system-clock throttle, the first call always logs). Levels are per logger name
-and inherited along the dotted hierarchy (default INFO, ``--log-level`` or ``set_level``).
+rclpy's default system-clock throttle, the first call always logs). As in rclpy, a call site
+remembers its first enabled call's severity, logger name and filters, and a later call that
+changes any of them raises ValueError (``Logger severity cannot be changed between calls.``):
+one line of code logging at several severities works here only if it works on the robot.
+Levels are per logger name and inherited along the dotted hierarchy (default INFO,
+``--log-level`` or ``set_level``).
 """
 
 from enum import IntEnum
@@ -35,14 +39,34 @@ class LoggingSeverity(IntEnum):
 
 
 class _CallSite:
-    """Filter state of one logging call site (rclpy keys it on the caller's code position)."""
+    """
+    One logging call site (rclpy keys it on the caller's code position).
 
-    __slots__ = ('logged_once', 'first_skipped', 'last_logged_ns')
+    What its first call asked for (severity, logger name, filter parameters), which later calls
+    must repeat, and the filters' state.
+    """
 
-    def __init__(self):
+    __slots__ = ('severity', 'name', 'filters', 'logged_once', 'first_skipped',
+                 'last_logged_ns')
+
+    def __init__(self, severity: 'LoggingSeverity', name: str, filters: dict):
+        self.severity = severity
+        self.name = name
+        self.filters = filters
         self.logged_once = False
         self.first_skipped = False
         self.last_logged_ns = None
+
+    def check_unchanged(self, severity: 'LoggingSeverity', name: str, filters: dict) -> None:
+        """Raise ValueError as rclpy does when a call changes what the site's first asked for."""
+        if severity != self.severity:
+            raise ValueError('Logger severity cannot be changed between calls.')
+        if name != self.name:
+            raise ValueError('Logger name cannot be changed between calls.')
+        if filters.keys() != self.filters.keys():
+            raise ValueError('Requested logging filters cannot be changed between calls.')
+        if filters != self.filters:
+            raise ValueError('Logging filter parameters cannot be changed between calls.')
 
 
 def _caller_position() -> tuple:
@@ -99,15 +123,22 @@ class RcutilsLogger:
                             f'message must be a str, got {type(message).__name__}')
         if not self.is_enabled_for(severity):
             return False
+        filters = {key: value for key, value in kwargs.items() if value}
+        position = _caller_position()
+        site = self.contexts.get(position)
+        if site is None:
+            site = self.contexts[position] = _CallSite(severity, name, filters)
+        else:
+            site.check_unchanged(severity, name, filters)
         current = loop.current()
-        if kwargs and not self._filters_pass(kwargs, current.now_ns):
+        if filters and not self._filters_pass(site, filters, current.now_ns):
             return False
         current.log(LogRecord(name, severity.name, current.now_ns, message))
         return True
 
-    def _filters_pass(self, kwargs: dict, now_ns: int) -> bool:
+    @staticmethod
+    def _filters_pass(site: _CallSite, kwargs: dict, now_ns: int) -> bool:
         """Run rclpy's filters in its order (throttle, skip_first, once), updating state."""
-        site = self.contexts.setdefault(_caller_position(), _CallSite())
         duration = kwargs.get('throttle_duration_sec')
         if duration:
             if site.last_logged_ns is not None and \
