@@ -65,8 +65,9 @@ class SimBridge(Node):
             draw_rays=self.declare_parameter('draw_rays', False).value)
         self.step_ns = round(NANOSECONDS_PER_SECOND / physics_rate)
         self.step_s = self.step_ns / NANOSECONDS_PER_SECOND
-        self.steps_per_scan = max(1, round(physics_rate / self.sim.lidar_config.update_rate))
-        self.steps_per_odom = max(1, round(physics_rate / odom_rate))
+        self.steps_per_scan = self.steps_between(
+            'lidar update_rate', self.sim.lidar_config.update_rate, physics_rate)
+        self.steps_per_odom = self.steps_between('odom_rate', odom_rate, physics_rate)
         self.steps = 0
         self.collisions_reported = 0
 
@@ -92,6 +93,15 @@ class SimBridge(Node):
         if not (math.isfinite(value) and value > 0.0):
             raise ValueError(f"parameter '{name}' must be positive and finite, got {value!r}")
         return value
+
+    def steps_between(self, name, rate, physics_rate):
+        """Return the physics steps between messages sent at ``rate`` (Hz); warn if inexact."""
+        steps = max(1, round(physics_rate / rate))
+        if not math.isclose(physics_rate / steps, rate):
+            self.get_logger().warning(
+                f'{name} {rate:g} Hz is not physics_rate {physics_rate:g} Hz divided by a whole '
+                f'number: publishing every {steps} steps, at {physics_rate / steps:g} Hz')
+        return steps
 
     def optional(self, name, unset):
         """Declare a parameter whose default ``unset`` means 'as the robot model says'."""

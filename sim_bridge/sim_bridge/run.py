@@ -25,7 +25,7 @@ from sim_bridge import lockstep
 from sim_bridge.lockstep.rosargs import yaml_value
 from sim_bridge.metrics import compute_metrics
 from sim_bridge.paths import find_world
-from sim_bridge.plot import plot_trajectory
+from sim_bridge.plot import plot_trajectory, SCANS_DRAWN
 from sim_bridge.record import BagRecorder
 from sim_bridge.run_trace import CollisionEvent, ScanSnapshot, Trace
 from sim_bridge.scenario import target_name
@@ -36,7 +36,6 @@ BRIDGE_NODE = 'sim_bridge'
 #: SimBridge parameters the runner alone sets: the world the metrics are scored in, the seed
 #: and gui options, the start pose, and the pace (lockstep runs on sim time; --gui paces it).
 RUNNER_BRIDGE_PARAMETERS = ('world', 'seed', 'gui', 'start_pose', 'real_time_factor')
-SCAN_SNAPSHOTS = 5
 SETPOINT_PARAMETER = 'distance'
 PROGRESS_AFTER_S = 2.0
 GUI_FRAME_RATE = 60
@@ -130,7 +129,7 @@ class Observer:
     def __init__(self, simulator, duration_s: float):
         self.sim = simulator
         self.trace = Trace(robot_radius=simulator.robot_radius)
-        self.snapshot_period_s = duration_s / SCAN_SNAPSHOTS
+        self.snapshot_period_s = duration_s / SCANS_DRAWN
         self.next_snapshot_s = self.snapshot_period_s / 2.0
 
     def __call__(self, topic: str, msg: Any, t_ns: int) -> None:

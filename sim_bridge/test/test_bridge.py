@@ -447,6 +447,15 @@ def test_rate_parameters_must_be_positive(name, session):
         session.bridge(**{name: 0.0})
 
 
+def test_a_rate_the_physics_cannot_keep_is_warned_of_with_the_rate_kept(session):
+    warnings = []
+    session.runtime.set_log_sink(lambda record: warnings.append(record.text))
+    bridge = session.bridge(physics_rate=25.0, odom_rate=25.0)
+    assert (bridge.steps_per_scan, bridge.steps_per_odom) == (2, 1)
+    assert warnings == ['lidar update_rate 10 Hz is not physics_rate 25 Hz divided by a whole '
+                        'number: publishing every 2 steps, at 12.5 Hz']
+
+
 def test_the_installed_params_file_holds_the_nodes_own_defaults(session):
     path = Path(__file__).resolve().parents[1] / 'params' / 'sim.yaml'
     shipped = yaml.safe_load(path.read_text())['sim_bridge']['ros__parameters']

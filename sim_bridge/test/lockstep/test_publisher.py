@@ -60,9 +60,13 @@ def test_scalar_fields_need_the_python_type_the_converter_checks(node, msgtype, 
         publisher.publish(msg)
 
 
-def test_bool_is_an_int_to_the_converter(node):
+def test_bool_is_an_int_to_the_converter(node, runtime):
     cls, publisher = publisher_of(node, 'std_msgs/msg/Int32', 'topic')
+    received = []
+    node.create_subscription(cls, 'topic', received.append, 10)
     publisher.publish(cls(data=True))
+    runtime.run_until(0)
+    assert [msg.data for msg in received] == [True]
 
 
 def test_wrong_sub_message_type_is_named(node):
