@@ -32,6 +32,9 @@ from sim_bridge.sdf import LidarConfig
 #: Rays per ``rayTestBatch`` call. pybullet refuses more than MAX_RAY_INTERSECTION_BATCH_SIZE
 #: and, at exactly that many, silently returns one result fewer; so stay one below.
 RAY_BATCH_SIZE = pybullet.MAX_RAY_INTERSECTION_BATCH_SIZE - 1
+#: From this many beams on, pybullet's worker threads cast a scan faster than one thread
+#: (bench_simulator.py); the threads only split the batch, the ranges are the same.
+THREADED_FROM_BEAMS = 100
 #: Thickness (m) of a sized floor, a thin box whose top face is z = 0.
 FLOOR_THICKNESS = 0.01
 SHAPE_COLOURS = {'box': (0.80, 0.50, 0.20, 1.0), 'cylinder': (0.20, 0.60, 0.30, 1.0),
@@ -189,14 +192,17 @@ class Lidar:
     """
     A lidar on the robot casting rays into one pybullet client.
 
-    ``rng`` supplies the noise (the only randomness); ``threads`` is pybullet's numThreads.
+    ``rng`` supplies the noise (the only randomness); ``threads`` is pybullet's numThreads
+    (0: pybullet's choice), by default 1 below ``THREADED_FROM_BEAMS`` beams and 0 from there.
     """
 
     def __init__(self, client: int, config: LidarConfig, rng: np.random.Generator, *,
-                 threads: int = 1) -> None:
+                 threads: int | None = None) -> None:
         self.client = client
         self.config = config
         self.rng = rng
+        if threads is None:
+            threads = 0 if config.beams >= THREADED_FROM_BEAMS else 1
         self.threads = threads
         self._reach = beam_directions(config) * config.range_max
         self._starts = np.empty_like(self._reach)

@@ -66,9 +66,9 @@ class Simulator:
     ``command_timeout`` (s, sim time): with no new command for longer than this the robot is
     told to stop (None: a command holds until the next); ``gui`` opens the pybullet window
     (one per process) with a camera following the robot, ``draw_rays`` draws the lidar's rays
-    there; ``ray_threads`` is pybullet's numThreads for the lidar (1: no extra
-    threads); ``collision_meshes`` False gives pybullet primitives instead of meshes (slower;
-    for comparison).
+    there; ``ray_threads`` is pybullet's numThreads for the lidar (None: chosen by beam count,
+    see :class:`~sim_bridge.lidar.Lidar`); ``collision_meshes`` False gives pybullet
+    primitives instead of meshes (slower; for comparison).
     """
 
     def __init__(self, world: World | str | os.PathLike, *, seed: int = 0,
@@ -76,7 +76,7 @@ class Simulator:
                  lidar_noise_stddev: float | None = None, limits: DriveLimits | None = None,
                  command_timeout: float | None = None, gui: bool = False,
                  draw_rays: bool = False,
-                 ray_threads: int = 1, collision_meshes: bool = True) -> None:
+                 ray_threads: int | None = None, collision_meshes: bool = True) -> None:
         if not isinstance(world, World):
             world = World.load(world)
         self.world = world

@@ -6,8 +6,9 @@ Run: ``python test/bench/bench_simulator.py`` (a few seconds). Measures, in the 
 1. the per-step collision check: the analytic footprint check the simulator uses against a
    vectorised numpy variant and pybullet's getClosestPoints / getContactPoints;
 2. one ray cast batch at 36, 360 and 1081 beams: meshes (used) against pybullet primitives,
-   Python lists against numpy arrays as input, numThreads 1 (used) against 0 (Bullet's
-   choice), and the ways to turn pybullet's result tuples into an array;
+   Python lists against numpy arrays as input, numThreads 1 against 0 (Bullet's choice; used
+   from lidar.THREADED_FROM_BEAMS beams on), and the ways to turn pybullet's result tuples
+   into an array;
 3. Simulator.step and Simulator.scan, and the real-time factor of stepping the robot at
    100 Hz with a 10 Hz scan at 36 and 1081 beams (goal: >= 500x and >= 100x).
 
@@ -82,7 +83,7 @@ def bench_collision_check(world: World) -> None:
             ('pybullet getClosestPoints, robot vs each body', closest_points),
             ('pybullet performCollisionDetection + getContactPoints', contact_points)]
     for label, function in rows:
-        print(f'   {label:58s} {best_us(function, 2) / len(points):8.2f}')
+        print(f'   {label:62s} {best_us(function, 2) / len(points):8.2f}')
     pybullet.disconnect(client)
 
 
@@ -118,13 +119,13 @@ def bench_ray_casts(world: World) -> None:
         results = pybullet.rayTestBatch(starts_list, ends_list, physicsClientId=clients[True])
         fraction = itemgetter(2)
         measured = [
-            ('meshes, numpy arrays in, numThreads=1 (used)',
+            ('meshes, numpy arrays in, numThreads=1 (used below 100 beams)',
              cast(clients[True], starts_array, ends)),
             ('meshes, lists in (conversion not counted)',
              cast(clients[True], starts_list, ends_list)),
             ('meshes, list of starts with an array of ends',
              cast(clients[True], starts_list, ends)),
-            ('meshes, numpy arrays in, numThreads=0 (Bullet decides)',
+            ('meshes, numpy arrays in, numThreads=0 (used from 100 beams)',
              cast(clients[True], starts_array, ends, threads=0)),
             ('pybullet primitives, numpy arrays in',
              cast(clients[False], starts_array, ends)),
@@ -140,7 +141,7 @@ def bench_ray_casts(world: World) -> None:
         for label, function in measured:
             rows.setdefault(label, []).append(best_us(function, number))
     for label, values in rows.items():
-        print(f'   {label:58s}' + ''.join(f'{value:10.1f}' for value in values))
+        print(f'   {label:62s}' + ''.join(f'{value:10.1f}' for value in values))
     for client in clients.values():
         pybullet.disconnect(client)
 
@@ -180,17 +181,17 @@ def bench_real_time(world: World) -> None:
     print(f'   {"":48s}{"x real time":>12s}{"µs/step":>9s}{"µs/scan":>9s}{"hits":>6s}')
     circling = (0.25, 0.5)
     pushing = (1.0, 0.0)
-    rows = [(36, 500, 'circling (used)', circling, {}),
+    rows = [(36, 500, 'circling (used: numThreads=1)', circling, {}),
             (36, 500, 'circling, numThreads=0', circling, {'ray_threads': 0}),
             (36, 500, 'circling, pybullet primitives', circling, {'collision_meshes': False}),
             (36, 500, 'pushing against a wall', pushing, {}),
-            (1081, 100, 'circling (used)', circling, {}),
-            (1081, 100, 'circling, numThreads=0', circling, {'ray_threads': 0}),
+            (1081, 100, 'circling (used: numThreads=0)', circling, {}),
+            (1081, 100, 'circling, numThreads=1', circling, {'ray_threads': 1}),
             (1081, 100, 'circling, pybullet primitives', circling, {'collision_meshes': False})]
     for beams, goal, label, command, options in rows:
         factor, step, scan, hits = max(real_time_factor(world, beams, 10.0, command, **options)
                                        for _ in range(3))
-        print(f'   {beams:4d} beams, {label:30s} goal {goal:3d}x{factor:9.0f}x'
+        print(f'   {beams:4d} beams, {label:36s} goal {goal:3d}x{factor:9.0f}x'
               f'{step:9.1f}{scan:9.1f}{hits:6d}')
 
 
