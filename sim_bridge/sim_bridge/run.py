@@ -17,7 +17,7 @@ import sys
 import tempfile
 import time
 import traceback
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, Iterable, Sequence
 
 import yaml
 
@@ -214,6 +214,21 @@ class LockstepRun:
         except lockstep.NodeError as error:
             raise RunError(f'{BRIDGE_NODE}: {error.original}') from None
 
+    def start_nodes(self, targets: Iterable[tuple[str, type]],
+                    params: Params) -> lockstep.NodeError | None:
+        """
+        Start each (label, Node class) in ``targets``; return the error of one that raised.
+
+        RunError when ``params`` names a node that is not running.
+        """
+        try:
+            for label, node_class in targets:
+                self.start(node_class, label)
+        except lockstep.NodeError as error:
+            return error
+        self.check_params(params)
+        return None
+
     def check_params(self, params: Params) -> None:
         """Raise RunError when ``params`` names a node that is not running."""
         unknown = set(params) - {node.get_name() for node in self.nodes}
@@ -237,6 +252,31 @@ class LockstepRun:
         for node in reversed(self.nodes):
             node.destroy_node()
         self.rclpy.try_shutdown()
+
+
+class Pacing:
+    """
+    What the runner does between steps of the loop: nothing, a progress bar, or wall-clock pace.
+
+    With ``gui``, steps are one frame of the pybullet window (1/GUI_FRAME_RATE s) and sim time
+    waits for the wall clock; otherwise steps are 1 s and ``progress(sim_s, duration_s)`` is
+    called once the run has taken PROGRESS_AFTER_S of wall time.
+    """
+
+    def __init__(self, duration_s: float, gui: bool,
+                 progress: Callable[[float, float], None] | None):
+        self.duration_s = duration_s
+        self.gui = gui
+        self.progress = progress
+        self.step_ns = NANOSECONDS_PER_SECOND // (GUI_FRAME_RATE if gui else 1)
+        self.wall_start = time.perf_counter()
+
+    def __call__(self, now_ns: int) -> None:
+        elapsed = time.perf_counter() - self.wall_start
+        if self.gui:
+            time.sleep(max(0.0, now_ns / NANOSECONDS_PER_SECOND - elapsed))
+        elif self.progress is not None and elapsed > PROGRESS_AFTER_S:
+            self.progress(now_ns / NANOSECONDS_PER_SECOND, self.duration_s)
 
 
 def default_out_dir(world: World, targets: Sequence[str]) -> Path:
@@ -292,29 +332,14 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
         try:
             observer = Observer(run.start_simulator(SimBridge), duration_s)
             runtime.add_tap(observer)
-            start_failure = None
-            try:
-                for target, node_class in zip(targets, classes):
-                    run.start(node_class, target)
-            except lockstep.NodeError as error:
-                start_failure = error
-            else:
-                run.check_params(node_params)
+            start_failure = run.start_nodes(zip(targets, classes), node_params)
             setpoint = run.parameter(SETPOINT_PARAMETER)
             bag = open_outputs(out_dir, params_file, record)
             run.record(bag)
             if start_failure is not None:
                 raise start_failure
-
-            def pace(now_ns: int) -> None:
-                elapsed = time.perf_counter() - wall_start
-                if gui:
-                    time.sleep(max(0.0, now_ns / NANOSECONDS_PER_SECOND - elapsed))
-                elif progress is not None and elapsed > PROGRESS_AFTER_S:
-                    progress(now_ns / NANOSECONDS_PER_SECOND, duration_s)
-
-            run.advance(round(duration_s * NANOSECONDS_PER_SECOND),
-                        NANOSECONDS_PER_SECOND // (GUI_FRAME_RATE if gui else 1), pace)
+            pacing = Pacing(duration_s, gui, progress)
+            run.advance(round(duration_s * NANOSECONDS_PER_SECOND), pacing.step_ns, pacing)
         except lockstep.NodeError as error:
             node_errors.append({'node': error.node_name, 'error': str(error)})
             if not quiet:
