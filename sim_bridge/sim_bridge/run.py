@@ -412,6 +412,9 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
                         help='show the run in the pybullet window at wall-clock pace')
     parser.add_argument('--quiet', action='store_true',
                         help="print only the summary, not the nodes' log lines")
+    parser.add_argument('--no-record', action='store_true',
+                        help='write no rosbag2 recording (a faster run)')
+    parser.add_argument('--no-plot', action='store_true', help='write no trajectory.png')
     return parser.parse_args(argv)
 
 
@@ -425,14 +428,17 @@ def main(argv: Sequence[str] | None = None) -> int:
             params.setdefault(node, {})[name] = value
         result = run_simulation(
             args.world, args.nodes, duration_s=args.duration, seed=args.seed, params=params,
-            out_dir=args.out, quiet=args.quiet, gui=args.gui,
+            out_dir=args.out, quiet=args.quiet, gui=args.gui, record=not args.no_record,
+            plot=not args.no_plot,
             progress=print_progress if sys.stderr.isatty() and not args.quiet else None)
     except RunError as error:
         print(f'error: {error}', file=sys.stderr)
         return 2
     print(f'\nRun summary ({result.out_dir}):')
     print(summary_table(result.metrics))
-    print(f'  outputs: {result.out_dir}/metrics.json, trajectory.png, run/ (rosbag2, MCAP)')
+    written = ['metrics.json', *(['trajectory.png'] if not args.no_plot else []),
+               *(['run/ (rosbag2, MCAP)'] if not args.no_record else [])]
+    print(f"  outputs: {result.out_dir}/{', '.join(written)}")
     return 0 if result.ok else 1
 
 

@@ -438,3 +438,13 @@ def test_runner_uninstalls_the_lockstep_runtime(make_target, outcome, tmp_path):
     assert not lockstep.installed()
     assert not [name for name in sys.modules
                 if name.split('.')[0] in ('rclpy', 'sensor_msgs', 'geometry_msgs', 'tf2_ros')]
+
+
+def test_no_record_and_no_plot_leave_only_the_metrics(tmp_path):
+    out_dir = tmp_path / 'out'
+    status, stdout, _ = run_main('--world', 'obstacles', '--node', 'scan_ahead', '--duration',
+                                 '0.5', '--quiet', '--no-record', '--no-plot',
+                                 '--out', str(out_dir))
+    assert status == 0
+    assert sorted(path.name for path in out_dir.iterdir()) == ['metrics.json', 'params.yaml']
+    assert f'outputs: {out_dir}/metrics.json\n' in stdout
