@@ -59,7 +59,8 @@ listed here is an error, so a typo never goes unnoticed::
 Numbers must be numbers (``1.0e3``, not ``1e3``, which YAML 1.1 reads as text), sizes and radii
 positive. The robot must start clear of every obstacle. A file breaking any rule is rejected
 with a :class:`WorldError` naming the file, the entry and the field, e.g.
-``worlds/room.yaml: obstacles[2] (box_a): 'size': must be 3 positive numbers, got [1, -1, 1]``.
+``worlds/room.yaml: obstacles[2] (box_a): 'size': must be 3 positive finite numbers, got
+[1, -1, 1]``.
 
 What the simulator sees: every obstacle is one or more :class:`~sim_bridge.geometry.Shape`
 primitives (walls and cubes are boxes); the robot collides with their floor outlines
@@ -473,19 +474,19 @@ class _Parser:
     def numbers(self, value: Any, where: str | None, key: str, count: int) -> tuple[float, ...]:
         if not isinstance(value, list) or len(value) != count \
                 or not all(_is_number(item) for item in value):
-            raise self.fail(where, key, f'must be {count} numbers, got {value!r}')
+            raise self.fail(where, key, f'must be {count} finite numbers, got {value!r}')
         return tuple(float(item) for item in value)
 
     def positives(self, value: Any, where: str | None, key: str,
                   count: int) -> tuple[float, ...]:
         if not isinstance(value, list) or len(value) != count \
                 or not all(_is_number(item) and item > 0 for item in value):
-            raise self.fail(where, key, f'must be {count} positive numbers, got {value!r}')
+            raise self.fail(where, key, f'must be {count} positive finite numbers, got {value!r}')
         return tuple(float(item) for item in value)
 
     def number(self, value: Any, where: str | None, key: str) -> float:
         if not _is_number(value):
-            raise self.fail(where, key, f'must be a number, got {value!r}')
+            raise self.fail(where, key, f'must be a finite number, got {value!r}')
         return float(value)
 
     def positive(self, value: Any, where: str | None, key: str) -> float:
