@@ -14,6 +14,7 @@ import importlib.util
 import inspect
 from pathlib import Path
 import sys
+import traceback
 from types import ModuleType
 
 
@@ -39,11 +40,15 @@ def _load_file(path: Path) -> ModuleType:
     spec = importlib.util.spec_from_file_location(module_name, path)
     module = importlib.util.module_from_spec(spec)
     sys.modules[module_name] = module
+    # As `python3 path/to/node.py` does, the file's folder is searched first for its imports.
+    sys.path.insert(0, str(path.parent))
     try:
         spec.loader.exec_module(module)
     except Exception:
         del sys.modules[module_name]
         raise
+    finally:
+        sys.path.remove(str(path.parent))
     return module
 
 
@@ -60,6 +65,14 @@ def load_module(where: str) -> ModuleType:
         raise TargetError(f"'{where}' is neither a console script, a module nor a .py file")
 
 
+def import_failure(error: Exception) -> str:
+    """Describe an exception raised while importing a TARGET, with where it was raised."""
+    if isinstance(error, SyntaxError):
+        return f'{type(error).__name__}: {error}'
+    frame = traceback.extract_tb(error.__traceback__)[-1]
+    return f'{type(error).__name__}: {error} ({frame.filename}:{frame.lineno})'
+
+
 def node_classes(module: ModuleType, node_base: type) -> dict[str, type]:
     """Return the Node subclasses defined in ``module`` (not merely imported by it), by name."""
     return {name: value for name, value in vars(module).items()
@@ -70,7 +83,13 @@ def node_classes(module: ModuleType, node_base: type) -> dict[str, type]:
 def load_node_class(target: str, node_base: type) -> type:
     """Return the Node subclass TARGET names; ``node_base`` is the runtime's rclpy Node."""
     where, class_name = _split(target)
-    classes = node_classes(load_module(where), node_base)
+    try:
+        module = load_module(where)
+    except TargetError:
+        raise
+    except Exception as error:
+        raise TargetError(f"'{where}' fails to import: {import_failure(error)}") from error
+    classes = node_classes(module, node_base)
     if class_name is not None:
         if class_name not in classes:
             raise TargetError(f"'{where}' has no Node subclass '{class_name}' "

@@ -422,7 +422,7 @@ def broken_import_target(tmp_path: Path) -> str:
     (lambda tmp_path: 'scan_ahead', 'completes'),
     (lambda tmp_path: str(FIXTURES / 'raising_node.py'), 'node error'),
     (lambda tmp_path: 'no_such_node', RunError),
-    (broken_import_target, ImportError),
+    (broken_import_target, RunError),
 ], ids=['completed', 'node raised', 'start error', 'target import fails'])
 def test_runner_uninstalls_the_lockstep_runtime(make_target, outcome, tmp_path):
     assert 'rclpy' not in sys.modules
@@ -448,3 +448,34 @@ def test_no_record_and_no_plot_leave_only_the_metrics(tmp_path):
     assert status == 0
     assert sorted(path.name for path in out_dir.iterdir()) == ['metrics.json', 'params.yaml']
     assert f'outputs: {out_dir}/metrics.json\n' in stdout
+
+
+@pytest.mark.parametrize('source, mentions', [
+    ('import rclpy\n\nraise ImportError("no module named scan_utils")\n',
+     'ImportError: no module named scan_utils ({path}:3)'),
+    ('def broken(:\n', 'SyntaxError: '),
+], ids=['import error', 'syntax error'])
+def test_a_target_that_fails_to_import_is_a_one_line_start_error(source, mentions, tmp_path):
+    path = tmp_path / 'broken.py'
+    path.write_text(source)
+    status, stdout, stderr = run_main('--world', 'obstacles', '--node', str(path),
+                                      '--out', str(tmp_path / 'out'))
+    assert status == 2 and stdout == ''
+    assert stderr.startswith(f"error: '{path}' fails to import: ")
+    assert mentions.format(path=path) in stderr
+    assert stderr.count('\n') == 1
+
+
+def test_a_node_file_imports_modules_beside_it(tmp_path):
+    (tmp_path / 'scan_utils.py').write_text('GREETING = "hello from a helper module"\n')
+    node_file = tmp_path / 'greeter.py'
+    node_file.write_text(
+        'from rclpy.node import Node\n\nimport scan_utils\n\n\n'
+        'class Greeter(Node):\n\n    def __init__(self):\n'
+        "        super().__init__('greeter')\n"
+        '        self.get_logger().info(scan_utils.GREETING)\n')
+    status, _, stderr = run_main('--world', 'obstacles', '--node', str(node_file), '--duration',
+                                 '0.1', '--no-record', '--no-plot', '--out', str(tmp_path / 'o'))
+    assert status == 0
+    assert 'hello from a helper module' in stderr
+    assert str(tmp_path) not in sys.path
