@@ -192,18 +192,31 @@ def init_source(spec: MessageSpec, resolve) -> _Source:
 
 
 def check_source(spec: MessageSpec, resolve) -> _Source:
-    """Source of ``check(m)``, mirroring the per-field asserts of rosidl's C converter."""
+    """
+    Source of ``check(m)``, mirroring the per-field asserts of rosidl's C converter.
+
+    Nested messages are checked inline (one function per type, however deep it is).
+    """
     source = _Source('def check(m):')
+    _check_fields(source, spec, 'm', '', resolve)
+    source.add('return None')
+    return source
+
+
+def _check_fields(source: _Source, spec: MessageSpec, message: str, path: str,
+                  resolve) -> None:
+    """Add the checks of every field of ``spec`` read from the variable ``message``."""
     for field in spec.fields:
-        name = field.name
-        source.add(f'v = m._{name}')
+        name = path + field.name
+        source.add(f'v = {message}._{field.name}')
         if field.kind == 'message':
-            cls = source.name('cls', resolve(field.msgtype))
+            message_class = resolve(field.msgtype)
+            cls = source.name('cls', message_class)
             source.add(f'if v.__class__ is not {cls}:')
             source.add(f'return {name!r}, {field.msgtype!r}, v', 2)
-            source.add(f'r = {cls}._lockstep_check(v)')
-            source.add('if r is not None:')
-            source.add(f"return {name + '.'!r} + r[0], r[1], r[2]", 2)
+            nested = f'm{len(source.lines)}'
+            source.add(f'{nested} = v')
+            _check_fields(source, message_class._lockstep_spec, nested, name + '.', resolve)
         elif field.kind == 'scalar':
             source.add(f'if {_scalar_failure(field)}:')
             source.add(f'return {name!r}, {field.primitive.describe()!r}, v', 2)
@@ -220,8 +233,6 @@ def check_source(spec: MessageSpec, resolve) -> _Source:
                 source.add(f'r = check_items(v, {name!r}, {field_ref})')
             source.add('if r is not None:')
             source.add('return r', 2)
-    source.add('return None')
-    return source
 
 
 def _scalar_failure(field: Field) -> str:
