@@ -82,10 +82,13 @@ def main() -> None:
             msg = scan(beams)
             rows.append((f'LaserScan {beams} beams: publish -> deliver',
                          calibrated(publish_deliver(publisher, msg))))
-            runtime.add_tap(lambda topic, msg, t_ns: None)
+
+            def ignore(topic, msg, t_ns):
+                pass
+            runtime.add_tap(ignore)
             rows.append((f'LaserScan {beams} beams: publish -> deliver, with a tap',
                          calibrated(publish_deliver(publisher, msg))))
-            runtime.taps.clear()
+            runtime.remove_tap(ignore)
             ranges = np.linspace(0.5, 9.5, beams)
             rows.append((f'LaserScan {beams} beams: build from a numpy array',
                          calibrated(lambda calls: [LaserScan(ranges=ranges)

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import heapq
 import itertools
 import sys
-from typing import Callable, Optional
+from typing import Callable, Iterable, Optional
 
 from sim_bridge.lockstep.errors import LockstepError, NodeError, StalledError
 
@@ -57,7 +57,8 @@ class Runtime:
         self.horizon_ns: Optional[int] = None
         self.graph = Graph()
         self.nodes: list = []
-        self.taps: list = []
+        self.taps: list = []        # (tap, topic names or None for all)
+        self._topic_taps: dict = {}  # topic name -> the taps publishers on it call
         self.last_node_error: Optional[NodeError] = None
         self.logger_levels: dict = {}
         self.default_context = None
@@ -69,18 +70,36 @@ class Runtime:
 
     # --- observers -------------------------------------------------------------------------
 
-    def add_tap(self, tap: Callable) -> None:
+    def add_tap(self, tap: Callable, topics: Optional[Iterable[str]] = None) -> None:
         """
         Call ``tap(topic, msg, t_ns)`` on every successful publish, during the publish.
 
-        ``msg`` may be the publisher's own object: a tap reads it there and then, and copies
-        what it keeps, as a subscriber's copy is not made when nobody subscribes.
+        ``topics``: the fully qualified topic names to tap (None: every topic). ``msg`` may be
+        the publisher's own object: a tap reads it there and then, and copies what it keeps,
+        as a subscriber's copy is not made when nobody subscribes.
         """
-        self.taps.append(tap)
+        self.taps.append((tap, None if topics is None else frozenset(topics)))
+        self._refresh_taps()
 
     def remove_tap(self, tap: Callable) -> None:
         """Stop calling ``tap``."""
-        self.taps.remove(tap)
+        self.taps = [(added, topics) for added, topics in self.taps if added != tap]
+        self._refresh_taps()
+
+    def taps_on(self, topic: str) -> list:
+        """
+        Return the live list of taps on ``topic``, for its publishers to keep.
+
+        The list is updated in place when taps are added or removed.
+        """
+        if topic not in self._topic_taps:
+            self._topic_taps[topic] = []
+            self._refresh_taps()
+        return self._topic_taps[topic]
+
+    def _refresh_taps(self) -> None:
+        for topic, taps in self._topic_taps.items():
+            taps[:] = [tap for tap, topics in self.taps if topics is None or topic in topics]
 
     def set_log_sink(self, sink: Optional[Callable]) -> None:
         """Send every :class:`LogRecord` to ``sink(record)``; None restores stderr printing."""

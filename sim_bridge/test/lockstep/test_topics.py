@@ -152,6 +152,37 @@ def test_taps_see_every_successful_publish_with_its_sim_time(nodes, runtime):
     assert seen == [('/numbers', 5, 500_000_000), ('/numbers', 10, 1_000_000_000)]
 
 
+def test_a_tap_on_named_topics_sees_only_those(nodes, runtime):
+    from std_msgs.msg import Int32
+    talker, _ = nodes
+    numbers = talker.create_publisher(Int32, 'numbers', 10)
+    seen, everything = [], []
+    runtime.add_tap(lambda topic, msg, t_ns: seen.append((topic, msg.data)),
+                    topics=['/numbers', '/later'])
+    runtime.add_tap(lambda topic, msg, t_ns: everything.append(topic))
+    others = talker.create_publisher(Int32, 'others', 10)
+    later = talker.create_publisher(Int32, 'later', 10)
+    for publisher, value in ((numbers, 1), (others, 2), (later, 3)):
+        publisher.publish(int32(value))
+    assert seen == [('/numbers', 1), ('/later', 3)]
+    assert everything == ['/numbers', '/others', '/later']
+
+
+def test_a_removed_tap_sees_nothing_more(nodes, runtime):
+    from std_msgs.msg import Int32
+    talker, _ = nodes
+    publisher = talker.create_publisher(Int32, 'numbers', 10)
+    seen = []
+
+    def tap(topic, msg, t_ns):
+        seen.append(msg.data)
+    runtime.add_tap(tap, topics=['/numbers'])
+    publisher.publish(int32(1))
+    runtime.remove_tap(tap)
+    publisher.publish(int32(2))
+    assert seen == [1]
+
+
 def test_a_topic_carries_one_message_type(nodes):
     from geometry_msgs.msg import Twist, TwistStamped
     talker, listener = nodes

@@ -30,6 +30,7 @@ class Publisher:
         self._lockstep_copy = msg_type._lockstep_copy
         self._lockstep_recipients: list = []
         self._lockstep_history = None
+        self._taps = self._runtime.taps_on(topic)
         self._unusable = None   # (exception class, text) publish raises once unusable
 
     @property
@@ -49,7 +50,7 @@ class Publisher:
         if problem is not None:
             raise MessageTypeError(self._lockstep_node_name, self.topic, *problem)
         runtime = self._runtime
-        taps = runtime.taps
+        taps = self._taps
         history = self._lockstep_history
         recipients = self._lockstep_recipients
         if not recipients and history is None:
