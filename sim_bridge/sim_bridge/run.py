@@ -126,6 +126,9 @@ def write_params_file(path: Path, params: Params) -> None:
 class Observer:
     """Fill a Trace from the bridge's simulator after every physics step, and keep a few scans."""
 
+    #: What the observer taps: /clock marks the end of a physics step.
+    TOPICS = ('/clock', '/scan')
+
     def __init__(self, simulator, duration_s: float):
         self.sim = simulator
         self.trace = Trace(robot_radius=simulator.robot_radius)
@@ -134,10 +137,8 @@ class Observer:
 
     def __call__(self, topic: str, msg: Any, t_ns: int) -> None:
         if topic == '/clock':
-            x, y, yaw = self.sim.pose
-            linear, angular = self.sim.velocity
-            self.trace.append(time=self.sim.time, x=x, y=y, yaw=yaw, linear=linear,
-                              angular=angular, clearance=self.sim.clearance())
+            sim = self.sim
+            self.trace.append(sim.time, *sim.pose, *sim.velocity, sim.clearance())
         elif topic == '/scan' and self.sim.time >= self.next_snapshot_s:
             self.trace.scans.append(self.snapshot(msg))
             self.next_snapshot_s += self.snapshot_period_s
@@ -186,7 +187,7 @@ class LockstepRun:
         if bag is not None:
             for message in self.held:
                 bag.write(*message)
-            self.runtime.add_tap(bag.write)
+            self.runtime.add_tap(bag.write, topics=bag.topics)
         self.held = []
 
     def start(self, node_class: type, label: str):
@@ -331,7 +332,7 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
         bag = None
         try:
             observer = Observer(run.start_simulator(SimBridge), duration_s)
-            runtime.add_tap(observer)
+            runtime.add_tap(observer, topics=Observer.TOPICS)
             start_failure = run.start_nodes(zip(targets, classes), node_params)
             setpoint = run.parameter(SETPOINT_PARAMETER)
             bag = open_outputs(out_dir, params_file, record)

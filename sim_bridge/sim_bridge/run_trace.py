@@ -37,6 +37,10 @@ class CollisionEvent:
     obstacle: str
 
 
+#: The columns of a Trace, in the order of a sample's values.
+TRACE_COLUMNS = ('time', 'x', 'y', 'yaw', 'linear', 'angular', 'clearance')
+
+
 @dataclass
 class Trace:
     """
@@ -47,21 +51,22 @@ class Trace:
     """
 
     robot_radius: float
-    columns: dict[str, list[float]] = field(default_factory=lambda: {
-        name: [] for name in ('time', 'x', 'y', 'yaw', 'linear', 'angular', 'clearance')})
+    samples: list[tuple[float, ...]] = field(default_factory=list)
     scans: list[ScanSnapshot] = field(default_factory=list)
     collisions: list[CollisionEvent] = field(default_factory=list)
+    _table: np.ndarray | None = field(default=None, init=False, repr=False, compare=False)
 
-    def append(self, **sample: float) -> None:
-        """Add one sample; every column must be given."""
-        if sample.keys() != self.columns.keys():
-            raise KeyError(f'a trace sample needs exactly {sorted(self.columns)}')
-        for name, value in sample.items():
-            self.columns[name].append(float(value))
+    def append(self, time: float, x: float, y: float, yaw: float, linear: float,
+               angular: float, clearance: float) -> None:
+        """Add one sample (units as in the class text)."""
+        self.samples.append((time, x, y, yaw, linear, angular, clearance))
 
     def __len__(self) -> int:
-        return len(self.columns['time'])
+        return len(self.samples)
 
     def array(self, name: str) -> np.ndarray:
-        """Return column ``name`` as a float array."""
-        return np.asarray(self.columns[name], dtype=float)
+        """Return column ``name`` (one of TRACE_COLUMNS) as a float array."""
+        column = TRACE_COLUMNS.index(name)
+        if self._table is None or len(self._table) != len(self.samples):
+            self._table = np.array(self.samples, dtype=float).reshape(-1, len(TRACE_COLUMNS))
+        return self._table[:, column]

@@ -49,7 +49,7 @@ def test_plot_view_holds_the_path_the_obstacles_and_the_bounds(tmp_path, trace, 
     axes = plot_trajectory(trace, world, tmp_path / 'trajectory.png').axes[0]
     (xmin, xmax), (ymin, ymax) = axes.get_xlim(), axes.get_ylim()
     assert xmin <= -3.0 and xmax >= 3.0 and ymin <= -3.0 and ymax >= 3.0
-    assert xmin <= min(trace.columns['x']) and xmax >= max(trace.columns['x'])
+    assert xmin <= trace.array('x').min() and xmax >= trace.array('x').max()
 
 
 def test_plot_marks_start_end_collisions_target_and_a_few_scans(tmp_path, trace, world):
