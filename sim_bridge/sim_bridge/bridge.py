@@ -124,9 +124,10 @@ class SimBridge(Node):
             self.scan_pub.publish(self.scan_message(stamp))
         if self.steps % self.steps_per_odom == 0:
             self.publish_odometry(stamp)
-        for collision in self.sim.collisions[self.collisions_reported:]:
-            self.report_collision(collision, stamp)
-        self.collisions_reported = len(self.sim.collisions)
+        collisions = self.sim.collisions
+        while self.collisions_reported < len(collisions):
+            self.report_collision(collisions[self.collisions_reported], stamp)
+            self.collisions_reported += 1
 
     def scan_message(self, stamp) -> LaserScan:
         scan = self.sim.scan()

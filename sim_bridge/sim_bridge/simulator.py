@@ -168,13 +168,12 @@ class Simulator:
         if self.command_timeout is not None and \
                 self._time_ns - self._command_time_ns > self.command_timeout * 1e9:
             self._drive.set_command(0.0, 0.0)
-        pose, blocked_after = self._move(dt)
+        pose, blocked_after, (distance, index) = self._move(dt)
         self._drive.pose = pose
         if blocked_after is not None:
             self._drive.halt()
         contact_time = self.time + (dt if blocked_after is None else blocked_after)
         self._time_ns += round(dt * 1e9)
-        distance, index = self._footprints.nearest(pose[0], pose[1])
         self._clearance = distance - self.robot_radius
         if blocked_after is not None or self._clearance <= CONTACT_DISTANCE:
             if not self._in_contact:
@@ -186,20 +185,24 @@ class Simulator:
         if self.viewer is not None:
             self.viewer.show_robot(pose)
 
-    def _move(self, dt: float) -> tuple[tuple[float, float, float], float | None]:
+    def _move(self, dt: float) -> tuple[tuple[float, float, float], float | None,
+                                        tuple[float, int]]:
         """
-        Return the robot's pose after dt (s) of driving, and when (s) it was blocked, or None.
+        Return the robot's pose after dt (s) of driving, when (s) it was blocked, or None.
 
-        The move is checked in pieces short enough not to jump over a thin wall.
+        And the nearest obstacle to that pose (``FootprintSet.nearest``). The move is checked
+        in pieces short enough not to jump over a thin wall.
         """
         linear, angular = self._drive.accelerate(dt)
         pose = self._drive.pose
         radius = self.robot_radius
+        nearest = self._footprints.nearest
         pieces = max(1, math.ceil(abs(linear) * dt / (MAX_MOVE_PER_CHECK * radius)))
         piece = dt / pieces
         for index in range(pieces):
             candidate = integrate_arc(pose, linear, angular, piece)
-            if self._footprints.nearest(candidate[0], candidate[1])[0] >= radius:
+            obstacle = nearest(candidate[0], candidate[1])
+            if obstacle[0] >= radius:
                 pose = candidate
                 continue
             free = self._last_free_fraction(pose, linear, angular, piece)
@@ -207,8 +210,8 @@ class Simulator:
             blocked_after = (index + free) * piece
             # A round robot turns freely in contact: it keeps turning for the rest of the step.
             yaw = wrap_angle(stop[2] + angular * (dt - blocked_after))
-            return (stop[0], stop[1], yaw), blocked_after
-        return pose, None
+            return (stop[0], stop[1], yaw), blocked_after, nearest(stop[0], stop[1])
+        return pose, None, obstacle
 
     def _last_free_fraction(self, pose: tuple[float, float, float], linear: float,
                             angular: float, dt: float) -> float:

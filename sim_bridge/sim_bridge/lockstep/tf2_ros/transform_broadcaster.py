@@ -12,10 +12,11 @@ class TransformBroadcaster:
     def __init__(self, node, qos=None) -> None:
         if qos is None:
             qos = QoSProfile(depth=100)
-        self.pub_tf = node.create_publisher(message_class('tf2_msgs/msg/TFMessage'), '/tf', qos)
+        self._tf_message = message_class('tf2_msgs/msg/TFMessage')
+        self.pub_tf = node.create_publisher(self._tf_message, '/tf', qos)
 
     def sendTransform(self, transform) -> None:  # noqa: N802 (tf2_ros's name)
         """Publish one TransformStamped or a list of them in one TFMessage."""
         if not isinstance(transform, list):
             transform = list(transform) if hasattr(transform, '__iter__') else [transform]
-        self.pub_tf.publish(message_class('tf2_msgs/msg/TFMessage')(transforms=transform))
+        self.pub_tf.publish(self._tf_message(transforms=transform))
