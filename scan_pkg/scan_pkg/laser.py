@@ -3,9 +3,9 @@ Scan geometry: an immutable, validated view of one planar laser scan.
 
 Pure numpy; no rclpy. A :class:`Scan` is built from any object with the fields of
 ``sensor_msgs/msg/LaserScan`` (a real message, the lockstep runtime's message, a rosbags message)
-or directly from numbers, and answers the questions the lab's nodes and controllers ask: the
-range at a bearing, the minimum range in five fixed bearing bands, the nearest valid return and
-the returns as points in the laser frame.
+or directly from numbers, and answers the questions the lab's nodes and controllers ask: whether
+it holds any information, the range at a bearing, the minimum range in five fixed bearing bands,
+the nearest valid return and the returns as points in the laser frame.
 
 Conventions (REP-103, REP-117):
 
@@ -20,12 +20,12 @@ Conventions (REP-103, REP-117):
 - Bearings are compared modulo 2 pi, so scanners sweeping 0..2 pi and -pi..pi behave the same.
   Two angles closer than ``ANGLE_TOLERANCE`` are equal: beams exactly on a band edge, and two
   beams equally near a bearing, are then treated symmetrically despite rounding.
-- An empty scan (no ranges) is a scan: it has no angles and no valid return, ``index_at`` and
-  ``closest`` answer None, ``range_at`` the cap and every region None.
+- An empty scan (no ranges) is a scan: it has no angles and no valid return, it is blind,
+  ``index_at`` and ``closest`` answer None, ``range_at`` the cap and every region None.
 
-Derived arrays are computed on first use and kept: the per-geometry ones (angles, bearing bands)
-are shared by every scan with the same beam count, ``angle_min`` and ``angle_increment``, because
-a node sees thousands of scans with one geometry.
+Derived arrays are computed on first use and kept: the per-geometry ones (angles, beam
+directions, bearing bands) are shared by every scan with the same beam count, ``angle_min`` and
+``angle_increment``, because a node sees thousands of scans with one geometry.
 """
 
 import array
@@ -87,18 +87,19 @@ class _Layout:
     """
     What depends only on the beam geometry, computed once per geometry.
 
-    The beam angles, the bearing bands of the regions, and the beams read by range_at for each
-    bearing and half width asked (a node asks the same few at every scan).
+    The beam angles and directions, the bearing bands of the regions, and the beams read by
+    range_at for each bearing and half width asked (a node asks the same few at every scan).
     """
 
-    __slots__ = ('beams', 'angle_min', 'angle_increment', 'angles', 'segment_starts',
-                 'band_segments', '_windows')
+    __slots__ = ('beams', 'angle_min', 'angle_increment', 'angles', 'directions',
+                 'segment_starts', 'band_segments', '_windows')
 
     def __init__(self, beams: int, angle_min: float, angle_increment: float):
         self.beams = beams
         self.angle_min = angle_min
         self.angle_increment = angle_increment
         self.angles = _read_only(angle_min + np.arange(beams) * angle_increment)
+        self.directions = _read_only(np.column_stack((np.cos(self.angles), np.sin(self.angles))))
         bearings = _normalize_angles(self.angles)
         # Bands are mirror images about 0: measuring |bearing| from the front and closing each
         # band on its side towards the front keeps a symmetric scan's regions symmetric.
@@ -236,7 +237,7 @@ class Scan:
     """
 
     __slots__ = ('_ranges', '_angle_min', '_angle_increment', '_range_min', '_range_max',
-                 '_layout', '_valid', '_capped')
+                 '_layout', '_valid', '_capped', '_blind')
 
     def __init__(self, ranges: Any, angle_min: float, angle_increment: float,
                  range_min: float, range_max: float):
@@ -266,6 +267,7 @@ class Scan:
         self._layout = None
         self._valid = None
         self._capped = {}
+        self._blind = None
 
     @classmethod
     def from_msg(cls, msg: Any) -> 'Scan':
@@ -352,6 +354,23 @@ class Scan:
         The array is read-only and shared by scans of the same geometry.
         """
         return self._geometry().angles
+
+    def directions(self) -> np.ndarray:
+        """
+        Return the unit vector of every beam, ``(cos(a), sin(a))``: an (N, 2) float array.
+
+        ``a`` is the beam's bearing as :meth:`angles` gives it. The array is read-only and shared
+        by scans of the same geometry.
+        """
+        return self._geometry().directions
+
+    def is_blind(self) -> bool:
+        """Return True when the scan tells nothing: it has no beam, or only NaN readings."""
+        blind = self._blind
+        if blind is None:
+            blind = bool(np.count_nonzero(np.isnan(self._ranges)) == len(self._ranges))
+            self._blind = blind
+        return blind
 
     def valid(self) -> np.ndarray:
         """Return a read-only boolean mask of the valid readings (finite, within the limits)."""
@@ -484,6 +503,5 @@ class Scan:
         i * angle_increment``, as laser_geometry's projectLaser places it.
         """
         mask = self.valid()
-        ranges = self._ranges[mask]
-        angles = self.angles()[mask]
-        return np.column_stack((ranges * np.cos(angles), ranges * np.sin(angles)))
+        # compress selects rows as [mask] does, faster.
+        return self.directions().compress(mask, axis=0) * self._ranges[mask][:, np.newaxis]

@@ -44,7 +44,7 @@ def read_scan(msg: Any, logger: Any) -> Scan | None:
     warning = scan_warning(scan)
     if warning is not None:
         logger.warning(warning, throttle_duration_sec=WARNING_PERIOD_S)
-    return None if np.isnan(scan.ranges).all() else scan
+    return None if scan.is_blind() else scan
 
 
 def scan_warning(scan: Scan) -> str | None:
@@ -57,7 +57,8 @@ def scan_warning(scan: Scan) -> str | None:
     if len(scan) == 0:
         return 'ignoring scan with no ranges'
     ranges = scan.ranges
-    if scan.valid().any() or (ranges > scan.range_max).all():
+    # Nothing is wrong with a valid reading (closest finds one) or with open space all round.
+    if scan.closest() is not None or (ranges > scan.range_max).all():
         return None
     # With no valid reading, every finite one lies outside the sensor's range.
     finite = np.isfinite(ranges)

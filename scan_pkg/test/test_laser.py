@@ -170,6 +170,22 @@ def test_a_cap_that_is_not_a_positive_number_is_refused(max_range):
             query(max_range)
 
 
+def test_directions_are_the_unit_vectors_of_the_angles_shared_by_one_geometry():
+    scan = lab_scan([1.0] * LAB_BEAMS)
+    angles = scan.angles()
+    assert np.array_equal(scan.directions(), np.column_stack((np.cos(angles), np.sin(angles))))
+    assert lab_scan([2.0] * LAB_BEAMS).directions() is scan.directions()
+    assert not scan.directions().flags.writeable
+
+
+@pytest.mark.parametrize('ranges, blind', [
+    ([math.nan, math.nan], True), ([], True), ([math.nan, math.inf], False),
+    ([math.nan, -math.inf], False), ([math.nan, 0.01], False), ([math.inf, math.inf], False),
+])
+def test_a_scan_is_blind_when_no_beam_holds_any_information(ranges, blind):
+    assert lab_scan(ranges).is_blind() is blind
+
+
 def test_points_place_valid_returns_as_project_laser_does():
     scan = Scan([1.0, 2.0, math.inf, 0.01, 3.0], -math.pi / 2, math.pi / 4, 0.1, 10.0)
     points = scan.points()

@@ -36,7 +36,7 @@ from typing import Callable, NamedTuple
 import numpy as np
 
 from scan_pkg.behaviors import require
-from scan_pkg.behaviors.wander import corridor_distance, is_blind, obstacle_points
+from scan_pkg.behaviors.wander import corridor_distance, obstacle_points
 from scan_pkg.laser import normalize_angle, Scan
 
 SIDES = ('right', 'left')
@@ -68,32 +68,44 @@ def estimate_wall(points: np.ndarray, fit_radius: float,
     """
     if not len(points):
         return None
-    ranges = np.hypot(points[:, 0], points[:, 1])
-    nearest = points[int(np.argmin(ranges))]
-    # Tangent of a circle around the robot through the nearest return, wall on the right.
-    tangent = np.array([-nearest[1], nearest[0]])
-    near = points[np.hypot(*(points - nearest).T) <= fit_radius]
-    centre = near.mean(axis=0)
+    nearest = points[np.hypot(points[:, 0], points[:, 1]).argmin()]
+    # The returns within fit_radius of the nearest (compress selects rows as [mask] does, faster).
+    apart = points - nearest
+    near = points.compress(np.hypot(apart[:, 0], apart[:, 1]) <= fit_radius, axis=0)
+    if len(near) < 2:
+        return _corner_estimate(*nearest.tolist())
+    centre = near.sum(axis=0) / len(near)
     spread = near - centre
-    if len(near) < 2 or not spread.any():
-        return _corner_estimate(nearest)
+    if not np.count_nonzero(spread):
+        return _corner_estimate(*nearest.tolist())
     # The line's direction is the principal axis of the returns: closed form for 2-D.
     xs, ys = spread[:, 0], spread[:, 1]
-    axis = 0.5 * math.atan2(2.0 * float(xs @ ys), float(xs @ xs - ys @ ys))
-    along = np.array([math.cos(axis), math.sin(axis)])
-    if along @ tangent < 0.0:
-        along = -along
-    offsets = spread @ along
-    foot = -centre @ along
-    if offsets.min() - extrapolation <= foot <= offsets.max() + extrapolation:
-        distance = abs(along[0] * centre[1] - along[1] * centre[0])
-        return WallEstimate(float(distance), math.atan2(along[1], along[0]), False)
-    return _corner_estimate(centre + np.clip(foot, offsets.min(), offsets.max()) * along)
+    axis = 0.5 * math.atan2(2.0 * float(xs.dot(ys)), float(xs.dot(xs) - ys.dot(ys)))
+    cos, sin = math.cos(axis), math.sin(axis)
+    # Orient the line like the tangent (-y, x) of a circle around the robot through the nearest
+    # return: the wall on its right.
+    nearest_x, nearest_y = nearest.tolist()
+    if sin * nearest_x - cos * nearest_y < 0.0:
+        cos, sin = -cos, -sin
+    # Positions (m) along the line, from the centre of the returns: theirs, in order, and the
+    # robot's foot.
+    offsets = spread.dot(np.array([cos, sin]))
+    offsets.sort()
+    first, last = offsets.item(0), offsets.item(-1)
+    centre_x, centre_y = centre.tolist()
+    foot = -(centre_x * cos + centre_y * sin)
+    if first - extrapolation <= foot <= last + extrapolation:
+        distance = abs(cos * centre_y - sin * centre_x)
+        return WallEstimate(distance, math.atan2(sin, cos), False)
+    end = min(max(foot, first), last)
+    return _corner_estimate(centre_x + end * cos, centre_y + end * sin)
 
 
-def _corner_estimate(point: np.ndarray) -> WallEstimate:
-    distance = float(np.hypot(*point))
-    return WallEstimate(distance, normalize_angle(math.atan2(point[1], point[0]) + math.pi / 2),
+def _corner_estimate(x: float, y: float) -> WallEstimate:
+    """Return the wall as the corner point ``(x, y)`` (m), circled clockwise."""
+    # numpy's hypot, as for the returns' ranges: a corner that is the nearest return alone is
+    # exactly as far as that return.
+    return WallEstimate(float(np.hypot(x, y)), normalize_angle(math.atan2(y, x) + math.pi / 2),
                         True)
 
 
@@ -155,7 +167,7 @@ class WallFollower:
 
     def update_scan(self, scan: Scan, time: float) -> None:
         """Take the latest scan, received at ``time`` (s); a blind one (all NaN) is ignored."""
-        if is_blind(scan):
+        if scan.is_blind():
             return
         self._scan = scan
         self._scan_time = time
@@ -182,7 +194,9 @@ class WallFollower:
 
     def _steer(self, scan: Scan, elapsed: float) -> tuple[float, float]:
         config = self.config
-        points = obstacle_points(scan) * (1.0, self._mirror)
+        points = obstacle_points(scan)
+        if config.side == 'left':
+            points *= (1.0, -1.0)
         self.wall = estimate_wall(points, config.fit_radius, config.extrapolation)
         near = (self.wall is not None
                 and self.wall.distance <= config.distance + config.lost_margin)

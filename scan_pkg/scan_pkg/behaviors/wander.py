@@ -24,6 +24,7 @@ direction of a turn that ended moments before, so one manoeuvre never undoes its
 from dataclasses import dataclass
 import math
 import random
+import sys
 from typing import Callable
 
 import numpy as np
@@ -69,16 +70,12 @@ def obstacle_points(scan: Scan) -> np.ndarray:
     ``range_max`` and NaN are no obstacle.
     """
     ranges = scan.ranges
-    too_close = ranges < scan.range_min
-    usable = scan.valid() | too_close
-    distances = np.where(too_close, scan.range_min, ranges)[usable]
-    angles = scan.angles()[usable]
-    return np.column_stack((distances * np.cos(angles), distances * np.sin(angles)))
-
-
-def is_blind(scan: Scan) -> bool:
-    """Return True when ``scan`` tells nothing about the surroundings: no beam, or all NaN."""
-    return bool(np.isnan(scan.ranges).all())
+    # Every reading up to range_max, the too close ones included, but +inf (no return even when
+    # range_max is +inf); NaN compares False.
+    obstacles = ranges <= min(scan.range_max, sys.float_info.max)
+    distances = np.maximum(ranges[obstacles], scan.range_min)
+    # compress selects rows as [obstacles] does, faster.
+    return scan.directions().compress(obstacles, axis=0) * distances[:, np.newaxis]
 
 
 def corridor_distance(points: np.ndarray, length: float, radius: float,
@@ -92,12 +89,10 @@ def corridor_distance(points: np.ndarray, length: float, radius: float,
     grows from nothing beside the robot to its full width one radius ahead, so a wall the
     robot is passing beside it does not block the way, while one ahead does from afar.
     """
-    x = points[:, 0]
+    x, y = points[:, 0], points[:, 1]
     half_width = radius + margin * np.minimum(x / radius, 1.0) if radius > 0.0 else margin
-    inside = (x > 0.0) & (x < length) & (np.abs(points[:, 1]) < half_width)
-    if not inside.any():
-        return None
-    return float(x[inside].min())
+    ahead = x[(x > 0.0) & (x < length) & (np.abs(y) < half_width)]
+    return float(ahead.min()) if len(ahead) else None
 
 
 def clear_turn(points: np.ndarray, direction: int, length: float, radius: float,
@@ -207,7 +202,7 @@ class Wanderer:
 
     def update_scan(self, scan: Scan, time: float) -> None:
         """Take the latest scan, received at ``time`` (s); a blind one (all NaN) is ignored."""
-        if is_blind(scan):
+        if scan.is_blind():
             return
         self._scan = scan
         self._scan_time = time
