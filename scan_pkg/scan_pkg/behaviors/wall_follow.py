@@ -239,6 +239,9 @@ class WallFollower:
             linear *= min(max(room, 0.0), 1.0)
         angular = config.heading_gain * heading_error
         if wall.corner:
-            angular -= linear / max(wall.distance, config.robot_radius)
+            # The rate of the arc round the corner point; at the laser itself (a point-like
+            # robot) the sharpest turn, as the clamp below would make of any near it.
+            radius = max(wall.distance, config.robot_radius)
+            angular -= linear / radius if radius > 0.0 else config.max_angular
         angular = min(max(angular, -config.max_angular), config.max_angular)
         return linear, angular

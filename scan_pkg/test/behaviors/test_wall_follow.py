@@ -258,6 +258,16 @@ def test_bad_scans_never_raise_and_give_float_commands(ranges):
     assert math.isfinite(linear) and math.isfinite(angular)
 
 
+@pytest.mark.parametrize('reading', [0.0, -math.inf])
+def test_a_return_at_the_laser_of_a_pointlike_robot_gives_finite_commands(reading):
+    # robot_radius 0 is allowed; a scanner with range_min 0 can see a corner at distance 0.
+    follower = WallFollower(WallFollowConfig(robot_radius=0.0))
+    follower.update_scan(Scan([math.inf] * 17 + [reading] + [math.inf] * 18, -1.57, 3.14 / 35,
+                              0.0, 10.0), 0.0)
+    linear, angular = follower.command(0.0)
+    assert math.isfinite(linear) and math.isfinite(angular)
+
+
 def test_blind_scans_stop_the_robot_once_the_last_scan_is_stale(shapes):
     follower = WallFollower()
     follower.update_scan(right_wall(shapes, SETPOINT), 0.0)
