@@ -5,7 +5,8 @@ rclpy.publisher for the lockstep runtime: validate, copy and deliver each messag
 numpy.float32 in a float field, a float in an int field, a wrong sub-message ... would abort the
 process there) and raises :class:`~sim_bridge.lockstep.errors.MessageTypeError` naming the node,
 topic, field path and expected type. A valid message is copied once as it would come out of
-serialisation; taps see that copy, and each matched subscription gets its own.
+serialisation; taps see that copy, and each matched subscription gets its own (the first
+subscription the one the taps saw, as they keep nothing).
 """
 
 from sim_bridge.lockstep.errors import MessageTypeError
@@ -64,11 +65,10 @@ class Publisher:
             tap(self.topic, wire, runtime.now_ns)
         if history is not None:
             history.append(wire)
-        if len(recipients) == 1 and not taps and history is None:
-            recipients[0]._lockstep_receive(wire)
-        else:
-            for subscription in recipients:
-                subscription._lockstep_receive(copy(wire))
+            wire = copy(wire)
+        # Taps have read the copy and kept nothing: the first subscription can have it.
+        for index, subscription in enumerate(recipients):
+            subscription._lockstep_receive(copy(wire) if index else wire)
 
     def get_subscription_count(self) -> int:
         """Return the number of subscriptions this publisher reaches."""
