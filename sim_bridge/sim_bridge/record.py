@@ -9,25 +9,31 @@ would store, so ``ros2 bag play`` re-publishes each topic with a compatible prof
 (``/tf_static`` latched).
 
 A 600 s run publishes some 130 000 messages, so the per-message path is kept short: a generated
-serialiser per type (no conversion to rosbags objects first) and a leaner message-record writer
-than rosbags' own; both produce bytes identical to rosbags' (the tests compare them).
+serialiser per type (no conversion to rosbags objects first; the runtime's messages read through
+their slots), and an MCAP storage that only lists each message and writes a chunk's records in
+one go when the chunk closes. Both produce bytes identical to rosbags' (the tests compare them).
 """
 
 from collections.abc import Callable, Iterable, Mapping
+import functools
+from io import BytesIO
 import os
 from pathlib import Path
 import shutil
 import struct
+import sys
 from types import TracebackType
 from typing import Any
 
 import numpy as np
-from rosbags.interfaces import (Nodetype, Qos, QosDurability, QosHistory, QosLiveliness,
-                                QosReliability, QosTime)
-from rosbags.rosbag2 import StoragePlugin, Writer
+from rosbags.interfaces import (Connection, Nodetype, Qos, QosDurability, QosHistory,
+                                QosLiveliness, QosReliability, QosTime)
+from rosbags.rosbag2 import CompressionMode, StoragePlugin, Writer
 from rosbags.rosbag2.storage_mcap import McapWriter
 from rosbags.typesys import get_typestore, Stores
 from rosbags.typesys.store import Typestore
+
+from sim_bridge.lockstep.messages import LockstepMessage
 
 #: Topics recorded when none are named: what the bridge and the nodes under test exchange.
 DEFAULT_TOPICS = ('/scan', '/cmd_vel', '/odom', '/tf', '/tf_static', '/clock')
@@ -51,7 +57,6 @@ _SCALAR_FORMATS = {
 # The field rosidl and rosbags give a message without fields (a C struct needs one member).
 EMPTY_MESSAGE_PLACEHOLDER = 'structure_needs_at_least_one_member'
 _PADDING = tuple(bytes(count) for count in range(8))
-_pack_uint32 = struct.Struct('<I').pack
 
 
 def offered_qos(*, reliable: bool = True, transient_local: bool = False) -> Qos:
@@ -90,26 +95,43 @@ class CdrSerializer:
 
     Any object with the fields of its ROS type serialises (rosidl's classes, the lockstep
     runtime's, rosbags' own), so runtime messages need no conversion first. One function is
-    generated per type: runs of scalar fields are packed by one precompiled ``struct`` format
-    per start alignment, arrays copied as numpy buffers, nested messages inlined. The bytes
-    equal ``typestore.serialize_cdr`` of the same message (the tests compare them).
+    generated per type: runs of scalar fields, string lengths, sequence counts and the padding
+    between them are packed by one precompiled ``struct`` format each, arrays copied as
+    buffers, nested messages and sequence elements inlined. The bytes equal
+    ``typestore.serialize_cdr`` of the same message (the tests compare them).
     """
 
     def __init__(self, typestore: Typestore) -> None:
         self.typestore = typestore
-        self._functions: dict[str, Callable[[Any, bytearray], None]] = {}
+        self._functions: dict[tuple[str, bool], Callable[[Any], bytearray]] = {}
+        self._by_class: dict[type, Callable[[Any], bytearray]] = {}
 
     def serialize(self, msg: Any, typename: str | None = None) -> bytearray:
         """Return the CDR bytes (with the 4-byte encapsulation header) of ``msg``."""
-        out = bytearray(CDR_LITTLE_ENDIAN_HEADER)
-        self.function(typename or ros_type_name(msg))(msg, out)
-        return out
+        if typename is not None:
+            return self.function(typename, slots=isinstance(msg, LockstepMessage))(msg)
+        function = self._by_class.get(type(msg))
+        if function is None:
+            function = self._by_class[type(msg)] = self.function(
+                ros_type_name(msg), slots=isinstance(msg, LockstepMessage))
+        return function(msg)
 
-    def function(self, typename: str) -> Callable[[Any, bytearray], None]:
-        """Return the function appending a ``typename`` message's CDR payload to a bytearray."""
-        if typename not in self._functions:
-            self._functions[typename] = _CdrCodegen(self).build(typename)
-        return self._functions[typename]
+    def function(self, typename: str, *, slots: bool = False) -> Callable[[Any], bytearray]:
+        """
+        Return the function serialising a ``typename`` message to CDR bytes, header first.
+
+        With ``slots`` it is for the lockstep runtime's messages: it reads their slots
+        (``msg._x``, cheaper than the ``x`` property) and copies numeric arrays as the runtime
+        keeps them (numpy arrays, ``array.array``) without conversion; a message holding
+        anything else (say a rosbags sub-message) is serialised by the function reading public
+        names instead.
+        """
+        key = (typename, slots)
+        if key not in self._functions:
+            fallback = self.function(typename) if slots else None
+            self._functions[key] = _CdrCodegen(self.typestore.fielddefs, slots).build(
+                typename, fallback)
+        return self._functions[key]
 
 
 def _scalar_size(type_name: str) -> int:
@@ -135,21 +157,41 @@ def _byte_value(value: Any) -> int:
 
 
 class _CdrCodegen:
-    """Writes the Python source of one type's serialiser (see :class:`CdrSerializer`)."""
+    """
+    Writes the Python source of one type's serialiser (see :class:`CdrSerializer`).
 
-    def __init__(self, serializer: CdrSerializer) -> None:
-        self.serializer = serializer
-        self.fielddefs = serializer.typestore.fielddefs
+    Scalars wait in ``run`` as ``(struct code, alignment, value expression)`` until something
+    of variable size (a string's bytes, an array) or a loop needs the output up to there; the
+    run is then packed in one call. A string's terminating NUL and the padding before an array
+    are entries of a run too (code ``'x'`` and ``''``, no value). ``offset`` is the output's
+    offset modulo 8 (from the end of the encapsulation header) where the code can know it: a
+    run starting there packs by one format, elsewhere by one of eight per start alignment.
+    """
+
+    def __init__(self, fielddefs: dict, slots: bool) -> None:
+        self.fielddefs = fielddefs
+        self.prefix = '_' if slots else ''
+        # The runtime's numeric arrays are in native byte order; CDR here is little-endian.
+        self.raw_arrays = slots and sys.byteorder == 'little'
         self.namespace: dict[str, Any] = {
-            'PADDING': _PADDING, 'pack_uint32': _pack_uint32, 'numeric_bytes': _numeric_bytes,
-            'byte_value': _byte_value}
+            'HEADER': CDR_LITTLE_ENDIAN_HEADER, 'PADDING': _PADDING,
+            'numeric_bytes': _numeric_bytes, 'byte_value': _byte_value}
         self.lines: list[str] = []
-        self.scalars: list[tuple[str, str]] = []
+        self.run: list[tuple[str, int, str | None]] = []
+        self.offset: int | None = 0
 
-    def build(self, typename: str) -> Callable[[Any, bytearray], None]:
-        self.lines = ['def serialize(msg, out):']
-        self.message(typename, 'msg', '  ')
-        self.flush('  ')
+    def build(self, typename: str, fallback: Callable | None) -> Callable[[Any], bytearray]:
+        self.lines = ['def serialize(msg):', '  out = bytearray(HEADER)']
+        if fallback is None:
+            self.message(typename, 'msg', '  ')
+            self.flush('  ')
+        else:
+            # An AttributeError or TypeError: not the runtime's own objects all the way down.
+            self.namespace['fallback'] = fallback
+            self.lines.append('  try:')
+            self.message(typename, 'msg', '    ')
+            self.flush('    ')
+            self.lines += ['  except (AttributeError, TypeError):', '    return fallback(msg)']
         self.lines.append('  return out')
         exec(compile('\n'.join(self.lines), f'<cdr {typename}>', 'exec'), self.namespace)
         return self.namespace['serialize']
@@ -159,85 +201,123 @@ class _CdrCodegen:
         self.namespace[key] = value
         return key
 
-    def align(self, size: int, indent: str) -> None:
-        # Offsets count from the end of the 4-byte encapsulation header.
-        if size > 1:
-            self.lines.append(f'{indent}out += PADDING[(4 - len(out)) & {size - 1}]')
+    def local(self, letter: str) -> str:
+        """Return a new local variable name (numbered by the line that will assign it)."""
+        return f'{letter}{len(self.lines)}'
 
     def flush(self, indent: str) -> None:
-        """Emit one pack of the pending scalars, with the padding of each start alignment."""
-        if not self.scalars:
+        """Emit one pack of the pending run."""
+        if not self.run:
             return
-        formats = []
+        layouts = []
         for start in range(8):
             position, layout = start, '<'
-            for type_name, _ in self.scalars:
-                size = _scalar_size(type_name)
-                padding = -position % size
-                layout += f'{padding}x' * bool(padding) + _SCALAR_FORMATS[type_name]
-                position += padding + size
-            formats.append(struct.Struct(layout).pack)
-        packs = self.name(tuple(formats))
-        values = ', '.join(expression for _, expression in self.scalars)
-        self.lines.append(f'{indent}out += {packs}[(len(out) - 4) & 7]({values})')
-        self.scalars = []
+            for code, alignment, _ in self.run:
+                padding = -position % alignment
+                layout += f'{padding}x' * bool(padding) + code
+                position += padding + struct.calcsize('<' + code)
+            layouts.append(layout)
+        values = ', '.join(value for _, _, value in self.run if value is not None)
+        self.run = []
+        starts = range(8) if self.offset is None else [self.offset]
+        ends = {(start + struct.calcsize(layouts[start])) % 8 for start in starts}
+        if len({layouts[start] for start in starts}) == 1:
+            choice = self.name(self.packer(layouts[starts[0]], values))
+        else:
+            choice = f'{self.name(tuple(self.packer(layout, values) for layout in layouts))}' \
+                '[(len(out) - 4) & 7]'
+        self.lines.append(f'{indent}out += {choice}' + f'({values})' * bool(values))
+        self.offset = ends.pop() if len(ends) == 1 else None
+
+    @staticmethod
+    def packer(layout: str, values: str) -> Callable | bytes:
+        """Return the pack function of ``layout``, or its bytes (all padding) without values."""
+        return struct.Struct(layout).pack if values else bytes(struct.calcsize(layout))
 
     def message(self, typename: str, expression: str, indent: str) -> None:
         if typename not in self.fielddefs:
             raise TypeError(f"message type '{typename}' is not in the rosbags type store")
         for field_name, desc in self.fielddefs[typename][1]:
             if field_name == EMPTY_MESSAGE_PLACEHOLDER:
-                self.scalars.append(('uint8', '0'))
+                self.run.append(('x', 1, None))  # a uint8 0
             else:
-                self.field(desc, f'{expression}.{field_name}', indent)
+                self.field(desc, f'{expression}.{self.prefix}{field_name}', field_name, indent)
 
-    def field(self, desc: tuple, expression: str, indent: str) -> None:
+    def field(self, desc: tuple, expression: str, field_name: str, indent: str) -> None:
         kind, detail = desc
         if kind == Nodetype.NAME:
             # A local per sub-message: each attribute is read once (rosidl's are properties).
-            local = f'm{len(self.lines)}'
+            local = self.local('m')
             self.lines.append(f'{indent}{local} = {expression}')
             self.message(detail, local, indent)
-        elif kind == Nodetype.BASE and detail[0] == 'byte':
-            self.scalars.append((detail[0], f'byte_value({expression})'))
-        elif kind == Nodetype.BASE and detail[0] != 'string':
-            self.scalars.append((detail[0], expression))
+        elif kind == Nodetype.BASE and detail[0] == 'string':
+            self.string(expression, indent)
+        elif kind == Nodetype.BASE:
+            value = f'byte_value({expression})' if detail[0] == 'byte' else expression
+            self.run.append((_SCALAR_FORMATS[detail[0]], _scalar_size(detail[0]), value))
         else:
-            self.flush(indent)
-            if kind == Nodetype.BASE:
-                self.string(expression, indent)
-            else:
-                self.collection(kind, detail, expression, indent)
+            self.collection(kind, detail, expression, field_name, indent)
 
     def string(self, expression: str, indent: str) -> None:
-        self.align(4, indent)
-        self.lines += [f'{indent}text = {expression}.encode()',
-                       f'{indent}out += pack_uint32(len(text) + 1)',
-                       f"{indent}out += text + b'\\x00'"]
+        text = self.local('t')
+        self.lines.append(f'{indent}{text} = {expression}.encode()')
+        self.run.append(('I', 4, f'len({text}) + 1'))
+        self.flush(indent)
+        self.lines.append(f'{indent}out += {text}')
+        self.run.append(('x', 1, None))
+        self.offset = None
 
-    def collection(self, kind: Nodetype, detail: tuple, expression: str, indent: str) -> None:
+    def collection(self, kind: Nodetype, detail: tuple, expression: str, field_name: str,
+                   indent: str) -> None:
         element, length = detail
-        self.lines.append(f'{indent}items = {expression}')
+        items = self.local('s')
+        self.lines.append(f'{indent}{items} = {expression}')
         if kind == Nodetype.SEQUENCE:
-            self.align(4, indent)
-            self.lines.append(f'{indent}out += pack_uint32(len(items))')
+            self.run.append(('I', 4, f'len({items})'))
         else:
-            self.lines += [f'{indent}if len(items) != {length}:',
-                           f"{indent}  raise ValueError('{expression[4:]}: expected {length} "
-                           "items, got %d' % len(items))"]
+            self.lines += [f'{indent}if len({items}) != {length}:',
+                           f"{indent}  raise ValueError('{field_name}: "
+                           f"expected {length} items, got %d' % len({items}))"]
         if element[0] == Nodetype.BASE and element[1][0] != 'string':
-            size = _scalar_size(element[1][0])
-            dtype = self.name(np.dtype(_NUMPY_TYPES[element[1][0]]).newbyteorder('<'))
-            self.lines.append(f'{indent}if len(items):')
-            self.align(size, indent + '  ')
-            self.lines.append(f'{indent}  out += numeric_bytes(items, {dtype})')
+            self.numeric(kind, element[1][0], length, items, indent)
             return
-        self.lines.append(f'{indent}for item in items:')
+        self.flush(indent)
+        item = self.local('e')
+        self.lines.append(f'{indent}for {item} in {items}:')
+        self.offset = None  # where the previous item ended
         if element[0] == Nodetype.NAME:
-            nested = self.name(self.serializer.function(element[1]))
-            self.lines.append(f'{indent}  {nested}(item, out)')
+            self.message(element[1], item, indent + '  ')
         else:
-            self.string('item', indent + '  ')
+            self.string(item, indent + '  ')
+        self.flush(indent + '  ')
+        self.offset = None
+
+    def numeric(self, kind: Nodetype, type_name: str, length: int, items: str,
+                indent: str) -> None:
+        """Emit the copy of an array or sequence of numbers (bools and bytes included)."""
+        size = _scalar_size(type_name)
+        if self.raw_arrays and type_name not in ('bool', 'byte'):
+            # The runtime keeps these as numpy arrays / array.array of the field's type.
+            data = f'{items}.tobytes()' if kind == Nodetype.ARRAY else items
+        else:
+            dtype = self.name(np.dtype(_NUMPY_TYPES[type_name]).newbyteorder('<'))
+            data = f'numeric_bytes({items}, {dtype})'
+        if kind == Nodetype.ARRAY:
+            self.run.append(('', size, None))
+            self.flush(indent)
+            self.lines.append(f'{indent}out += {data}')
+            self.offset = None if self.offset is None else (self.offset + length * size) % 8
+        elif size > 4:
+            # After the count the output is 4-aligned; wider items pad, but only if there are any.
+            self.flush(indent)
+            self.lines += [f'{indent}if len({items}):',
+                           f'{indent}  out += PADDING[(4 - len(out)) & {size - 1}]',
+                           f'{indent}  out += {data}']
+            self.offset = None
+        else:
+            self.flush(indent)
+            self.lines.append(f'{indent}out += {data}')
+            self.offset = None
 
 
 def _remove_old_bag(path: Path) -> None:
@@ -249,54 +329,162 @@ def _remove_old_bag(path: Path) -> None:
     shutil.rmtree(path)
 
 
-_MCAP_MESSAGE_HEADER = struct.Struct('<BQHIQQ')
+# An MCAP message record: opcode, record length, channel id, sequence, log and publish time.
+_MCAP_MESSAGE_HEADER = np.dtype([
+    ('opcode', 'u1'), ('length', '<u8'), ('channel', '<u2'), ('sequence', '<u4'),
+    ('log_time', '<u8'), ('publish_time', '<u8')])
 _MCAP_MESSAGE_OPCODE = 0x05
-_MCAP_MESSAGE_FIXED_SIZE = 22
-_MCAP_CHUNK_SIZE = 1 << 20
+_MCAP_MESSAGE_FIXED_SIZE = 22  # record length beyond the message data
+_MCAP_MESSAGE_OVERHEAD = _MCAP_MESSAGE_HEADER.itemsize  # bytes in a chunk beyond the data
+_MCAP_CHUNK_SIZE = 1 << 20  # McapWriter closes a chunk after the message that passes this
+_MCAP_EMPTY_CHUNK_TIMES = (2 ** 63 - 1, 0)  # McapWriter's times of a chunk without messages
+# Chunk record up to its data: opcode, length, start, end, uncompressed size, CRC (0: none).
+_pack_chunk_head = struct.Struct('<BQQQQI').pack
+# Message index record up to its entries: opcode, length, channel id, entry bytes.
+_pack_message_index_head = struct.Struct('<BQHI').pack
+_pack_uint32 = struct.Struct('<I').pack
+_pack_uint64 = struct.Struct('<Q').pack
 
 
 class _LeanMcapWriter(McapWriter):
-    """rosbags' MCAP storage with a message write that packs its record header in one call."""
+    """
+    rosbags' MCAP storage, which lists a chunk's messages and writes the chunk when it closes.
 
-    def write(self, connection: Any, timestamp: int, data: bytes | memoryview) -> None:
-        # Comparisons rather than min()/max(): this runs for every message of a run.
-        chunk = self.chunk
-        if timestamp < chunk.message_start_time:
-            chunk.message_start_time = timestamp
-        if timestamp > chunk.message_end_time:
-            chunk.message_end_time = timestamp
-        if timestamp < self.message_start_time:
-            self.message_start_time = timestamp
-        if timestamp > self.message_end_time:
-            self.message_end_time = timestamp
-        self.channel_stats[connection.id] += 1
-        bio = chunk.bio
-        chunk.msgs[connection.id].append((timestamp, bio.tell()))
-        bio.write(_MCAP_MESSAGE_HEADER.pack(
-            _MCAP_MESSAGE_OPCODE, _MCAP_MESSAGE_FIXED_SIZE + len(data), connection.id, 0,
-            timestamp, timestamp))
-        bio.write(data)
-        if bio.tell() > _MCAP_CHUNK_SIZE:
+    ``write`` only appends the message to lists; ``close_chunk`` packs all record headers and
+    the message index of the chunk with numpy, in one go. Schema and channel records, which
+    rosbags writes into the open chunk, keep their place between the messages. The file is byte
+    for byte McapWriter's (the tests compare them). ``write`` keeps ``data`` until the chunk
+    closes: it must not change afterwards.
+    """
+
+    def __init__(self, path: Path, compression: CompressionMode) -> None:
+        super().__init__(path, compression)
+        self._channels: list[int] = []
+        self._times: list[int] = []  # ns
+        self._datas: list[bytes | bytearray] = []
+        # Schema and channel records of the open chunk: (number of messages before it, bytes).
+        self._records: list[tuple[int, bytes]] = []
+        self._chunk_size = 0  # bytes
+
+    def add_msgtype(self, connection: Connection) -> None:
+        super().add_msgtype(connection)
+        self._take_records()
+
+    def add_connection(self, connection: Connection, offered_qos_profiles: str) -> None:
+        super().add_connection(connection, offered_qos_profiles)
+        self._take_records()
+
+    def _take_records(self) -> None:
+        """Move what rosbags wrote into its pending chunk to the open chunk's records."""
+        record = self.chunk.bio.getvalue()
+        self.chunk.bio = BytesIO()
+        self._records.append((len(self._datas), record))
+        self._chunk_size += len(record)
+
+    def write(self, connection: Connection, timestamp: int, data: bytes | bytearray) -> None:
+        """Add a message at ``timestamp`` (ns) to the open chunk; close it once over 1 MiB."""
+        self._channels.append(connection.id)
+        self._times.append(timestamp)
+        self._datas.append(data)
+        self._chunk_size += _MCAP_MESSAGE_OVERHEAD + len(data)
+        if self._chunk_size > _MCAP_CHUNK_SIZE:
             self.close_chunk()
+
+    def message_counts(self) -> dict[int, int]:
+        """Return the number of messages written per channel id, the open chunk's included."""
+        counts = dict(self.channel_stats)
+        for channel in self._channels:
+            counts[channel] += 1
+        return counts
+
+    def close_pending_chunk(self) -> None:
+        """Close the open chunk if it holds anything."""
+        if self._datas or self._records:
+            self.close_chunk()
+
+    def close_chunk(self) -> None:
+        """Write the open chunk and its message index; keep its chunk index for the summary."""
+        count = len(self._datas)
+        channels = np.array(self._channels, np.uint16)
+        times = np.array(self._times, np.uint64)
+        sizes = np.fromiter(map(len, self._datas), np.uint64, count)
+        headers = np.empty(count, _MCAP_MESSAGE_HEADER)
+        headers['opcode'] = _MCAP_MESSAGE_OPCODE
+        headers['length'] = sizes + _MCAP_MESSAGE_FIXED_SIZE
+        headers['channel'] = channels
+        headers['sequence'] = 0
+        headers['log_time'] = headers['publish_time'] = times
+        pieces: list[bytes | bytearray] = [b''] * (2 * count)
+        pieces[0::2] = headers.view(f'V{_MCAP_MESSAGE_OVERHEAD}').tolist()
+        pieces[1::2] = self._datas
+        record_sizes = sizes + _MCAP_MESSAGE_OVERHEAD
+        offsets = np.cumsum(record_sizes) - record_sizes  # of each message record in the chunk
+        for before, record in reversed(self._records):
+            pieces.insert(2 * before, record)
+            offsets[before:] += len(record)
+        uncompressed = b''.join(pieces)
+        first_channels = dict.fromkeys(self._channels)  # McapWriter's order of index records
+        self._channels, self._times, self._datas, self._records = [], [], [], []
+        self._chunk_size = 0
+
+        start, end = (int(times.min()), int(times.max())) if count else _MCAP_EMPTY_CHUNK_TIMES
+        self.message_start_time = min(self.message_start_time, start)
+        self.message_end_time = max(self.message_end_time, end)
+        compressed = self.compressor(uncompressed)
+        compression = self.compression.encode()
+        chunk_start = self.bio.tell()
+        self.bio.write(_pack_chunk_head(
+            0x06, 40 + len(compression) + len(compressed), start, end, len(uncompressed), 0))
+        self.bio.write(_pack_uint32(len(compression)) + compression)
+        self.bio.write(_pack_uint64(len(compressed)))
+        self.bio.write(compressed)
+        chunk_end = self.bio.tell()
+
+        index = BytesIO()
+        index.write(struct.pack('<QQQQI', start, end, chunk_start, chunk_end - chunk_start,
+                                10 * len(first_channels)))
+        for channel in first_channels:
+            selected = channels == channel
+            entries = np.column_stack((times[selected], offsets[selected])).astype('<u8')
+            index.write(struct.pack('<HQ', channel, self.bio.tell()))
+            self.bio.write(_pack_message_index_head(0x07, 6 + entries.nbytes, channel,
+                                                    entries.nbytes))
+            self.bio.write(entries.tobytes())
+            self.channel_stats[channel] += len(entries)
+        index.write(_pack_uint64(self.bio.tell() - chunk_end))
+        index.write(_pack_uint32(len(compression)) + compression)
+        index.write(struct.pack('<QQ', len(compressed), len(uncompressed)))
+        self.chunks.append(index)
+
+    def close(self, version: int, metadata: str) -> None:
+        self.close_pending_chunk()
+        super().close(version, metadata)
 
 
 class _BagWriter(Writer):
     """
-    rosbags' bag writer with the lean MCAP storage and no per-message connection lookup.
+    rosbags' bag writer with the lean MCAP storage, to which the recorder hands its messages.
 
     The recorder only writes to connections it created and never compresses, the two things
-    ``Writer.write`` checks on every message.
+    ``Writer.write`` checks on every message, so it skips ``Writer.write``; on close the writer
+    takes the message counts and time range for ``metadata.yaml`` from the storage instead.
     """
 
     STORAGE_PLUGINS = {**Writer.STORAGE_PLUGINS, StoragePlugin.MCAP: _LeanMcapWriter}
 
-    def write(self, connection: Any, timestamp: int, data: bytes | memoryview) -> None:
-        self.storage.write(connection, timestamp, data)
-        self.counts[connection.id] += 1
-        if timestamp < self.min_timestamp:
-            self.min_timestamp = timestamp
-        if timestamp > self.max_timestamp:
-            self.max_timestamp = timestamp
+    def close(self) -> None:
+        storage = self.storage
+        storage.close_pending_chunk()
+        self.counts.update(storage.message_counts())
+        self.min_timestamp = storage.message_start_time
+        self.max_timestamp = storage.message_end_time
+        super().close()
+
+
+@functools.cache
+def _jazzy_serializer() -> CdrSerializer:
+    """Return the serialiser of the ROS2_JAZZY type store that recorders share."""
+    return CdrSerializer(get_typestore(Stores.ROS2_JAZZY))
 
 
 class BagRecorder:
@@ -304,9 +492,8 @@ class BagRecorder:
     Write messages of the chosen topics into a new rosbag2 bag with MCAP storage.
 
     ``path`` is the bag folder; the MCAP file inside is ``<folder name>.mcap``. Connections are
-    created on each topic's first message from the message's type. Use it as a context
-    manager: the bag is closed (index and metadata written, so it stays readable) even when the
-    run fails half-way.
+    created on each topic's first message of a type. Use it as a context manager: the bag is
+    closed (index and metadata written, so it stays readable) even when the run fails half-way.
     """
 
     def __init__(self, path: str | os.PathLike, topics: Iterable[str] = DEFAULT_TOPICS, *,
@@ -315,18 +502,20 @@ class BagRecorder:
         self.path = Path(path)
         self.topics = frozenset(_absolute(topic) for topic in topics)
         self.qos = dict(DEFAULT_QOS if qos is None else qos)
-        self.typestore = typestore or get_typestore(Stores.ROS2_JAZZY)
-        self.serializer = CdrSerializer(self.typestore)
+        self.serializer = _jazzy_serializer() if typestore is None else CdrSerializer(typestore)
+        self.typestore = self.serializer.typestore
         if overwrite and self.path.exists():
             _remove_old_bag(self.path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self._writer = _BagWriter(self.path, version=BAG_VERSION,
                                   storage_plugin=StoragePlugin.MCAP)
         self._writer.open()
-        self._connections: dict[tuple[str, type], tuple[Any, Callable | None]] = {}
-        # The writer's own tallies, still readable once it is closed.
-        self._writer_connections = self._writer.connections
-        self._writer_counts = self._writer.counts
+        self._storage = self._writer.storage
+        self._writer_connections = self._writer.connections  # still readable once closed
+        self._connections: dict[tuple[str, str], Connection] = {}  # by topic and type name
+        # What write does per topic (as published) and message class: a serialiser and the
+        # connection to write to, or None and None for topics not recorded.
+        self._routes: dict[tuple[str, type], tuple[Callable | None, Connection | None]] = {}
 
     @property
     def mcap_path(self) -> Path:
@@ -344,40 +533,52 @@ class BagRecorder:
 
         Fits the lockstep runtime's tap signature ``fn(topic, msg, t_ns)``.
         """
-        if self._writer is None:
-            raise RuntimeError(f'bag {self.path} is closed')
-        key = (topic, type(msg))
-        entry = self._connections.get(key)
-        if entry is None:
-            if _absolute(topic) not in self.topics:
-                self._connections[key] = entry = (None, None)
-            else:
-                entry = self._connections[key] = self._connect(_absolute(topic), msg)
-        connection, serialize = entry
-        if connection is None:
-            return
-        self._writer.write(connection, t_ns, serialize(msg, bytearray(CDR_LITTLE_ENDIAN_HEADER)))
+        if t_ns.__class__ is not int or t_ns < 0:
+            raise ValueError(f'bag {self.path}: a message time must be a non-negative int '
+                             f'(ns), got {t_ns!r} on {topic}')
+        route = self._routes.get((topic, type(msg)))
+        if route is None:
+            route = self._route(topic, msg)
+        serialize, connection = route
+        if connection is not None:
+            self._storage.write(connection, t_ns, serialize(msg))
 
     @property
     def counts(self) -> dict[str, int]:
         """Return the number of messages recorded per topic."""
+        per_channel = self._storage.message_counts()
         counts: dict[str, int] = {}
         for connection in self._writer_connections:
             counts[connection.topic] = counts.get(connection.topic, 0) + \
-                self._writer_counts[connection.id]
+                per_channel[connection.id]
         return counts
 
-    def _connect(self, topic: str, msg: Any) -> tuple[Any, Callable]:
-        typename = ros_type_name(msg)
-        connection = self._writer.add_connection(
-            topic, typename, typestore=self.typestore,
-            offered_qos_profiles=[self.qos.get(topic, offered_qos())])
-        return connection, self.serializer.function(typename)
+    def _route(self, topic: str, msg: Any) -> tuple[Callable | None, Connection | None]:
+        """Return (and keep) what ``write`` does with messages like ``msg`` on ``topic``."""
+        if self._writer is None:
+            raise RuntimeError(f'bag {self.path} is closed')
+        name = _absolute(topic)
+        route: tuple[Callable | None, Connection | None] = (None, None)
+        if name in self.topics:
+            typename = ros_type_name(msg)
+            route = (self.serializer.function(typename, slots=isinstance(msg, LockstepMessage)),
+                     self._connection(name, typename))
+        self._routes[(topic, type(msg))] = route
+        return route
+
+    def _connection(self, topic: str, typename: str) -> Connection:
+        key = (topic, typename)
+        if key not in self._connections:
+            self._connections[key] = self._writer.add_connection(
+                topic, typename, typestore=self.typestore,
+                offered_qos_profiles=[self.qos.get(topic, offered_qos())])
+        return self._connections[key]
 
     def close(self) -> None:
         """Finish the bag: write the MCAP index and ``metadata.yaml``. Safe to call twice."""
         writer, self._writer = self._writer, None
         if writer is not None:
+            self._routes.clear()  # so that write finds the bag closed
             writer.close()
 
     def __enter__(self) -> 'BagRecorder':

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 from rosbags.interfaces import Nodetype, QosDurability, QosReliability
 from rosbags.rosbag2 import Reader, StoragePlugin, Writer
+from rosbags.rosbag2.storage_mcap import McapReader
 from rosbags.typesys import get_typestore, Stores
 import yaml
 
@@ -67,7 +68,34 @@ def test_serialised_bytes_equal_rosbags_for_every_jazzy_message(seed):
     for msgtype in MESSAGE_TYPES:
         msg = random_message(msgtype, rng)
         expected = TYPESTORE.serialize_cdr(msg_to_rosbags(msg, TYPESTORE), msgtype)
-        assert serializer.serialize(msg) == expected, msgtype
+        assert serializer.serialize(msg) == expected, msgtype  # read through the slots
+        assert serializer.function(msgtype)(msg) == expected, msgtype  # by the field names
+
+
+def test_runtime_messages_are_read_through_their_slots(monkeypatch):
+    twist = message_class('geometry_msgs/msg/Twist')()
+    twist.linear.x = 0.5
+    monkeypatch.setattr(message_class('geometry_msgs/msg/Vector3'), 'x',
+                        property(lambda vector: 1 / 0))
+    assert CdrSerializer(TYPESTORE).serialize(twist) == TYPESTORE.serialize_cdr(
+        TYPESTORE.types['geometry_msgs/msg/Twist'](
+            linear=TYPESTORE.types['geometry_msgs/msg/Vector3'](x=0.5, y=0.0, z=0.0),
+            angular=TYPESTORE.types['geometry_msgs/msg/Vector3'](x=0.0, y=0.0, z=0.0)),
+        'geometry_msgs/msg/Twist')
+
+
+def test_runtime_messages_holding_rosbags_sub_messages_serialise_by_field_names():
+    rng = random.Random(4)
+    odom = random_message('nav_msgs/msg/Odometry', rng)
+    expected = TYPESTORE.serialize_cdr(msg_to_rosbags(odom, TYPESTORE), 'nav_msgs/msg/Odometry')
+    odom.header = msg_to_rosbags(odom.header, TYPESTORE)
+    tf = random_message('tf2_msgs/msg/TFMessage', rng)
+    tf.transforms = [random_message('geometry_msgs/msg/TransformStamped', rng) for _ in range(3)]
+    tf_expected = TYPESTORE.serialize_cdr(msg_to_rosbags(tf, TYPESTORE), 'tf2_msgs/msg/TFMessage')
+    tf.transforms[1] = msg_to_rosbags(tf.transforms[1], TYPESTORE)
+    serializer = CdrSerializer(TYPESTORE)
+    assert serializer.serialize(odom) == expected
+    assert serializer.serialize(tf) == tf_expected
 
 
 def test_rosbags_messages_serialise_as_they_are():
@@ -152,6 +180,8 @@ def test_recorded_bag_reads_back_with_counts_types_times_and_contents(tmp_path):
     with BagRecorder(tmp_path / 'run') as recorder:
         for topic, msg, t_ns in run_messages():
             recorder.write(topic, msg, t_ns)
+        assert recorder.counts == {
+            '/tf_static': 1, '/clock': 100, '/odom': 50, '/tf': 50, '/scan': 10, '/cmd_vel': 10}
     assert (tmp_path / 'run' / 'run.mcap').is_file()
     messages, connections = read_bag(tmp_path / 'run')
     assert {topic: len(entries) for topic, entries in messages.items()} == {
@@ -206,6 +236,18 @@ def test_a_run_failing_half_way_leaves_a_readable_bag(tmp_path):
     recorder.close()
 
 
+@pytest.mark.parametrize('t_ns', [-1, 1.5, np.int64(3), True])
+def test_a_message_time_that_is_not_a_non_negative_int_is_refused_and_the_bag_kept(
+        tmp_path, t_ns):
+    clock = message_class('rosgraph_msgs/msg/Clock')()
+    with BagRecorder(tmp_path / 'bag') as recorder:
+        recorder.write('/clock', clock, 5)
+        with pytest.raises(ValueError, match='non-negative int'):
+            recorder.write('/clock', clock, t_ns)
+    messages, _ = read_bag(tmp_path / 'bag')
+    assert [t for t, _ in messages['/clock']] == [5]
+
+
 def test_only_the_topics_asked_for_are_recorded(tmp_path):
     with BagRecorder(tmp_path / 'run', topics=['scan', '/cmd_vel']) as recorder:
         for topic, msg, t_ns in run_messages(0.5):
@@ -215,14 +257,10 @@ def test_only_the_topics_asked_for_are_recorded(tmp_path):
         '/scan': 5, '/cmd_vel': 5}
 
 
-def test_lean_writer_writes_the_same_bytes_as_rosbags_writer(tmp_path):
-    recorded = list(run_messages(0.3))
+def write_with_rosbags(path, recorded, qos):
+    """Write ``recorded`` as BagRecorder does but with rosbags' own Writer, the reference."""
     serializer = CdrSerializer(TYPESTORE)
-    with BagRecorder(tmp_path / 'ours' / 'run') as recorder:
-        for topic, msg, t_ns in recorded:
-            recorder.write(topic, msg, t_ns)
-    with Writer(tmp_path / 'rosbags' / 'run', version=BAG_VERSION,
-                storage_plugin=StoragePlugin.MCAP) as writer:
+    with Writer(path, version=BAG_VERSION, storage_plugin=StoragePlugin.MCAP) as writer:
         connections = {}
         for topic, msg, t_ns in recorded:
             topic = '/' + topic.lstrip('/')
@@ -231,11 +269,88 @@ def test_lean_writer_writes_the_same_bytes_as_rosbags_writer(tmp_path):
             if topic not in connections:
                 connections[topic] = writer.add_connection(
                     topic, ros_type_name(msg), typestore=TYPESTORE,
-                    offered_qos_profiles=[recorder.qos.get(topic, offered_qos())])
+                    offered_qos_profiles=[qos.get(topic, offered_qos())])
             writer.write(connections[topic], t_ns, serializer.serialize(msg))
+
+
+def assert_same_bag(ours, reference):
     for name in ('run.mcap', 'metadata.yaml'):
-        assert (tmp_path / 'ours' / 'run' / name).read_bytes() == \
-            (tmp_path / 'rosbags' / 'run' / name).read_bytes()
+        assert (ours / name).read_bytes() == (reference / name).read_bytes(), name
+
+
+def test_lean_writer_writes_the_same_bytes_as_rosbags_writer(tmp_path):
+    recorded = list(run_messages(0.3))
+    with BagRecorder(tmp_path / 'ours' / 'run') as recorder:
+        for topic, msg, t_ns in recorded:
+            recorder.write(topic, msg, t_ns)
+    write_with_rosbags(tmp_path / 'rosbags' / 'run', recorded, recorder.qos)
+    assert_same_bag(tmp_path / 'ours' / 'run', tmp_path / 'rosbags' / 'run')
+
+
+def test_bags_of_several_chunks_are_rosbags_bytes_and_read_back(tmp_path):
+    """Chunks of 1 MiB close on the same message as rosbags'; a late topic joins a later one."""
+    recorded = []
+    for step in range(700):
+        t_ns = step * 10_000_000
+        recorded.append(('/clock', message_class('rosgraph_msgs/msg/Clock')(clock=stamp(t_ns)),
+                         t_ns))
+        scan = message_class('sensor_msgs/msg/LaserScan')(
+            ranges=[0.01 * ((step + beam) % 997) for beam in range(1081)])
+        scan.header.stamp, scan.header.frame_id = stamp(t_ns), 'laser'
+        recorded.append(('/scan', scan, t_ns))
+        if step >= 450 and step % 3 == 0:
+            twist = message_class('geometry_msgs/msg/Twist')()
+            twist.linear.x = 0.001 * step
+            recorded.append(('/cmd_vel', twist, t_ns))
+    with BagRecorder(tmp_path / 'ours' / 'run') as recorder:
+        for topic, msg, t_ns in recorded:
+            recorder.write(topic, msg, t_ns)
+    write_with_rosbags(tmp_path / 'rosbags' / 'run', recorded, recorder.qos)
+    assert_same_bag(tmp_path / 'ours' / 'run', tmp_path / 'rosbags' / 'run')
+    mcap = McapReader(tmp_path / 'ours' / 'run' / 'run.mcap')
+    mcap.open()
+    assert len(mcap.chunks) >= 3
+    mcap.close()
+    with Reader(tmp_path / 'ours' / 'run') as reader:
+        read = [(connection.topic, t_ns, data) for connection, t_ns, data in reader.messages()]
+    assert read == [(topic, t_ns, CdrSerializer(TYPESTORE).serialize(msg))
+                    for topic, msg, t_ns in recorded]
+
+
+def test_a_message_failing_to_serialise_leaves_a_bag_as_rosbags_would(tmp_path):
+    """Its new connection is written but not the message: here to a chunk without messages."""
+    scan = message_class('sensor_msgs/msg/LaserScan')(ranges=np.ones(300_000))  # over 1 MiB
+    bad = message_class('geometry_msgs/msg/PoseWithCovarianceStamped')()
+    bad.pose.covariance = np.zeros(35)
+    with pytest.raises(ValueError, match='covariance'):
+        with BagRecorder(tmp_path / 'ours' / 'run', topics=['/scan', '/pose']) as recorder:
+            recorder.write('/scan', scan, 7)
+            recorder.write('/pose', bad, 8)
+    with Writer(tmp_path / 'rosbags' / 'run', version=BAG_VERSION,
+                storage_plugin=StoragePlugin.MCAP) as writer:
+        connection = writer.add_connection(
+            '/scan', 'sensor_msgs/msg/LaserScan', typestore=TYPESTORE,
+            offered_qos_profiles=[offered_qos()])
+        writer.write(connection, 7, CdrSerializer(TYPESTORE).serialize(scan))
+        writer.add_connection('/pose', 'geometry_msgs/msg/PoseWithCovarianceStamped',
+                              typestore=TYPESTORE, offered_qos_profiles=[offered_qos()])
+    assert_same_bag(tmp_path / 'ours' / 'run', tmp_path / 'rosbags' / 'run')
+    assert recorder.counts == {'/scan': 1, '/pose': 0}
+    messages, _ = read_bag(tmp_path / 'ours' / 'run')
+    assert [t_ns for t_ns, _ in messages['/scan']] == [7]
+
+
+def test_a_topic_however_spelled_and_whatever_the_message_class_is_one_connection(tmp_path):
+    clock = message_class('rosgraph_msgs/msg/Clock')(clock=stamp(5))
+    with BagRecorder(tmp_path / 'run') as recorder:
+        recorder.write('clock', clock, 1)
+        recorder.write('/clock', clock, 2)
+        recorder.write('/clock', msg_to_rosbags(clock, TYPESTORE), 3)
+    messages, connections = read_bag(tmp_path / 'run')
+    assert list(connections) == ['/clock']
+    assert [(t_ns, msg.clock.nanosec) for t_ns, msg in messages['/clock']] == \
+        [(1, 5), (2, 5), (3, 5)]
+    assert recorder.counts == {'/clock': 3}
 
 
 def test_an_old_bag_is_replaced_only_when_asked(tmp_path):
