@@ -96,7 +96,7 @@ def _fractions(client: int, starts: np.ndarray, ends: np.ndarray, batch_size: in
     if count <= batch_size:
         results = pybullet.rayTestBatch(starts, ends, numThreads=threads,
                                         physicsClientId=client)
-        return np.fromiter(map(_FRACTION, results), dtype=float, count=count)
+        return np.fromiter(map(_FRACTION, results), float, count)
     return np.concatenate([
         _fractions(client, starts[first:first + batch_size], ends[first:first + batch_size],
                    batch_size, threads)
@@ -204,8 +204,17 @@ class Lidar:
         if threads is None:
             threads = 0 if config.beams >= THREADED_FROM_BEAMS else 1
         self.threads = threads
+        # Each beam's end relative to the laser (m, robot axes), its x and y as contiguous
+        # arrays; the rays' starts and ends (m, world frame) are rewritten in place every scan
+        # apart from their heights, which the robot's motion in the plane never changes.
         self._reach = beam_directions(config) * config.range_max
+        self._reach_x = np.ascontiguousarray(self._reach[:, 0])
+        self._reach_y = np.ascontiguousarray(self._reach[:, 1])
+        height = config.pose[2]
         self._starts = np.empty_like(self._reach)
+        self._starts[:, 2] = height
+        self._ends = np.empty_like(self._reach)
+        self._ends[:, 2] = height + self._reach[:, 2]
         self._noisy = config.noise_stddev > 0.0 or config.noise_mean != 0.0
 
     def origin(self, pose: tuple[float, float, float]) -> tuple[float, float, float]:
@@ -217,25 +226,42 @@ class Lidar:
         return (x + cos_yaw * offset_x - sin_yaw * offset_y,
                 y + sin_yaw * offset_x + cos_yaw * offset_y, height)
 
-    def _world_points(self, pose: tuple[float, float, float], reach: np.ndarray
-                      ) -> tuple[tuple[float, float, float], np.ndarray]:
-        """Return the laser origin and the points ``reach`` (laser frame, m) in the world."""
+    def _world_points(self, pose: tuple[float, float, float], reach_x: np.ndarray,
+                      reach_y: np.ndarray, points: np.ndarray) -> tuple[float, float, float]:
+        """
+        Write the world x, y of points near the laser into ``points``; return the laser origin.
+
+        ``reach_x`` and ``reach_y`` (m) place the points relative to the laser along the
+        robot's axes; ``points`` is (N, 3), its z column (m) is left to the caller. Origin and
+        points are in the world frame (m) for the robot pose (m, m, rad). The rotation is
+        written out term by term, not as a matrix product, whose summing may round the last
+        bit differently.
+        """
         origin = self.origin(pose)
         cos_yaw = math.cos(pose[2])
         sin_yaw = math.sin(pose[2])
-        points = np.empty_like(reach)
-        points[:, 0] = origin[0] + cos_yaw * reach[:, 0] - sin_yaw * reach[:, 1]
-        points[:, 1] = origin[1] + sin_yaw * reach[:, 0] + cos_yaw * reach[:, 1]
-        points[:, 2] = origin[2] + reach[:, 2]
-        return origin, points
+        x = origin[0] + cos_yaw * reach_x
+        x -= sin_yaw * reach_y
+        y = origin[1] + sin_yaw * reach_x
+        y += cos_yaw * reach_y
+        points[:, 0] = x
+        points[:, 1] = y
+        return origin
+
+    def _distances(self, pose: tuple[float, float, float]) -> np.ndarray:
+        """Return the distance (m) along each beam to the first surface, range_max for none."""
+        origin = self._world_points(pose, self._reach_x, self._reach_y, self._ends)
+        self._starts[:, 0].fill(origin[0])
+        self._starts[:, 1].fill(origin[1])
+        distances = _fractions(self.client, self._starts, self._ends, RAY_BATCH_SIZE,
+                               self.threads)
+        distances *= self.config.range_max
+        return distances
 
     def true_ranges(self, pose: tuple[float, float, float]) -> np.ndarray:
-        """Return the noise-free distance (m) along each beam, +inf beyond range_max."""
-        origin, ends = self._world_points(pose, self._reach)
-        self._starts[:] = origin
-        fractions = _fractions(self.client, self._starts, ends, RAY_BATCH_SIZE, self.threads)
-        ranges = fractions * self.config.range_max
-        ranges[fractions >= 1.0] = np.inf
+        """Return the noise-free distance (m) along each beam, +inf from range_max on."""
+        ranges = self._distances(pose)
+        np.putmask(ranges, ranges >= self.config.range_max, np.inf)
         return ranges
 
     def ray_segments(self, pose: tuple[float, float, float], ranges: np.ndarray
@@ -248,19 +274,25 @@ class Lidar:
         """
         fractions = np.clip(np.nan_to_num(np.asarray(ranges) / self.config.range_max,
                                           nan=1.0, posinf=1.0, neginf=0.0), 0.0, 1.0)
-        origin, ends = self._world_points(pose, self._reach * fractions[:, np.newaxis])
+        reach = self._reach * fractions[:, np.newaxis]
+        ends = np.empty_like(reach)
+        ends[:, 2] = self.config.pose[2] + reach[:, 2]
+        origin = self._world_points(pose, reach[:, 0], reach[:, 1], ends)
         return np.broadcast_to(origin, ends.shape), ends
 
     def scan(self, pose: tuple[float, float, float], stamp: float = 0.0) -> LaserScanData:
         """Return the scan from the robot pose (x m, y m, yaw rad) at time ``stamp`` (s)."""
         config = self.config
-        true = self.true_ranges(pose)
-        ranges = true
+        distances = self._distances(pose)
+        no_return = distances >= config.range_max
+        too_close = distances < config.range_min
+        ranges = distances
         if self._noisy:
-            noise = self.rng.normal(config.noise_mean, config.noise_stddev, len(true))
-            ranges = np.clip(true + noise, config.range_min, config.range_max)
-        ranges[true >= config.range_max] = np.inf
-        ranges[true < config.range_min] = -np.inf
+            ranges = self.rng.normal(config.noise_mean, config.noise_stddev, len(distances))
+            ranges += distances
+            ranges.clip(config.range_min, config.range_max, out=ranges)
+        np.putmask(ranges, no_return, np.inf)
+        np.putmask(ranges, too_close, -np.inf)
         return LaserScanData(
             ranges=ranges, intensities=np.zeros(len(ranges)), angle_min=config.min_angle,
             angle_max=config.last_angle, angle_increment=config.angle_increment,

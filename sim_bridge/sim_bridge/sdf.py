@@ -22,6 +22,7 @@ the parent element, the SDF default.
 """
 
 from dataclasses import dataclass, field
+from functools import cached_property
 import math
 import os
 from pathlib import Path
@@ -47,7 +48,9 @@ class LidarConfig:
     ``range_max`` (m); ``range_resolution`` (m) is reported, not applied (as in Gazebo);
     ``update_rate`` (Hz); Gaussian noise ``noise_mean``, ``noise_stddev`` (m). ``pose`` is the
     laser frame in the robot's base frame: x, y, z (m), roll, pitch, yaw (rad). ``frame_id``
-    names the laser frame.
+    names the laser frame. The derived ``beams``, ``angle_increment``, ``last_angle`` and
+    ``scan_period`` are worked out on first use and kept (the fields never change), as every
+    scan reads them.
     """
 
     samples: int = 36
@@ -91,24 +94,24 @@ class LidarConfig:
         if problems:
             raise ValueError('invalid lidar: ' + '; '.join(problems))
 
-    @property
+    @cached_property
     def beams(self) -> int:
         """Return the number of readings per scan: samples times resolution, at least 1."""
         return max(1, round(self.samples * self.resolution))
 
-    @property
+    @cached_property
     def angle_increment(self) -> float:
         """Return the angle (rad) between beams: (max - min) / (beams - 1); 0 for one beam."""
         if self.beams == 1:
             return 0.0
         return (self.max_angle - self.min_angle) / (self.beams - 1)
 
-    @property
+    @cached_property
     def last_angle(self) -> float:
         """Return the angle (rad) of the last beam: max_angle, or min_angle for one beam."""
         return self.min_angle + self.angle_increment * (self.beams - 1)
 
-    @property
+    @cached_property
     def scan_period(self) -> float:
         """Return the time (s) between scans."""
         return 1.0 / self.update_rate

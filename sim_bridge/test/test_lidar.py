@@ -8,7 +8,7 @@ import pybullet
 import pytest
 
 from sim_bridge.geometry import Shape
-from sim_bridge.lidar import build_scene, cast_rays, Lidar
+from sim_bridge.lidar import beam_directions, build_scene, cast_rays, Lidar
 from sim_bridge.sdf import LidarConfig
 
 NOISELESS = LidarConfig(noise_stddev=0.0)
@@ -184,6 +184,50 @@ def test_noisy_readings_are_clamped_into_the_valid_range(scene):
     ranges = Lidar(scene, config, np.random.default_rng(0)).scan((0.0, 0.0, 0.0)).ranges
     assert np.all((ranges >= 1.99) & (ranges <= 2.02))
     assert np.any(ranges == 1.99) and np.any(ranges == 2.02)
+
+
+def test_noisy_scan_is_the_true_range_plus_the_generators_noise_clamped(scene):
+    config = replace(NOISELESS, samples=200, min_angle=-math.pi, max_angle=math.pi,
+                     range_min=1.3, range_max=2.2, noise_mean=0.01, noise_stddev=0.2,
+                     pose=(0.0, 0.0, 0.3, 0.0, 0.0, 0.0))
+    pose = (0.0, 0.1, 0.4)
+    lidar = Lidar(scene, config, np.random.default_rng(3))
+    true = lidar.true_ranges(pose)
+    ranges = lidar.scan(pose).ranges
+    noise = np.random.default_rng(3).normal(0.01, 0.2, 200)
+    expected = np.clip(true + noise, 1.3, 2.2)
+    expected[true >= 2.2] = math.inf
+    expected[true < 1.3] = -math.inf
+    assert np.array_equal(ranges, expected)
+    # The wall is in range, the post too close and most directions see nothing.
+    assert np.isfinite(ranges).any() and np.isneginf(ranges).any() and np.isposinf(ranges).any()
+
+
+def test_scans_do_not_share_arrays_with_later_scans(scene):
+    config = replace(NOISELESS, samples=8, min_angle=-math.pi, max_angle=math.pi)
+    lidar = Lidar(scene, config, np.random.default_rng(0))
+    first, true = lidar.scan((0.0, 0.0, 0.0)), lidar.true_ranges((0.0, 0.0, 0.0))
+    kept = first.ranges.copy(), first.intensities.copy(), true.copy()
+    second = lidar.scan((0.5, 0.3, 1.0))
+    lidar.true_ranges((-0.4, 0.2, -2.0))
+    assert np.array_equal(first.ranges, kept[0]) and not np.array_equal(second.ranges, kept[0])
+    assert np.array_equal(first.intensities, kept[1]) and np.array_equal(true, kept[2])
+    assert second.intensities is not first.intensities
+
+
+def test_ray_ends_are_the_beams_turned_by_the_robots_yaw(scene):
+    config = replace(NOISELESS, samples=7, pose=(0.2, -0.1, 0.3, 0.0, 0.1, 0.4))
+    lidar = Lidar(scene, config, np.random.default_rng(0))
+    pose = (0.3, -0.6, 2.5)
+    starts, ends = lidar.ray_segments(pose, np.full(7, math.inf))
+    origin = lidar.origin(pose)
+    cos_yaw, sin_yaw = math.cos(pose[2]), math.sin(pose[2])
+    reach = beam_directions(config) * config.range_max
+    assert np.array_equal(starts, np.tile(origin, (7, 1)))
+    # Bit for bit the formula, summed left to right.
+    assert np.array_equal(ends[:, 0], origin[0] + cos_yaw * reach[:, 0] - sin_yaw * reach[:, 1])
+    assert np.array_equal(ends[:, 1], origin[1] + sin_yaw * reach[:, 0] + cos_yaw * reach[:, 1])
+    assert np.array_equal(ends[:, 2], origin[2] + reach[:, 2])
 
 
 def test_two_scenes_in_two_clients_do_not_see_each_other(scene):

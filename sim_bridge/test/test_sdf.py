@@ -1,5 +1,6 @@
 """Tests of sim_bridge.sdf: Gazebo model folders, collision shapes and lidar sensor blocks."""
 
+from dataclasses import replace
 import math
 from pathlib import Path
 import shutil
@@ -131,6 +132,19 @@ def test_one_beam_has_zero_increment_and_ends_where_it_starts():
     lidar = LidarConfig(samples=1)
     assert lidar.angle_increment == 0.0
     assert lidar.last_angle == lidar.min_angle
+
+
+def test_derived_lidar_values_follow_the_fields_and_are_kept_after_first_use():
+    lidar = LidarConfig(samples=90, resolution=2.0, min_angle=-1.0, max_angle=2.0,
+                        update_rate=8.0)
+    assert lidar.beams == 180
+    assert lidar.angle_increment == (2.0 - -1.0) / 179
+    assert lidar.last_angle == -1.0 + (2.0 - -1.0) / 179 * 179
+    assert lidar.scan_period == 1.0 / 8.0
+    assert {'beams', 'angle_increment', 'last_angle', 'scan_period'} <= vars(lidar).keys()
+    # A copy with other fields works its own out; the kept values play no part in equality.
+    assert replace(lidar, samples=10).beams == 20
+    assert lidar == replace(lidar) and hash(lidar) == hash(replace(lidar))
 
 
 def test_model_without_lidar_and_noise_type_none():

@@ -130,12 +130,15 @@ def bench_ray_casts(world: World) -> None:
             ('pybullet primitives, numpy arrays in',
              cast(clients[False], starts_array, ends)),
             ('  conversion for lists: ends.tolist()', ends.tolist),
-            ('  result: np.fromiter(map(itemgetter(2), ...)) (used)',
+            ('  result: np.fromiter(map(itemgetter(2), r), float, n) (used)',
+             lambda: np.fromiter(map(fraction, results), float, count)),
+            ('  result: the same, dtype= and count= as keywords',
              lambda: np.fromiter(map(fraction, results), dtype=float, count=count)),
             ('  result: np.array([r[2] for r in ...])',
              lambda: np.array([r[2] for r in results])),
             ('  result: np.array(results, dtype=object)[:, 2]',
              lambda: np.array(results, dtype=object)[:, 2].astype(float)),
+            ('Lidar.true_ranges: noise-free distances', lambda: lidar.true_ranges(pose)),
             ('Lidar.scan: whole scan incl. noise (used)', lambda: lidar.scan(pose)),
         ]
         for label, function in measured:
