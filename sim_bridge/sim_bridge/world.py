@@ -229,8 +229,12 @@ class World:
         return _display_path(self.path) if self.path is not None else self.name
 
 
-class _StrictLoader(yaml.SafeLoader):
-    """YAML's safe loader, except that a key given twice in one mapping is an error."""
+class _StrictLoader(getattr(yaml, 'CSafeLoader', yaml.SafeLoader)):
+    """
+    YAML's safe loader, except that a key given twice in one mapping is an error.
+
+    libyaml's parser where PyYAML has it (twice as fast), the pure-Python one otherwise.
+    """
 
     def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict:
         seen = set()
