@@ -96,17 +96,18 @@ class CdrSerializer:
     Any object with the fields of its ROS type serialises (rosidl's classes, the lockstep
     runtime's, rosbags' own), so runtime messages need no conversion first. One function is
     generated per type: runs of scalar fields, string lengths, sequence counts and the padding
-    between them are packed by one precompiled ``struct`` format each, arrays copied as
-    buffers, nested messages and sequence elements inlined. The bytes equal
-    ``typestore.serialize_cdr`` of the same message (the tests compare them).
+    between them are packed by one precompiled ``struct`` format each (the first run with the
+    encapsulation header, so a message of scalars only is one call), arrays copied as buffers,
+    nested messages and sequence elements inlined. The bytes (a ``bytes`` or ``bytearray``)
+    equal ``typestore.serialize_cdr`` of the same message (the tests compare them).
     """
 
     def __init__(self, typestore: Typestore) -> None:
         self.typestore = typestore
-        self._functions: dict[tuple[str, bool], Callable[[Any], bytearray]] = {}
-        self._by_class: dict[type, Callable[[Any], bytearray]] = {}
+        self._functions: dict[tuple[str, bool], Callable[[Any], bytes | bytearray]] = {}
+        self._by_class: dict[type, Callable[[Any], bytes | bytearray]] = {}
 
-    def serialize(self, msg: Any, typename: str | None = None) -> bytearray:
+    def serialize(self, msg: Any, typename: str | None = None) -> bytes | bytearray:
         """Return the CDR bytes (with the 4-byte encapsulation header) of ``msg``."""
         if typename is not None:
             return self.function(typename, slots=isinstance(msg, LockstepMessage))(msg)
@@ -116,7 +117,8 @@ class CdrSerializer:
                 ros_type_name(msg), slots=isinstance(msg, LockstepMessage))
         return function(msg)
 
-    def function(self, typename: str, *, slots: bool = False) -> Callable[[Any], bytearray]:
+    def function(self, typename: str, *,
+                 slots: bool = False) -> Callable[[Any], bytes | bytearray]:
         """
         Return the function serialising a ``typename`` message to CDR bytes, header first.
 
@@ -166,6 +168,8 @@ class _CdrCodegen:
     are entries of a run too (code ``'x'`` and ``''``, no value). ``offset`` is the output's
     offset modulo 8 (from the end of the encapsulation header) where the code can know it: a
     run starting there packs by one format, elsewhere by one of eight per start alignment.
+    The first run is packed with the encapsulation header and starts the output, so a message
+    of scalars only is one ``pack`` call (returning ``bytes``).
     """
 
     def __init__(self, fielddefs: dict, slots: bool) -> None:
@@ -179,20 +183,27 @@ class _CdrCodegen:
         self.lines: list[str] = []
         self.run: list[tuple[str, int, str | None]] = []
         self.offset: int | None = 0
+        # Once written: the line number of ``out``'s creation, and the bytes it starts with.
+        self.opening: tuple[int, str] | None = None
 
-    def build(self, typename: str, fallback: Callable | None) -> Callable[[Any], bytearray]:
-        self.lines = ['def serialize(msg):', '  out = bytearray(HEADER)']
-        if fallback is None:
-            self.message(typename, 'msg', '  ')
-            self.flush('  ')
-        else:
+    def build(self, typename: str,
+              fallback: Callable | None) -> Callable[[Any], bytes | bytearray]:
+        self.lines = ['def serialize(msg):']
+        indent = '  '
+        if fallback is not None:
             # An AttributeError or TypeError: not the runtime's own objects all the way down.
             self.namespace['fallback'] = fallback
             self.lines.append('  try:')
-            self.message(typename, 'msg', '    ')
-            self.flush('    ')
+            indent = '    '
+        self.message(typename, 'msg', indent)
+        self.flush(indent)
+        line, expression = self.opening
+        if line == len(self.lines) - 1:  # nothing after the first run: return its bytes
+            self.lines[line] = f'{indent}return {expression}'
+        else:
+            self.lines.append(f'{indent}return out')
+        if fallback is not None:
             self.lines += ['  except (AttributeError, TypeError):', '    return fallback(msg)']
-        self.lines.append('  return out')
         exec(compile('\n'.join(self.lines), f'<cdr {typename}>', 'exec'), self.namespace)
         return self.namespace['serialize']
 
@@ -206,8 +217,10 @@ class _CdrCodegen:
         return f'{letter}{len(self.lines)}'
 
     def flush(self, indent: str) -> None:
-        """Emit one pack of the pending run."""
+        """Emit one pack of the pending run (the first, with the header, creates ``out``)."""
         if not self.run:
+            if self.opening is None:  # an array of strings first, say: a loop follows
+                self.start_output('HEADER', indent)
             return
         layouts = []
         for start in range(8):
@@ -221,13 +234,22 @@ class _CdrCodegen:
         self.run = []
         starts = range(8) if self.offset is None else [self.offset]
         ends = {(start + struct.calcsize(layouts[start])) % 8 for start in starts}
+        self.offset = ends.pop() if len(ends) == 1 else None
+        if self.opening is None:  # the first run, at offset 0: the header is packed before it
+            pack = self.name(struct.Struct('<4s' + layouts[0][1:]).pack)
+            self.start_output(f'{pack}(HEADER' + f', {values}' * bool(values) + ')', indent)
+            return
         if len({layouts[start] for start in starts}) == 1:
             choice = self.name(self.packer(layouts[starts[0]], values))
         else:
             choice = f'{self.name(tuple(self.packer(layout, values) for layout in layouts))}' \
                 '[(len(out) - 4) & 7]'
         self.lines.append(f'{indent}out += {choice}' + f'({values})' * bool(values))
-        self.offset = ends.pop() if len(ends) == 1 else None
+
+    def start_output(self, expression: str, indent: str) -> None:
+        """Emit the creation of ``out`` holding the bytes of ``expression``."""
+        self.opening = (len(self.lines), expression)
+        self.lines.append(f'{indent}out = bytearray({expression})')
 
     @staticmethod
     def packer(layout: str, values: str) -> Callable | bytes:
@@ -423,7 +445,16 @@ class _LeanMcapWriter(McapWriter):
             pieces.insert(2 * before, record)
             offsets[before:] += len(record)
         uncompressed = b''.join(pieces)
-        first_channels = dict.fromkeys(self._channels)  # McapWriter's order of index records
+        # The message index: each channel's (time, offset) entries in message order, channels in
+        # the order of their first message (McapWriter's order of index records).
+        by_channel = np.argsort(channels, kind='stable')  # message numbers grouped by channel
+        entries = np.empty((count, 2), '<u8')
+        entries[:, 0] = times[by_channel]
+        entries[:, 1] = offsets[by_channel]
+        counts = np.bincount(channels)  # messages per channel id
+        firsts = np.cumsum(counts) - counts  # where each channel id's entries start
+        indexed = np.flatnonzero(counts)  # the chunk's channel ids, by their first message:
+        indexed = indexed[np.argsort(by_channel[firsts[indexed]])].tolist()
         self._channels, self._times, self._datas, self._records = [], [], [], []
         self._chunk_size = 0
 
@@ -442,15 +473,14 @@ class _LeanMcapWriter(McapWriter):
 
         index = BytesIO()
         index.write(struct.pack('<QQQQI', start, end, chunk_start, chunk_end - chunk_start,
-                                10 * len(first_channels)))
-        for channel in first_channels:
-            selected = channels == channel
-            entries = np.column_stack((times[selected], offsets[selected])).astype('<u8')
+                                10 * len(indexed)))
+        for channel in indexed:
+            channel_entries = entries[firsts[channel]:firsts[channel] + counts[channel]]
             index.write(struct.pack('<HQ', channel, self.bio.tell()))
-            self.bio.write(_pack_message_index_head(0x07, 6 + entries.nbytes, channel,
-                                                    entries.nbytes))
-            self.bio.write(entries.tobytes())
-            self.channel_stats[channel] += len(entries)
+            self.bio.write(_pack_message_index_head(0x07, 6 + channel_entries.nbytes, channel,
+                                                    channel_entries.nbytes))
+            self.bio.write(channel_entries.tobytes())
+            self.channel_stats[channel] += len(channel_entries)
         index.write(_pack_uint64(self.bio.tell() - chunk_end))
         index.write(_pack_uint32(len(compression)) + compression)
         index.write(struct.pack('<QQ', len(compressed), len(uncompressed)))

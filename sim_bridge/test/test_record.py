@@ -8,7 +8,7 @@ import pytest
 from rosbags.interfaces import Nodetype, QosDurability, QosReliability
 from rosbags.rosbag2 import Reader, StoragePlugin, Writer
 from rosbags.rosbag2.storage_mcap import McapReader
-from rosbags.typesys import get_typestore, Stores
+from rosbags.typesys import get_types_from_msg, get_typestore, Stores
 import yaml
 
 from sim_bridge.lockstep.messages import message_class
@@ -96,6 +96,20 @@ def test_runtime_messages_holding_rosbags_sub_messages_serialise_by_field_names(
     serializer = CdrSerializer(TYPESTORE)
     assert serializer.serialize(odom) == expected
     assert serializer.serialize(tf) == tf_expected
+
+
+def test_messages_starting_with_an_array_of_strings_or_messages_serialise_as_rosbags():
+    """No Jazzy message starts so: the output then starts with the header alone, not a run."""
+    store = get_typestore(Stores.ROS2_JAZZY)
+    store.register(get_types_from_msg('string[2] names\nint32 count', 'test_msgs/msg/Names'))
+    store.register(get_types_from_msg('geometry_msgs/Point[2] corners\nstring label',
+                                      'test_msgs/msg/Corners'))
+    point = store.types['geometry_msgs/msg/Point']
+    for msg in (store.types['test_msgs/msg/Names'](names=['ab', 'cdé'], count=-7),
+                store.types['test_msgs/msg/Corners'](
+                    corners=[point(x=1.5, y=2.0, z=3.0), point(x=4.0, y=5.0, z=-6.0)],
+                    label='x')):
+        assert CdrSerializer(store).serialize(msg) == store.serialize_cdr(msg, msg.__msgtype__)
 
 
 def test_rosbags_messages_serialise_as_they_are():

@@ -10,9 +10,9 @@ Rows per message type (and for the mix a 600 s run publishes: per simulated seco
   ``COUNT`` messages, the bag's open and close included;
 * ``rosbags record``: conversion + ``serialize_cdr`` + rosbags' ``Writer.write``, likewise.
 Each figure is the best of a few repeats. The last lines give a bag's own cost (open, one
-message per topic, close: mostly rosbags' YAML for the connections and ``metadata.yaml``; the
-rosbags route stores no QoS profiles, so it has less of it) and extrapolate the mix to a 600 s
-run: that cost once, plus the mix's cost per message beyond it for each message.
+message per topic, close: mostly rosbags' YAML for ``metadata.yaml`` and the QoS profiles,
+which the rosbags route does not store, so it has less of it) and extrapolate the mix to a
+600 s run: that cost once, plus the mix's cost per message beyond it for each message.
 
 Run: python test/bench/bench_record.py [--quick]
 """
