@@ -124,22 +124,23 @@ def write_params_file(path: Path, params: Params) -> None:
 
 
 class Observer:
-    """Fill a Trace from the bridge's simulator after every physics step, and keep a few scans."""
+    """
+    Fill a Trace from the bridge's simulator, and keep a few scans (a tap on ``/scan``).
 
-    #: What the observer taps: /clock marks the end of a physics step.
-    TOPICS = ('/clock', '/scan')
+    The simulator appends its ground truth to the trace after every physics step.
+    """
+
+    TOPICS = ('/scan',)
 
     def __init__(self, simulator, duration_s: float):
         self.sim = simulator
         self.trace = Trace(robot_radius=simulator.robot_radius)
+        simulator.trajectory = self.trace.samples
         self.snapshot_period_s = duration_s / SCANS_DRAWN
         self.next_snapshot_s = self.snapshot_period_s / 2.0
 
     def __call__(self, topic: str, msg: Any, t_ns: int) -> None:
-        if topic == '/clock':
-            sim = self.sim
-            self.trace.append(sim.time, *sim.pose, *sim.velocity, sim.clearance())
-        elif topic == '/scan' and self.sim.time >= self.next_snapshot_s:
+        if self.sim.time >= self.next_snapshot_s:
             self.trace.scans.append(self.snapshot(msg))
             self.next_snapshot_s += self.snapshot_period_s
 

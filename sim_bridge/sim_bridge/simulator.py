@@ -94,6 +94,10 @@ class Simulator:
             raise ValueError(f'command_timeout must be positive (s) or None, got '
                              f'{command_timeout!r}')
         self.lidar_config = config
+        #: None, or a list to which each step appends the robot's ground truth after it, for
+        #: scoring: (time s, x m, y m, yaw rad, v m/s, w rad/s, clearance m), as in a
+        #: :class:`~sim_bridge.run_trace.Trace`.
+        self.trajectory: list[tuple[float, ...]] | None = None
         self.command_timeout = command_timeout
         self.robot_radius = world.robot.radius
         self.limits = limits or DriveLimits()
@@ -182,6 +186,8 @@ class Simulator:
             self._in_contact = True
         elif self._clearance > RELEASE_DISTANCE:
             self._in_contact = False
+        if self.trajectory is not None:
+            self.trajectory.append((self.time, *pose, *self._drive.velocity, self._clearance))
         if self.viewer is not None:
             self.viewer.show_robot(pose)
 

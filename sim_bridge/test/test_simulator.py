@@ -206,6 +206,20 @@ def test_driving_into_a_wall_stops_at_contact_and_counts_one_collision():
         assert simulator.pose[0] == pytest.approx(stop, abs=1e-6)
 
 
+def test_the_trajectory_gets_the_ground_truth_after_each_step_once_asked_for():
+    with Simulator(wall_world()) as simulator:
+        simulator.step(0.01)
+        simulator.trajectory = []
+        samples = []
+        simulator.set_command(0.5, 0.3)
+        for _ in range(3):
+            simulator.step(0.01)
+            samples.append((simulator.time, *simulator.pose, *simulator.velocity,
+                            simulator.clearance()))
+        assert simulator.trajectory == samples
+        assert samples[0][0] == pytest.approx(0.02) and samples[-1][4] > 0.0
+
+
 def test_a_continuous_contact_is_one_collision_a_new_touch_is_another():
     with Simulator(wall_world(), limits=INSTANT) as simulator:
         drive(simulator, 0.5, 0.0, 4.0)
