@@ -23,6 +23,8 @@ TURN_MAX_LINEAR = 0.02
 TURN_MAX_GAP = 0.25
 # Moving less than this (m) from where a pause began counts as standing still.
 STATIONARY_RADIUS = 0.05
+# More than the rounding error (m) of a run's path length summed step by step.
+PATH_ROUNDING = 1e-6
 # Side (m) of the square cells of the coverage grid.
 COVERAGE_CELL = 0.5
 
@@ -152,20 +154,38 @@ def longest_stationary(time: np.ndarray, x: np.ndarray, y: np.ndarray,
     standing still.
     """
     count = len(time)
+    if count < 2:
+        return 0.0
+    # A sample less than ``radius`` along the path from a pause's start is less than that from
+    # it in a straight line too: where the robot leaves is sought from the first sample beyond
+    # (less a margin for the rounding of the path's running sum).
+    travelled = np.concatenate(([0.0], np.cumsum(np.hypot(np.diff(x), np.diff(y)))))
+    beyond = np.minimum(np.searchsorted(travelled, travelled + (radius - PATH_ROUNDING),
+                                        side='right'), count - 1)
+    outside = (np.hypot(x[beyond] - x, y[beyond] - y) > radius).tolist()
+    beyond = beyond.tolist()
     longest = 0.0
     start = 0
     while start < count - 1:
-        window = 64
-        while True:
-            stop = min(count, start + window)
-            away = np.hypot(x[start + 1:stop] - x[start], y[start + 1:stop] - y[start]) > radius
-            if away.any() or stop == count:
-                break
-            window *= 2
-        leave = start + 1 + int(np.argmax(away)) if away.any() else count
+        leave = beyond[start] if outside[start] else first_outside(x, y, start, beyond[start],
+                                                                   radius)
         longest = max(longest, float(time[leave - 1] - time[start]))
         start = leave
     return longest
+
+
+def first_outside(x: np.ndarray, y: np.ndarray, start: int, first: int, radius: float) -> int:
+    """Return the first sample from ``first`` on farther than ``radius`` (m) from ``start``."""
+    count = len(x)
+    window = 64
+    while True:
+        stop = min(count, first + window)
+        away = np.hypot(x[first:stop] - x[start], y[first:stop] - y[start]) > radius
+        if away.any():
+            return first + int(np.argmax(away))
+        if stop == count:
+            return count
+        window *= 2
 
 
 def coverage(x: np.ndarray, y: np.ndarray, bounds: tuple[float, float, float, float],

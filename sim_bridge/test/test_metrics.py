@@ -159,6 +159,28 @@ def test_jitter_smaller_than_the_radius_is_stationary():
     assert longest_stationary(STEP * np.arange(count), x, y) == pytest.approx(STEP * (count - 1))
 
 
+def longest_stationary_by_definition(time, x, y, radius=0.05):
+    longest, start = 0.0, 0
+    while start < len(time) - 1:
+        leave = start + 1
+        while leave < len(time) and math.hypot(x[leave] - x[start], y[leave] - y[start]) <= radius:
+            leave += 1
+        longest, start = max(longest, time[leave - 1] - time[start]), leave
+    return longest
+
+
+@pytest.mark.parametrize('step', [0.005, 0.0025, 0.01, 0.003])
+def test_stationary_periods_are_exact_when_steps_add_up_to_the_radius(step):
+    # Samples exactly the radius apart along a straight path: the boundary must not blur.
+    count = 400
+    rng = np.random.default_rng(1)
+    moving = np.where(rng.random(count) < 0.8, step, 0.0)
+    x = np.cumsum(moving)
+    y = np.zeros(count)
+    time = STEP * np.arange(count)
+    assert longest_stationary(time, x, y) == longest_stationary_by_definition(time, x, y)
+
+
 def test_a_robot_always_moving_is_never_stationary_long():
     trace = drive([(0.3, 0.2, 30.0)])
     assert metrics_of(trace)['max_stationary_s'] < 0.2
