@@ -17,10 +17,9 @@ Run: python test/bench/bench_behaviors.py [--quick]
 
 import array
 import math
-import sys
-import time
 
 import numpy as np
+from timing import microseconds_per_call
 
 from scan_pkg.behaviors.wall_follow import estimate_wall, WallFollowConfig, WallFollower
 from scan_pkg.behaviors.wander import corridor_distance, obstacle_points, Wanderer
@@ -35,8 +34,6 @@ WALL_Y = -0.5
 NOISE_M = 0.01
 SEED = 1
 POOL = 16
-REPEATS = 5
-TARGET_S = 0.03 if '--quick' in sys.argv else 0.15
 
 
 class Message:
@@ -60,28 +57,6 @@ def wall_ranges(rng: np.random.Generator, beams: int) -> np.ndarray:
     ranges[seen] += rng.normal(0.0, NOISE_M, seen.sum())
     ranges[~seen] = math.inf
     return ranges
-
-
-def microseconds_per_call(call, make_inputs) -> float:
-    """
-    Return the best of REPEATS timings (us per call) of ``call`` on each of ``make_inputs()``.
-
-    ``make_inputs`` gives a fresh list of inputs for each timing, outside the timed loop.
-    """
-    inputs = make_inputs()
-    start = time.perf_counter()
-    for item in inputs:
-        call(item)
-    rounds = max(1, int(TARGET_S / REPEATS / max(time.perf_counter() - start, 1e-9)))
-    best = math.inf
-    for _ in range(REPEATS):
-        batch = [make_inputs() for _ in range(rounds)]
-        start = time.perf_counter()
-        for inputs in batch:
-            for item in inputs:
-                call(item)
-        best = min(best, time.perf_counter() - start)
-    return best / (rounds * len(inputs)) * 1e6
 
 
 def follower_step(follower: WallFollower):

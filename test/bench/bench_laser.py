@@ -12,17 +12,14 @@ Run: python test/bench/bench_laser.py [--quick]
 
 import array
 import math
-import sys
-import time
 
 import numpy as np
+from timing import microseconds_per_call
 
 from scan_pkg.laser import Scan
 
 SEED = 20240611
 POOL = 32
-REPEATS = 5
-TARGET_S = 0.04 if '--quick' in sys.argv else 0.15
 
 # Scanners with the beam counts of the issue's benchmark: the lab's 36 beams over +-1.57 rad,
 # a TurtleBot3 LDS (360 beams over 0..2 pi) and a Hokuyo UTM-30LX (1081 beams over +-135 deg).
@@ -90,22 +87,6 @@ def lab(msg):
     return regions, closest, ahead
 
 
-def microseconds_per_scan(answer, messages):
-    """Return the best of REPEATS timings (us per scan) of ``answer`` over ``messages``."""
-    start = time.perf_counter()
-    for msg in messages:
-        answer(msg)
-    rounds = max(1, int(TARGET_S / REPEATS / max(time.perf_counter() - start, 1e-9)))
-    best = math.inf
-    for _ in range(REPEATS):
-        start = time.perf_counter()
-        for _ in range(rounds):
-            for msg in messages:
-                answer(msg)
-        best = min(best, time.perf_counter() - start)
-    return best / (rounds * len(messages)) * 1e6
-
-
 def main():
     rng = np.random.default_rng(SEED)
     print('us per scan for from_msg + regions() + closest() + range_at(0); '
@@ -118,8 +99,8 @@ def main():
             for container in ('array.array', 'list'):
                 messages = [Message(array.array('f', ranges) if container == 'array.array'
                                     else ranges.tolist(), **scanner) for ranges in pool]
-                ours_us = microseconds_per_scan(ours, messages)
-                lab_us = microseconds_per_scan(lab, messages)
+                ours_us = microseconds_per_call(ours, lambda: messages)
+                lab_us = microseconds_per_call(lab, lambda: messages)
                 print(f"{beams:>6} {container:>12} {'messy' if messy else 'clean':>6} "
                       f'{ours_us:>9.1f} {lab_us:>9.1f} {lab_us / ours_us:>8.1f}x')
 
