@@ -10,11 +10,12 @@ run).
 
 Then, unless ``--no-breakdown``, each configuration runs once more with the main stages timed
 (exclusive time: a stage's own time without the stages it calls) and the table shows each
-stage's share of that run's wall time: the simulator's step (robot, collisions), the lidar (ray
-casts, noise), the bridge building its messages, the wall_follow node, the runner's trace for
-the metrics, the recording, the metrics, and lockstep (publish checks, copies, delivery,
-timers; the rest of the run, with setup). The timing wrappers add a little time of their own,
-so those runs are slower than the first table's.
+stage's share of that run's wall time: the simulator's step (robot, collisions, the trace for
+the metrics), the lidar (ray casts, noise), the bridge building its messages, the wall_follow
+node, the runner's observer (scans kept for the plot), the recording, the metrics, and
+lockstep (publish checks, copies, delivery, timers; the rest of the run, with setup). The
+timing wrappers add a little time of their own, so those runs are slower than the first
+table's.
 
 Run: python test/bench/bench_runner.py [--duration S] [--repeats N] [--no-breakdown]
 """
@@ -35,7 +36,7 @@ NODE = 'wall_follow'
 SEED = 1
 BEAMS = (36, 1081)
 GOALS = {36: 500.0, 1081: 100.0}
-STAGES = ('simulator step', 'lidar', 'bridge messages', 'wall_follow node', 'runner trace',
+STAGES = ('simulator step', 'lidar', 'bridge messages', 'wall_follow node', 'runner observer',
           'recording', 'metrics', 'lockstep + setup')
 
 
@@ -88,7 +89,7 @@ def timed_stages():
             (SimBridge, 'step', 'bridge messages'), (SimBridge, 'on_cmd_vel', 'bridge messages'),
             (WallFollow, 'on_scan', 'wall_follow node'),
             (Publisher, 'publish', 'lockstep + setup'),
-            (run.Observer, '__call__', 'runner trace'), (BagRecorder, 'write', 'recording'),
+            (run.Observer, '__call__', 'runner observer'), (BagRecorder, 'write', 'recording'),
             (run, 'compute_metrics', 'metrics')):
         timer.wrap(owner, name, stage)
     try:
