@@ -9,9 +9,10 @@ would store, so ``ros2 bag play`` re-publishes each topic with a compatible prof
 (``/tf_static`` latched).
 
 A 600 s run publishes some 130 000 messages, so the per-message path is kept short: a generated
-serialiser per type (no conversion to rosbags objects first; the runtime's messages read through
-their slots), and an MCAP storage that only lists each message and writes a chunk's records in
-one go when the chunk closes. Both produce bytes identical to rosbags' (the tests compare them).
+function per type and topic (no conversion to rosbags objects first; the runtime's messages read
+through their slots) appends the message's whole MCAP record, header and CDR bytes, straight to
+the open chunk's buffer, and the chunk is written as it is when it closes. The bytes are those
+of rosbags' serialiser and writer (the tests compare them).
 """
 
 from collections.abc import Callable, Iterable, Mapping
@@ -100,11 +101,14 @@ class CdrSerializer:
     encapsulation header, so a message of scalars only is one call), arrays copied as buffers,
     nested messages and sequence elements inlined. The bytes (a ``bytes`` or ``bytearray``)
     equal ``typestore.serialize_cdr`` of the same message (the tests compare them).
+
+    For a recording, a function of the same code can instead append a whole MCAP message record
+    (its header, then the CDR bytes) to a chunk's buffer: see :meth:`function`.
     """
 
     def __init__(self, typestore: Typestore) -> None:
         self.typestore = typestore
-        self._functions: dict[tuple[str, bool], Callable[[Any], bytes | bytearray]] = {}
+        self._functions: dict[tuple[str, bool, int | None], Callable] = {}
         self._by_class: dict[type, Callable[[Any], bytes | bytearray]] = {}
 
     def serialize(self, msg: Any, typename: str | None = None) -> bytes | bytearray:
@@ -117,8 +121,8 @@ class CdrSerializer:
                 ros_type_name(msg), slots=isinstance(msg, LockstepMessage))
         return function(msg)
 
-    def function(self, typename: str, *,
-                 slots: bool = False) -> Callable[[Any], bytes | bytearray]:
+    def function(self, typename: str, *, slots: bool = False,
+                 mcap_channel: int | None = None) -> Callable:
         """
         Return the function serialising a ``typename`` message to CDR bytes, header first.
 
@@ -127,12 +131,18 @@ class CdrSerializer:
         keeps them (numpy arrays, ``array.array``) without conversion; a message holding
         anything else (say a rosbags sub-message) is serialised by the function reading public
         names instead.
+
+        With ``mcap_channel`` (an MCAP channel id) the function is ``write(msg, out, t_ns)``
+        instead: it appends to the bytearray ``out`` the MCAP message record of ``msg`` on that
+        channel at log and publish time ``t_ns`` (ns), sequence 0, as rosbags' MCAP writer
+        writes it (the record header, then the CDR bytes), and returns None. If it raises,
+        ``out`` is left as it was.
         """
-        key = (typename, slots)
+        key = (typename, slots, mcap_channel)
         if key not in self._functions:
-            fallback = self.function(typename) if slots else None
-            self._functions[key] = _CdrCodegen(self.typestore.fielddefs, slots).build(
-                typename, fallback)
+            fallback = self.function(typename, mcap_channel=mcap_channel) if slots else None
+            self._functions[key] = _CdrCodegen(self.typestore.fielddefs, slots,
+                                               mcap_channel).build(typename, fallback)
         return self._functions[key]
 
 
@@ -167,12 +177,18 @@ class _CdrCodegen:
     run is then packed in one call. A string's terminating NUL and the padding before an array
     are entries of a run too (code ``'x'`` and ``''``, no value). ``offset`` is the output's
     offset modulo 8 (from the end of the encapsulation header) where the code can know it: a
-    run starting there packs by one format, elsewhere by one of eight per start alignment.
-    The first run is packed with the encapsulation header and starts the output, so a message
-    of scalars only is one ``pack`` call (returning ``bytes``).
+    run starting there packs by one format, elsewhere by one of eight per start alignment,
+    chosen by the output's length past ``base`` (the CDR payload's start in ``out``). The first
+    run is packed with the encapsulation header and starts the output, so a message of scalars
+    only is one ``pack`` call (returning ``bytes``).
+
+    With an MCAP channel id the function appends to a shared bytearray ``out`` instead, the
+    MCAP message record header packed with the first run; the record's length is then a
+    constant when the first run is all the message (its size is fixed), else patched at the
+    end.
     """
 
-    def __init__(self, fielddefs: dict, slots: bool) -> None:
+    def __init__(self, fielddefs: dict, slots: bool, mcap_channel: int | None = None) -> None:
         self.fielddefs = fielddefs
         self.prefix = '_' if slots else ''
         # The runtime's numeric arrays are in native byte order; CDR here is little-endian.
@@ -180,32 +196,53 @@ class _CdrCodegen:
         self.namespace: dict[str, Any] = {
             'HEADER': CDR_LITTLE_ENDIAN_HEADER, 'PADDING': _PADDING,
             'numeric_bytes': _numeric_bytes, 'byte_value': _byte_value}
+        self.mcap_channel = mcap_channel
+        # Where the CDR payload starts in ``out``: a constant, or the local ``base``.
+        self.base = '4' if mcap_channel is None else 'base'
         self.lines: list[str] = []
         self.run: list[tuple[str, int, str | None]] = []
         self.offset: int | None = 0
-        # Once written: the line number of ``out``'s creation, and the bytes it starts with.
-        self.opening: tuple[int, str] | None = None
+        # Once written: the line number of the first pack, its expression and its size (bytes).
+        self.opening: tuple[int, str, int] | None = None
 
-    def build(self, typename: str,
-              fallback: Callable | None) -> Callable[[Any], bytes | bytearray]:
-        self.lines = ['def serialize(msg):']
+    def build(self, typename: str, fallback: Callable | None) -> Callable:
+        if self.mcap_channel is None:
+            function, arguments = 'serialize', 'msg'
+            self.lines = ['def serialize(msg):']
+        else:
+            function, arguments = 'write', 'msg, out, t_ns'
+            self.lines = ['def write(msg, out, t_ns):', '  start = len(out)',
+                          f'  base = start + {_MCAP_MESSAGE_OVERHEAD + 4}']
+            self.namespace.update(OPCODE=_MCAP_MESSAGE_OPCODE, CHANNEL=self.mcap_channel,
+                                  pack_length=_pack_into_uint64)
         indent = '  '
-        if fallback is not None:
-            # An AttributeError or TypeError: not the runtime's own objects all the way down.
-            self.namespace['fallback'] = fallback
+        if fallback is not None or self.mcap_channel is not None:
             self.lines.append('  try:')
             indent = '    '
         self.message(typename, 'msg', indent)
         self.flush(indent)
-        line, expression = self.opening
-        if line == len(self.lines) - 1:  # nothing after the first run: return its bytes
+        line, expression, size = self.opening
+        fixed = line == len(self.lines) - 1  # nothing after the first run
+        if self.mcap_channel is not None:
+            # The record length counts the bytes after the opcode and the length itself.
+            self.namespace['LENGTH'] = size - 9 if fixed else 0
+            if not fixed:
+                self.lines.append(f'{indent}pack_length(out, start + 1, len(out) - start - 9)')
+        elif fixed:  # return the first run's bytes
             self.lines[line] = f'{indent}return {expression}'
         else:
             self.lines.append(f'{indent}return out')
         if fallback is not None:
-            self.lines += ['  except (AttributeError, TypeError):', '    return fallback(msg)']
+            # An AttributeError or TypeError: not the runtime's own objects all the way down.
+            self.namespace['fallback'] = fallback
+            self.lines.append('  except (AttributeError, TypeError):')
+            if self.mcap_channel is not None:
+                self.lines.append('    del out[start:]')
+            self.lines.append(f'    return fallback({arguments})')
+        if self.mcap_channel is not None:  # leave no partial record in the shared buffer
+            self.lines += ['  except BaseException:', '    del out[start:]', '    raise']
         exec(compile('\n'.join(self.lines), f'<cdr {typename}>', 'exec'), self.namespace)
-        return self.namespace['serialize']
+        return self.namespace[function]
 
     def name(self, value: Any) -> str:
         key = f'c{len(self.namespace)}'
@@ -217,10 +254,10 @@ class _CdrCodegen:
         return f'{letter}{len(self.lines)}'
 
     def flush(self, indent: str) -> None:
-        """Emit one pack of the pending run (the first, with the header, creates ``out``)."""
+        """Emit one pack of the pending run (the first, with the header, starts the output)."""
         if not self.run:
             if self.opening is None:  # an array of strings first, say: a loop follows
-                self.start_output('HEADER', indent)
+                self.start_output('', '', indent)
             return
         layouts = []
         for start in range(8):
@@ -236,20 +273,33 @@ class _CdrCodegen:
         ends = {(start + struct.calcsize(layouts[start])) % 8 for start in starts}
         self.offset = ends.pop() if len(ends) == 1 else None
         if self.opening is None:  # the first run, at offset 0: the header is packed before it
-            pack = self.name(struct.Struct('<4s' + layouts[0][1:]).pack)
-            self.start_output(f'{pack}(HEADER' + f', {values}' * bool(values) + ')', indent)
+            self.start_output(layouts[0][1:], values, indent)
             return
         if len({layouts[start] for start in starts}) == 1:
             choice = self.name(self.packer(layouts[starts[0]], values))
         else:
             choice = f'{self.name(tuple(self.packer(layout, values) for layout in layouts))}' \
-                '[(len(out) - 4) & 7]'
+                f'[(len(out) - {self.base}) & 7]'
         self.lines.append(f'{indent}out += {choice}' + f'({values})' * bool(values))
 
-    def start_output(self, expression: str, indent: str) -> None:
-        """Emit the creation of ``out`` holding the bytes of ``expression``."""
-        self.opening = (len(self.lines), expression)
-        self.lines.append(f'{indent}out = bytearray({expression})')
+    def start_output(self, layout: str, values: str, indent: str) -> None:
+        """
+        Emit the first pack: the encapsulation header, then the run of ``layout`` (struct codes).
+
+        Without an MCAP channel it creates ``out``; with one, it appends the MCAP message
+        record header and all that to ``out``.
+        """
+        if self.mcap_channel is None:
+            lead, lead_values = '<4s', 'HEADER'
+        else:  # opcode, record length, channel id, sequence, log time, publish time (ns)
+            lead, lead_values = '<BQHIQQ4s', 'OPCODE, LENGTH, CHANNEL, 0, t_ns, t_ns, HEADER'
+        packer = struct.Struct(lead + layout)
+        expression = f'{self.name(packer.pack)}({lead_values}' + f', {values}' * bool(values) + ')'
+        self.opening = (len(self.lines), expression, packer.size)
+        if self.mcap_channel is None:
+            self.lines.append(f'{indent}out = bytearray({expression})')
+        else:
+            self.lines.append(f'{indent}out += {expression}')
 
     @staticmethod
     def packer(layout: str, values: str) -> Callable | bytes:
@@ -333,7 +383,7 @@ class _CdrCodegen:
             # After the count the output is 4-aligned; wider items pad, but only if there are any.
             self.flush(indent)
             self.lines += [f'{indent}if len({items}):',
-                           f'{indent}  out += PADDING[(4 - len(out)) & {size - 1}]',
+                           f'{indent}  out += PADDING[({self.base} - len(out)) & {size - 1}]',
                            f'{indent}  out += {data}']
             self.offset = None
         else:
@@ -351,13 +401,10 @@ def _remove_old_bag(path: Path) -> None:
     shutil.rmtree(path)
 
 
-# An MCAP message record: opcode, record length, channel id, sequence, log and publish time.
-_MCAP_MESSAGE_HEADER = np.dtype([
-    ('opcode', 'u1'), ('length', '<u8'), ('channel', '<u2'), ('sequence', '<u4'),
-    ('log_time', '<u8'), ('publish_time', '<u8')])
+# An MCAP message record up to its data: opcode, length, channel id, sequence, log, publish time.
+_pack_message_header = struct.Struct('<BQHIQQ').pack
 _MCAP_MESSAGE_OPCODE = 0x05
-_MCAP_MESSAGE_FIXED_SIZE = 22  # record length beyond the message data
-_MCAP_MESSAGE_OVERHEAD = _MCAP_MESSAGE_HEADER.itemsize  # bytes in a chunk beyond the data
+_MCAP_MESSAGE_OVERHEAD = 31  # bytes of a message record beyond the message data
 _MCAP_CHUNK_SIZE = 1 << 20  # McapWriter closes a chunk after the message that passes this
 _MCAP_EMPTY_CHUNK_TIMES = (2 ** 63 - 1, 0)  # McapWriter's times of a chunk without messages
 # Chunk record up to its data: opcode, length, start, end, uncompressed size, CRC (0: none).
@@ -366,27 +413,28 @@ _pack_chunk_head = struct.Struct('<BQQQQI').pack
 _pack_message_index_head = struct.Struct('<BQHI').pack
 _pack_uint32 = struct.Struct('<I').pack
 _pack_uint64 = struct.Struct('<Q').pack
+_pack_into_uint64 = struct.Struct('<Q').pack_into
 
 
 class _LeanMcapWriter(McapWriter):
     """
-    rosbags' MCAP storage, which lists a chunk's messages and writes the chunk when it closes.
+    rosbags' MCAP storage, writing each message's record straight into the open chunk's buffer.
 
-    ``write`` only appends the message to lists; ``close_chunk`` packs all record headers and
-    the message index of the chunk with numpy, in one go. Schema and channel records, which
-    rosbags writes into the open chunk, keep their place between the messages. The file is byte
-    for byte McapWriter's (the tests compare them). ``write`` keeps ``data`` until the chunk
-    closes: it must not change afterwards.
+    :meth:`message_writer` gives a function per channel that appends a message's whole record
+    (header and CDR bytes, see :meth:`CdrSerializer.function`) to ``records`` and notes its
+    message index entry; the chunk is written once its records pass 1 MiB, as McapWriter does.
+    Schema and channel records, which rosbags writes into its own pending chunk, are moved to
+    ``records`` in their place between the messages. The file is byte for byte McapWriter's
+    (the tests compare them).
     """
 
     def __init__(self, path: Path, compression: CompressionMode) -> None:
         super().__init__(path, compression)
-        self._channels: list[int] = []
-        self._times: list[int] = []  # ns
-        self._datas: list[bytes | bytearray] = []
-        # Schema and channel records of the open chunk: (number of messages before it, bytes).
-        self._records: list[tuple[int, bytes]] = []
-        self._chunk_size = 0  # bytes
+        self.records = bytearray()  # the open chunk's records, uncompressed
+        # The open chunk's message index entries per channel id: time (ns), offset (bytes in
+        # the chunk's records) for each message in turn.
+        self._entries: dict[int, list[int]] = {}
+        self._indexed: list[int] = []  # the open chunk's channel ids, by their first message
 
     def add_msgtype(self, connection: Connection) -> None:
         super().add_msgtype(connection)
@@ -395,96 +443,101 @@ class _LeanMcapWriter(McapWriter):
     def add_connection(self, connection: Connection, offered_qos_profiles: str) -> None:
         super().add_connection(connection, offered_qos_profiles)
         self._take_records()
+        self._entries[connection.id] = []
 
     def _take_records(self) -> None:
         """Move what rosbags wrote into its pending chunk to the open chunk's records."""
-        record = self.chunk.bio.getvalue()
+        self.records += self.chunk.bio.getvalue()
         self.chunk.bio = BytesIO()
-        self._records.append((len(self._datas), record))
-        self._chunk_size += len(record)
+
+    def message_writer(self, connection: Connection,
+                       write_record: Callable[[Any, bytearray, int], None],
+                       ) -> Callable[[Any, int], None]:
+        """
+        Return ``write(msg, t_ns)``, which adds a message at ``t_ns`` (ns) on ``connection``.
+
+        ``write_record(msg, records, t_ns)`` appends the message's MCAP record to ``records``
+        (as :meth:`CdrSerializer.function` with the connection's id as MCAP channel does), or
+        raises and leaves them as they were. The chunk closes after the message that takes it
+        over 1 MiB.
+        """
+        records, indexed, close_chunk = self.records, self._indexed, self.close_chunk
+        channel = connection.id
+        entries = self._entries[channel]
+        add_entry = entries.extend
+
+        def write(msg: Any, t_ns: int) -> None:
+            start = len(records)
+            write_record(msg, records, t_ns)
+            if not entries:
+                indexed.append(channel)
+            add_entry((t_ns, start))
+            if len(records) > _MCAP_CHUNK_SIZE:
+                close_chunk()
+
+        return write
 
     def write(self, connection: Connection, timestamp: int, data: bytes | bytearray) -> None:
-        """Add a message at ``timestamp`` (ns) to the open chunk; close it once over 1 MiB."""
-        self._channels.append(connection.id)
-        self._times.append(timestamp)
-        self._datas.append(data)
-        self._chunk_size += _MCAP_MESSAGE_OVERHEAD + len(data)
-        if self._chunk_size > _MCAP_CHUNK_SIZE:
-            self.close_chunk()
+        """Add a message of CDR bytes ``data`` at ``timestamp`` (ns): McapWriter's interface."""
+        def write_record(_: None, records: bytearray, t_ns: int) -> None:
+            records += _pack_message_header(_MCAP_MESSAGE_OPCODE,
+                                            _MCAP_MESSAGE_OVERHEAD - 9 + len(data),
+                                            connection.id, 0, t_ns, t_ns)
+            records += data
+
+        self.message_writer(connection, write_record)(None, timestamp)
 
     def message_counts(self) -> dict[int, int]:
         """Return the number of messages written per channel id, the open chunk's included."""
         counts = dict(self.channel_stats)
-        for channel in self._channels:
-            counts[channel] += 1
+        for channel, entries in self._entries.items():
+            counts[channel] += len(entries) // 2
         return counts
 
     def close_pending_chunk(self) -> None:
         """Close the open chunk if it holds anything."""
-        if self._datas or self._records:
+        if self.records:
             self.close_chunk()
 
     def close_chunk(self) -> None:
         """Write the open chunk and its message index; keep its chunk index for the summary."""
-        count = len(self._datas)
-        channels = np.array(self._channels, np.uint16)
-        times = np.array(self._times, np.uint64)
-        sizes = np.fromiter(map(len, self._datas), np.uint64, count)
-        headers = np.empty(count, _MCAP_MESSAGE_HEADER)
-        headers['opcode'] = _MCAP_MESSAGE_OPCODE
-        headers['length'] = sizes + _MCAP_MESSAGE_FIXED_SIZE
-        headers['channel'] = channels
-        headers['sequence'] = 0
-        headers['log_time'] = headers['publish_time'] = times
-        pieces: list[bytes | bytearray] = [b''] * (2 * count)
-        pieces[0::2] = headers.view(f'V{_MCAP_MESSAGE_OVERHEAD}').tolist()
-        pieces[1::2] = self._datas
-        record_sizes = sizes + _MCAP_MESSAGE_OVERHEAD
-        offsets = np.cumsum(record_sizes) - record_sizes  # of each message record in the chunk
-        for before, record in reversed(self._records):
-            pieces.insert(2 * before, record)
-            offsets[before:] += len(record)
-        uncompressed = b''.join(pieces)
-        # The message index: each channel's (time, offset) entries in message order, channels in
-        # the order of their first message (McapWriter's order of index records).
-        by_channel = np.argsort(channels, kind='stable')  # message numbers grouped by channel
-        entries = np.empty((count, 2), '<u8')
-        entries[:, 0] = times[by_channel]
-        entries[:, 1] = offsets[by_channel]
-        counts = np.bincount(channels)  # messages per channel id
-        firsts = np.cumsum(counts) - counts  # where each channel id's entries start
-        indexed = np.flatnonzero(counts)  # the chunk's channel ids, by their first message:
-        indexed = indexed[np.argsort(by_channel[firsts[indexed]])].tolist()
-        self._channels, self._times, self._datas, self._records = [], [], [], []
-        self._chunk_size = 0
-
-        start, end = (int(times.min()), int(times.max())) if count else _MCAP_EMPTY_CHUNK_TIMES
+        records, indexed = self.records, self._indexed
+        if indexed:
+            times = [self._entries[channel][0::2] for channel in indexed]
+            start, end = min(map(min, times)), max(map(max, times))
+        else:
+            start, end = _MCAP_EMPTY_CHUNK_TIMES
         self.message_start_time = min(self.message_start_time, start)
         self.message_end_time = max(self.message_end_time, end)
-        compressed = self.compressor(uncompressed)
+        compressed = self.compressor(records)
         compression = self.compression.encode()
         chunk_start = self.bio.tell()
         self.bio.write(_pack_chunk_head(
-            0x06, 40 + len(compression) + len(compressed), start, end, len(uncompressed), 0))
+            0x06, 40 + len(compression) + len(compressed), start, end, len(records), 0))
         self.bio.write(_pack_uint32(len(compression)) + compression)
         self.bio.write(_pack_uint64(len(compressed)))
         self.bio.write(compressed)
         chunk_end = self.bio.tell()
 
+        # The message index: each channel's (time, offset) entries in message order, channels in
+        # the order of their first message in the chunk (McapWriter's order of index records).
         index = BytesIO()
         index.write(struct.pack('<QQQQI', start, end, chunk_start, chunk_end - chunk_start,
                                 10 * len(indexed)))
         for channel in indexed:
-            channel_entries = entries[firsts[channel]:firsts[channel] + counts[channel]]
+            entries = self._entries[channel]
             index.write(struct.pack('<HQ', channel, self.bio.tell()))
-            self.bio.write(_pack_message_index_head(0x07, 6 + channel_entries.nbytes, channel,
-                                                    channel_entries.nbytes))
-            self.bio.write(channel_entries.tobytes())
-            self.channel_stats[channel] += len(channel_entries)
+            self.bio.write(_pack_message_index_head(0x07, 6 + 8 * len(entries), channel,
+                                                    8 * len(entries)))
+            self.bio.write(np.array(entries, '<u8').tobytes())
+            self.channel_stats[channel] += len(entries) // 2
+            entries.clear()
         index.write(_pack_uint64(self.bio.tell() - chunk_end))
         index.write(_pack_uint32(len(compression)) + compression)
-        index.write(struct.pack('<QQ', len(compressed), len(uncompressed)))
+        index.write(struct.pack('<QQ', len(compressed), len(records)))
         self.chunks.append(index)
+        indexed.clear()
+        records.clear()
 
     def close(self, version: int, metadata: str) -> None:
         self.close_pending_chunk()
@@ -543,9 +596,9 @@ class BagRecorder:
         self._storage = self._writer.storage
         self._writer_connections = self._writer.connections  # still readable once closed
         self._connections: dict[tuple[str, str], Connection] = {}  # by topic and type name
-        # What write does per topic (as published) and message class: a serialiser and the
-        # connection to write to, or None and None for topics not recorded.
-        self._routes: dict[tuple[str, type], tuple[Callable | None, Connection | None]] = {}
+        # What write does per topic (as published) and message class: the storage's writer
+        # ``(msg, t_ns)`` of the topic's connection, or a no-op for topics not recorded.
+        self._routes: dict[tuple[str, type], Callable[[Any, int], None]] = {}
 
     @property
     def mcap_path(self) -> Path:
@@ -569,9 +622,7 @@ class BagRecorder:
         route = self._routes.get((topic, type(msg)))
         if route is None:
             route = self._route(topic, msg)
-        serialize, connection = route
-        if connection is not None:
-            self._storage.write(connection, t_ns, serialize(msg))
+        route(msg, t_ns)
 
     @property
     def counts(self) -> dict[str, int]:
@@ -583,16 +634,17 @@ class BagRecorder:
                 per_channel[connection.id]
         return counts
 
-    def _route(self, topic: str, msg: Any) -> tuple[Callable | None, Connection | None]:
+    def _route(self, topic: str, msg: Any) -> Callable[[Any, int], None]:
         """Return (and keep) what ``write`` does with messages like ``msg`` on ``topic``."""
         if self._writer is None:
             raise RuntimeError(f'bag {self.path} is closed')
         name = _absolute(topic)
-        route: tuple[Callable | None, Connection | None] = (None, None)
+        route = _skip
         if name in self.topics:
             typename = ros_type_name(msg)
-            route = (self.serializer.function(typename, slots=isinstance(msg, LockstepMessage)),
-                     self._connection(name, typename))
+            connection = self._connection(name, typename)
+            route = self._storage.message_writer(connection, self.serializer.function(
+                typename, slots=isinstance(msg, LockstepMessage), mcap_channel=connection.id))
         self._routes[(topic, type(msg))] = route
         return route
 
@@ -617,6 +669,10 @@ class BagRecorder:
     def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
                  traceback: TracebackType | None) -> None:
         self.close()
+
+
+def _skip(msg: Any, t_ns: int) -> None:
+    """Record nothing: what :meth:`BagRecorder.write` does on a topic not recorded."""
 
 
 def _absolute(topic: str) -> str:

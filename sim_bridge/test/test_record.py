@@ -2,6 +2,7 @@
 
 import math
 import random
+import struct
 
 import numpy as np
 import pytest
@@ -70,6 +71,47 @@ def test_serialised_bytes_equal_rosbags_for_every_jazzy_message(seed):
         expected = TYPESTORE.serialize_cdr(msg_to_rosbags(msg, TYPESTORE), msgtype)
         assert serializer.serialize(msg) == expected, msgtype  # read through the slots
         assert serializer.function(msgtype)(msg) == expected, msgtype  # by the field names
+
+
+def mcap_record(channel, t_ns, data):
+    """Return the MCAP message record of ``data`` as rosbags' McapWriter writes it."""
+    return struct.pack('<BQHIQQ', 0x05, 22 + len(data), channel, 0, t_ns, t_ns) + data
+
+
+@pytest.mark.parametrize('seed', range(2))
+def test_mcap_records_hold_rosbags_bytes_wherever_they_start_in_the_chunk(seed):
+    """CDR alignment counts from the record's own payload, not from the shared buffer."""
+    rng = random.Random(seed)
+    serializer = CdrSerializer(TYPESTORE)
+    for msgtype in MESSAGE_TYPES:
+        msg = random_message(msgtype, rng)
+        expected = TYPESTORE.serialize_cdr(msg_to_rosbags(msg, TYPESTORE), msgtype)
+        for slots in (True, False):
+            write = serializer.function(msgtype, slots=slots, mcap_channel=7)
+            for before in range(8):
+                out = bytearray(b'\xaa' * before)
+                write(msg, out, 10 ** 9 + before)
+                assert out == b'\xaa' * before + mcap_record(7, 10 ** 9 + before, expected), \
+                    (msgtype, slots, before)
+
+
+def test_mcap_records_fall_back_to_field_names_and_a_failure_leaves_the_buffer_as_it_was():
+    rng = random.Random(5)
+    tf = random_message('tf2_msgs/msg/TFMessage', rng)
+    tf.transforms = [random_message('geometry_msgs/msg/TransformStamped', rng) for _ in range(3)]
+    expected = TYPESTORE.serialize_cdr(msg_to_rosbags(tf, TYPESTORE), 'tf2_msgs/msg/TFMessage')
+    tf.transforms[2] = msg_to_rosbags(tf.transforms[2], TYPESTORE)  # read by field names
+    serializer = CdrSerializer(TYPESTORE)
+    out = bytearray(b'\xaa' * 3)
+    serializer.function('tf2_msgs/msg/TFMessage', slots=True, mcap_channel=2)(tf, out, 5)
+    assert out == b'\xaa' * 3 + mcap_record(2, 5, expected)
+    bad = message_class('geometry_msgs/msg/PoseWithCovarianceStamped')()
+    bad.header.frame_id = 'map'
+    bad.pose.covariance = np.zeros(35)
+    with pytest.raises(ValueError, match='covariance'):
+        serializer.function('geometry_msgs/msg/PoseWithCovarianceStamped', slots=True,
+                            mcap_channel=2)(bad, out, 6)
+    assert out == b'\xaa' * 3 + mcap_record(2, 5, expected)
 
 
 def test_runtime_messages_are_read_through_their_slots(monkeypatch):
