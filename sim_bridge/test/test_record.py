@@ -62,13 +62,18 @@ def random_message(msgtype, rng):
     return msg
 
 
-@pytest.mark.parametrize('seed', range(3))
-def test_serialised_bytes_equal_rosbags_for_every_jazzy_message(seed):
+def every_message_with_rosbags_bytes(seed):
+    """Yield (type name, random runtime message, rosbags' CDR bytes of it) for every type."""
     rng = random.Random(seed)
-    serializer = CdrSerializer(TYPESTORE)
     for msgtype in MESSAGE_TYPES:
         msg = random_message(msgtype, rng)
-        expected = TYPESTORE.serialize_cdr(msg_to_rosbags(msg, TYPESTORE), msgtype)
+        yield msgtype, msg, TYPESTORE.serialize_cdr(msg_to_rosbags(msg, TYPESTORE), msgtype)
+
+
+@pytest.mark.parametrize('seed', range(3))
+def test_serialised_bytes_equal_rosbags_for_every_jazzy_message(seed):
+    serializer = CdrSerializer(TYPESTORE)
+    for msgtype, msg, expected in every_message_with_rosbags_bytes(seed):
         assert serializer.serialize(msg) == expected, msgtype  # read through the slots
         assert serializer.function(msgtype)(msg) == expected, msgtype  # by the field names
 
@@ -81,11 +86,8 @@ def mcap_record(channel, t_ns, data):
 @pytest.mark.parametrize('seed', range(2))
 def test_mcap_records_hold_rosbags_bytes_wherever_they_start_in_the_chunk(seed):
     """CDR alignment counts from the record's own payload, not from the shared buffer."""
-    rng = random.Random(seed)
     serializer = CdrSerializer(TYPESTORE)
-    for msgtype in MESSAGE_TYPES:
-        msg = random_message(msgtype, rng)
-        expected = TYPESTORE.serialize_cdr(msg_to_rosbags(msg, TYPESTORE), msgtype)
+    for msgtype, msg, expected in every_message_with_rosbags_bytes(seed):
         for slots in (True, False):
             write = serializer.function(msgtype, slots=slots, mcap_channel=7)
             for before in range(8):
