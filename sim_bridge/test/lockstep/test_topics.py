@@ -225,3 +225,12 @@ def test_a_tap_reads_an_unsubscribed_message_during_the_publish(nodes, runtime):
     message.data = 8
     publisher.publish(message)
     assert seen == [7, 8]
+
+
+def test_qos_policies_and_presets_resolve_short_keys_as_rclpy_does():
+    from sim_bridge.lockstep.rclpy.qos import (
+        qos_profile_sensor_data, QoSPresetProfiles, ReliabilityPolicy)
+    assert ReliabilityPolicy.get_from_short_key('Best_Effort') == ReliabilityPolicy.BEST_EFFORT
+    assert {'reliable', 'best_effort'} <= set(ReliabilityPolicy.short_keys())
+    assert QoSPresetProfiles.get_from_short_key('sensor_data') is qos_profile_sensor_data
+    assert 'sensor_data' in QoSPresetProfiles.short_keys()

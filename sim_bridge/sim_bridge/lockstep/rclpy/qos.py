@@ -43,8 +43,8 @@ class InvalidQoSProfileException(Exception):
         Exception.__init__(self, 'Invalid QoSProfile', *args)
 
 
-class QoSPolicyEnum(IntEnum):
-    """Base for QoS policy enumerations, with the short-key helpers rclpy has."""
+class _ShortKeys:
+    """rclpy's short-key helpers of the QoS enumerations (policies and preset profiles)."""
 
     @classmethod
     def short_keys(cls):
@@ -53,8 +53,12 @@ class QoSPolicyEnum(IntEnum):
 
     @classmethod
     def get_from_short_key(cls, name):
-        """Retrieve a policy type from a short name, case-insensitive."""
+        """Retrieve a member's value from a short name, case-insensitive."""
         return cls[name.upper()].value
+
+
+class QoSPolicyEnum(_ShortKeys, IntEnum):
+    """Base for QoS policy enumerations, with the short-key helpers rclpy has."""
 
     @property
     def short_key(self):
@@ -198,7 +202,7 @@ qos_profile_action_status_default = _profile(HistoryPolicy.KEEP_LAST, 1,
                                              DurabilityPolicy.TRANSIENT_LOCAL)
 
 
-class QoSPresetProfiles(Enum):
+class QoSPresetProfiles(_ShortKeys, Enum):
     """The named preset profiles."""
 
     UNKNOWN = qos_profile_unknown
@@ -208,16 +212,6 @@ class QoSPresetProfiles(Enum):
     PARAMETERS = qos_profile_parameters
     PARAMETER_EVENTS = qos_profile_parameter_events
     ACTION_STATUS_DEFAULT = qos_profile_action_status_default
-
-    @classmethod
-    def short_keys(cls):
-        """Return a list of shortened typing-friendly enum values."""
-        return [k.lower() for k in cls.__members__.keys() if not k.startswith('RMW')]
-
-    @classmethod
-    def get_from_short_key(cls, name):
-        """Retrieve a preset profile from a short name, case-insensitive."""
-        return cls[name.upper()].value
 
 
 class QoSCompatibility(IntEnum):
