@@ -27,23 +27,25 @@ def share_dir() -> Path | None:
     """
     Return the package's installed share directory, or None when it is not installed.
 
-    ament's index finds a colcon install; a plain pip install puts the same data files under
-    ``<prefix>/share/sim_bridge``.
+    ament's index finds a colcon install (a sourced workspace sets ``AMENT_PREFIX_PATH``); a
+    plain pip install puts the same data files under ``<prefix>/share/sim_bridge``.
     """
-    try:
+    if os.environ.get('AMENT_PREFIX_PATH'):
         from ament_index_python.packages import get_package_share_directory
         from ament_index_python.packages import PackageNotFoundError
-    except ImportError:
-        installed = Path(sys.prefix) / 'share' / PACKAGE_NAME
-        return installed if installed.is_dir() else None
-    try:
-        return Path(get_package_share_directory(PACKAGE_NAME))
-    except PackageNotFoundError:
-        return None
+        try:
+            return Path(get_package_share_directory(PACKAGE_NAME))
+        except PackageNotFoundError:
+            pass
+    installed = Path(sys.prefix) / 'share' / PACKAGE_NAME
+    return installed if installed.is_dir() else None
 
 
 def _data_dir(name: str) -> Path:
-    for base in (repo_root(), share_dir()):
+    # The checkout first, and the install only when there is none (finding an install can fail
+    # where no workspace is sourced).
+    for find_base in (repo_root, share_dir):
+        base = find_base()
         if base is not None and (base / name).is_dir():
             return base / name
     raise FileNotFoundError(

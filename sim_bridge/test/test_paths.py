@@ -19,15 +19,34 @@ def test_a_source_checkout_finds_its_own_worlds_and_models():
 def test_a_pip_install_finds_the_share_directory_under_its_prefix(tmp_path, monkeypatch):
     (tmp_path / 'share' / 'sim_bridge' / 'worlds').mkdir(parents=True)
     monkeypatch.setattr(sys, 'prefix', str(tmp_path))
-    monkeypatch.setitem(sys.modules, 'ament_index_python', None)
+    monkeypatch.delenv('AMENT_PREFIX_PATH', raising=False)
     monkeypatch.setattr(paths, 'repo_root', lambda: None)
     assert paths.share_dir() == tmp_path / 'share' / 'sim_bridge'
     assert paths.worlds_dir() == tmp_path / 'share' / 'sim_bridge' / 'worlds'
 
 
+def test_a_checkout_needs_no_sourced_workspace_with_ament_index_python_installed(monkeypatch):
+    pytest.importorskip('ament_index_python')
+    monkeypatch.delenv('AMENT_PREFIX_PATH', raising=False)
+    assert paths.worlds_dir() == paths.repo_root() / 'worlds'
+    assert paths.find_world('room').is_file()
+
+
+def test_a_colcon_install_is_found_through_the_ament_index(tmp_path, monkeypatch):
+    pytest.importorskip('ament_index_python')
+    prefix = tmp_path / 'install' / 'sim_bridge'
+    marker = prefix / 'share' / 'ament_index' / 'resource_index' / 'packages' / 'sim_bridge'
+    marker.parent.mkdir(parents=True)
+    marker.write_text('')
+    (prefix / 'share' / 'sim_bridge' / 'worlds').mkdir(parents=True)
+    monkeypatch.setenv('AMENT_PREFIX_PATH', str(prefix))
+    monkeypatch.setattr(paths, 'repo_root', lambda: None)
+    assert paths.worlds_dir() == prefix / 'share' / 'sim_bridge' / 'worlds'
+
+
 def test_no_install_and_no_checkout_is_a_clear_error(tmp_path, monkeypatch):
     monkeypatch.setattr(sys, 'prefix', str(tmp_path))
-    monkeypatch.setitem(sys.modules, 'ament_index_python', None)
+    monkeypatch.delenv('AMENT_PREFIX_PATH', raising=False)
     monkeypatch.setattr(paths, 'repo_root', lambda: None)
     with pytest.raises(FileNotFoundError, match="cannot find the 'models' folder"):
         paths.models_dir()
