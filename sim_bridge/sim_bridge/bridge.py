@@ -4,8 +4,13 @@ The simulator as a ROS 2 node: it stands in for Gazebo and its ROS bridge in the
 Publishes ``scan`` (sensor_msgs/LaserScan), ``odom`` (nav_msgs/Odometry), TF odom → base_link,
 static TF base_link → laser, ``clock`` (rosgraph_msgs/Clock) and ``collisions``
 (geometry_msgs/PointStamped); obeys ``cmd_vel`` (geometry_msgs/Twist, or TwistStamped when
-``cmd_vel_stamped`` is true). One timer steps the physics at ``physics_rate`` (Hz), paced at
-``real_time_factor`` × wall-clock speed; the other nodes run with ``use_sim_time:=true``.
+``cmd_vel_stamped`` is true). Live, a timer on the steady clock steps the physics at
+``physics_rate`` (Hz), paced at ``real_time_factor`` × wall-clock speed; the other nodes run
+with ``use_sim_time:=true``. Stepped (``SimBridge(stepped=True)``), the runner calls
+:meth:`SimBridge.step` itself, as Gazebo's lockstep does with its clients.
+
+TF needs ``tf2_ros``, which a ROS 2 installation has and PyPI does not: without it the bridge
+says so once and publishes everything else.
 """
 
 import math
@@ -13,18 +18,26 @@ import math
 from geometry_msgs.msg import PointStamped, TransformStamped, Twist, TwistStamped
 from nav_msgs.msg import Odometry
 import rclpy
+from rclpy.clock import Clock as RclpyClock, ClockType
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.time import Time
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import LaserScan
-from tf2_ros import StaticTransformBroadcaster, TransformBroadcaster
+
+try:
+    from tf2_ros import StaticTransformBroadcaster, TransformBroadcaster
+except ImportError:  # tf2_ros is part of a ROS 2 installation, not of the PyPI wheels
+    StaticTransformBroadcaster = TransformBroadcaster = None
 
 from sim_bridge.robot import DriveLimits
 from sim_bridge.simulator import Simulator
 from sim_bridge.world import World
 
 NANOSECONDS_PER_SECOND = 10 ** 9
+NO_TF_WARNING = ('tf2_ros is not installed (it comes with a ROS 2 installation, not from PyPI): '
+                 'publishing no TF (odom -> base_link, base_link -> laser); /odom, /scan and '
+                 '/clock are published as usual')
 
 
 def quaternion_from_euler(roll: float, pitch: float, yaw: float
@@ -38,9 +51,14 @@ def quaternion_from_euler(roll: float, pitch: float, yaw: float
 
 
 class SimBridge(Node):
-    """Step the simulator on a timer and bridge it to ROS topics."""
+    """
+    Step the simulator and bridge it to ROS topics.
 
-    def __init__(self, **kwargs):
+    ``stepped``: create no timer; whoever drives the bridge calls :meth:`step`. Other keyword
+    arguments go to rclpy's Node.
+    """
+
+    def __init__(self, *, stepped: bool = False, **kwargs):
         super().__init__('sim_bridge', **kwargs)
         world = World.load(self.declare_parameter('world', 'obstacles').value)
         start = self.declare_parameter('start_pose', list(world.robot_start)).value
@@ -70,13 +88,19 @@ class SimBridge(Node):
         self.steps_per_odom = self.steps_between('odom_rate', odom_rate, physics_rate)
         self.steps = 0
         self.collisions_reported = 0
+        #: Called as ``on_publish(topic, msg)`` after each message the bridge publishes itself.
+        self.on_publish = None
 
         self.scan_pub = self.create_publisher(LaserScan, 'scan', 10)
         self.odom_pub = self.create_publisher(Odometry, 'odom', 10)
         self.clock_pub = self.create_publisher(Clock, 'clock', 10)
         self.collision_pub = self.create_publisher(PointStamped, 'collisions', 10)
-        self.tf_broadcaster = TransformBroadcaster(self)
-        StaticTransformBroadcaster(self).sendTransform(self.laser_transform())
+        if TransformBroadcaster is None:
+            self.get_logger().warning(NO_TF_WARNING)
+            self.tf_broadcaster = None
+        else:
+            self.tf_broadcaster = TransformBroadcaster(self)
+            StaticTransformBroadcaster(self).sendTransform(self.laser_transform())
         # Messages published every step are filled in place: publishing copies them.
         self.clock = Clock()
         self.odom = Odometry(child_frame_id=self.frames['base_link'])
@@ -85,7 +109,10 @@ class SimBridge(Node):
                                              (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
         self.create_subscription(TwistStamped if stamped else Twist, 'cmd_vel',
                                  self.on_cmd_vel, 10)
-        self.create_timer(1.0 / physics_rate / real_time_factor, self.step)
+        if not stepped:
+            # The steady clock: this timer makes sim time, so it cannot wait for it.
+            self.create_timer(1.0 / physics_rate / real_time_factor, self.step,
+                              clock=RclpyClock(clock_type=ClockType.STEADY_TIME))
 
     def rate(self, name, default):
         """Declare a parameter that must be positive and finite: a rate in Hz, or a factor."""
@@ -114,20 +141,51 @@ class SimBridge(Node):
         if warning:
             self.get_logger().warning(f'cmd_vel: {warning}', throttle_duration_sec=1.0)
 
-    def step(self):
+    @property
+    def now_ns(self) -> int:
+        """Return the simulated time (ns) of the last physics step."""
+        return self.steps * self.step_ns
+
+    def step(self, clock_due: bool = True) -> bool:
+        """
+        Advance the physics one step and publish what is due; return True if anyone hears it.
+
+        /clock goes out with every other message, and on its own when ``clock_due`` (live: every
+        step; a stepped runner asks for it only when a node's timer falls due). The return
+        value tells a stepped runner whether a callback may now be ready: a message went to a
+        topic with a subscriber, or /clock did.
+        """
         self.sim.step(self.step_s)
         self.steps += 1
         stamp = self.clock.clock
-        stamp.sec, stamp.nanosec = divmod(self.steps * self.step_ns, NANOSECONDS_PER_SECOND)
-        self.clock_pub.publish(self.clock)
+        stamp.sec, stamp.nanosec = divmod(self.now_ns, NANOSECONDS_PER_SECOND)
+        due = []
         if self.steps % self.steps_per_scan == 0:
-            self.scan_pub.publish(self.scan_message(stamp))
+            due.append((self.scan_pub, self.scan_message(stamp)))
         if self.steps % self.steps_per_odom == 0:
-            self.publish_odometry(stamp)
+            due.append((self.odom_pub, self.odometry(stamp)))
         collisions = self.sim.collisions
         while self.collisions_reported < len(collisions):
-            self.report_collision(collisions[self.collisions_reported], stamp)
+            due.append((self.collision_pub,
+                        self.report_collision(collisions[self.collisions_reported], stamp)))
             self.collisions_reported += 1
+        send_tf = self.tf_broadcaster is not None and self.steps % self.steps_per_odom == 0
+        heard = (clock_due or any(publisher.get_subscription_count() for publisher, _ in due)
+                 or (send_tf and self.tf_broadcaster.pub_tf.get_subscription_count() > 0))
+        if heard:
+            self.publish(self.clock_pub, self.clock)
+        for publisher, msg in due:
+            self.publish(publisher, msg)
+        if send_tf:
+            self.odom_transform.header.stamp = stamp
+            self.tf_broadcaster.sendTransform(self.odom_transform)
+        return heard
+
+    def publish(self, publisher, msg) -> None:
+        """Publish ``msg``; then hand it to ``on_publish`` (topic, msg) when that is set."""
+        publisher.publish(msg)
+        if self.on_publish is not None:
+            self.on_publish(publisher.topic_name, msg)
 
     def scan_message(self, stamp) -> LaserScan:
         scan = self.sim.scan()
@@ -140,7 +198,8 @@ class SimBridge(Node):
         msg.header.frame_id = self.frames['laser']
         return msg
 
-    def publish_odometry(self, stamp):
+    def odometry(self, stamp) -> Odometry:
+        """Fill the odometry message (and the odom → base_link transform) for ``stamp``."""
         x, y, yaw = self.sim.pose
         linear, angular = self.sim.velocity
         # A rotation about z only: (0, 0, sin(yaw / 2), cos(yaw / 2)).
@@ -151,13 +210,11 @@ class SimBridge(Node):
         pose.position.x, pose.position.y = float(x), float(y)
         pose.orientation.z, pose.orientation.w = half_yaw_sin, half_yaw_cos
         odom.twist.twist.linear.x, odom.twist.twist.angular.z = float(linear), float(angular)
-        self.odom_pub.publish(odom)
-        self.odom_transform.header.stamp = stamp
         translation = self.odom_transform.transform.translation
         translation.x, translation.y = pose.position.x, pose.position.y
         rotation = self.odom_transform.transform.rotation
         rotation.z, rotation.w = half_yaw_sin, half_yaw_cos
-        self.tf_broadcaster.sendTransform(self.odom_transform)
+        return odom
 
     def laser_transform(self) -> TransformStamped:
         pose = self.sim.lidar_config.pose
@@ -174,7 +231,8 @@ class SimBridge(Node):
         rotation.x, rotation.y, rotation.z, rotation.w = quaternion_from_euler(*rotation_rpy)
         return transform
 
-    def report_collision(self, collision, stamp):
+    def report_collision(self, collision, stamp) -> PointStamped:
+        """Log a new contact and return its /collisions message."""
         self.get_logger().warning(
             f'collision with {collision.obstacle} at t={collision.time:.2f} s, '
             f'x={collision.x:.2f} m, y={collision.y:.2f} m')
@@ -182,7 +240,7 @@ class SimBridge(Node):
         point.header.stamp = stamp
         point.header.frame_id = self.frames['odom']
         point.point.x, point.point.y = float(collision.x), float(collision.y)
-        self.collision_pub.publish(point)
+        return point
 
     def destroy_node(self):
         self.sim.close()
