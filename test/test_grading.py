@@ -1,8 +1,9 @@
 """
 Closed-loop grading: the shipped scenarios pass through the real grader, naive nodes fail them.
 
-Every seed of every scenario in ``test/scenarios/`` is one test, run in the lockstep simulator
-by ``sim_bridge.grade.run_scenario`` exactly as ``python -m sim_bridge.grade`` runs it.
+Every seed of every scenario in ``test/scenarios/`` is one test, run in the stepped
+simulator on real rclpy by ``sim_bridge.grade.run_scenario`` exactly as
+``python -m sim_bridge.grade`` runs it.
 Recording and plotting are off except for one run, which checks they are written too.
 The naive nodes in ``test/naive_nodes/`` (written the way the lab's own solutions are) replace
 the scenario's node, as ``--node-override`` does, and must fail on behaviour, not by crashing.
@@ -180,7 +181,8 @@ def test_grader_cli_fails_an_int_in_a_float_field_naming_the_field(tmp_path, cap
     [error] = run['metrics']['node_errors']
     figures.add_failure(f'int_twist@{run["run"]}', {NO_NODE_ERRORS: error['error']})
     assert error['node'] == 'straight_ahead'
-    assert "'angular.z' must be float" in error['error'] and 'got int' in error['error']
+    assert "The 'z' field must be of type 'float'" in error['error']
+    assert 'angular.z = ' in error['error'] and 'int_twist.py' in error['error']
     out_dir = tmp_path / 'scan_ahead' / 'seed_1'
     assert json.loads((out_dir / 'metrics.json').read_text()) == run['metrics']
     assert (out_dir / 'trajectory.png').is_file() and (out_dir / 'run' / 'metadata.yaml').is_file()

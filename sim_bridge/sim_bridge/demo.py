@@ -1,5 +1,5 @@
 """
-The README's demo: every lab task in the simulator through the lockstep runner, then the grader.
+The README's demo: every lab task in the simulator, stepped on real rclpy, then the grader.
 
 ``python -m sim_bridge.demo`` (``./lab demo``) runs each lab task's node in its world (see
 sim_bridge.lab_tasks), showing the node's log lines as a student sees them in a terminal and a
@@ -16,6 +16,7 @@ from typing import Sequence
 from sim_bridge.lab_tasks import LAB_TASKS
 from sim_bridge.paths import repo_root
 from sim_bridge.run import run_simulation, summary_table
+from sim_bridge.run_environment import rclpy_origin
 
 #: Simulated seconds per task: a few scans for the scan readers, a few loops for the drivers.
 TASK_DURATION_S = {'scan_ahead': 1.0, 'scan_around': 1.0, 'closest_obstacle': 1.0,
@@ -57,6 +58,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument('--no-grade', action='store_true',
                         help='only run the lab tasks, not the grading scenarios')
     args = parser.parse_args(argv)
+    print(f'ROS 2: {rclpy_origin()}', flush=True)
     tasks_ok = run_tasks(args.out / 'tasks')
     status = 0 if args.no_grade else grade_scenarios(args.out / 'grade')
     print(f'\nDemo outputs: {args.out.resolve()} (tasks/<task>/, grade/<scenario>/seed_<n>/: '

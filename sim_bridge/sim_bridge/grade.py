@@ -2,7 +2,7 @@
 Grade nodes against scenario files: run each scenario's seeds and judge its criteria.
 
 ``python -m sim_bridge.grade test/scenarios/`` runs every scenario in the folder through the
-lockstep runner (``sim_bridge.run.run_simulation``), shows a progress bar over the batch,
+runner (``sim_bridge.run.run_simulation``, real rclpy), shows a progress bar over the batch,
 prints a pass/fail table with what was measured per criterion, writes ``report.json`` and
 each run's outputs (metrics, plot, recording) below ``--out``, and exits non-zero when any run
 fails. ``--node-override path/to/student.py`` grades someone else's node on the same scenarios.
@@ -69,7 +69,7 @@ def run_scenario(run: ScenarioRun, out_dir: Path, *, simulate: Simulate | None =
                  quiet: bool = True, record: bool = True, plot: bool = True,
                  progress: Callable[[float, float], None] | None = None) -> RunReport:
     """
-    Run one seed of a scenario with ``simulate`` (default: the lockstep runner) and judge it.
+    Run one seed of a scenario with ``simulate`` (default: the stepped runner) and judge it.
 
     A run that cannot start (bad world, target or parameter) or whose runner crashes is
     reported with its error and fails; a node raising during the run is in the metrics'
@@ -220,7 +220,7 @@ def build_parser() -> argparse.ArgumentParser:
     """Return the command-line parser of the grader."""
     parser = argparse.ArgumentParser(
         prog='python -m sim_bridge.grade',
-        description='Run scenario files in the lockstep simulator and judge their criteria.')
+        description='Run scenario files in the simulator and judge their criteria.')
     parser.add_argument('scenarios', nargs='+', metavar='SCENARIO',
                         help='a scenario file, or a folder of them (e.g. test/scenarios/)')
     parser.add_argument('--node-override', action='append', default=[], metavar='TARGET',

@@ -2,39 +2,45 @@
 Run unmodified rclpy nodes against the simulator in one process, on simulated time.
 
 ``python -m sim_bridge.run --world wall_follow_box --node wall_follow --duration 60`` runs the
-SimBridge node and the named nodes in the lockstep runtime (no ROS 2 needed), as if each had
-been started with ``ros2 run ... --ros-args --params-file <out>/params.yaml``, then writes
+SimBridge node and the named nodes on real rclpy in one process, stepped (every ready callback
+runs before physics advances, see sim_bridge.stepping), as if each had been started with
+``ros2 run ... --ros-args --params-file <out>/params.yaml -p use_sim_time:=true``, then writes
 ``metrics.json``, ``trajectory.png`` and a rosbag2 recording ``run/`` (MCAP) to ``--out``.
 """
 
 import argparse
 from dataclasses import dataclass
+import functools
 import json
 import math
 from pathlib import Path
 import shutil
+import signal
 import sys
 import tempfile
+import threading
 import time
 import traceback
 from typing import Any, Callable, Iterable, Sequence
 
-import yaml
-
-from sim_bridge import lockstep
-from sim_bridge.lockstep.rosargs import yaml_value
+from rclpy.parameter import get_parameter_value, parameter_value_to_python
+from rclpy.serialization import serialize_message
 from sim_bridge.metrics import compute_metrics
 from sim_bridge.paths import find_world
 from sim_bridge.plot import plot_trajectory, SCANS_DRAWN
-from sim_bridge.record import BagRecorder
+from sim_bridge.record import BagRecorder, DEFAULT_TOPICS, message_type_name
+from sim_bridge.run_environment import (
+    FIELD_CHECK_HINT, is_field_check_failure, run_environment)
 from sim_bridge.run_trace import CollisionEvent, ScanSnapshot, Trace
 from sim_bridge.scenario import target_name
+from sim_bridge.stepping import describe, next_timer_ns, NodeError, spin_until_idle
 from sim_bridge.targets import load_node_class, TargetError
 from sim_bridge.world import World, WorldError
+import yaml
 
 BRIDGE_NODE = 'sim_bridge'
 #: SimBridge parameters the runner alone sets: the world the metrics are scored in, the seed
-#: and gui options, the start pose, and the pace (lockstep runs on sim time; --gui paces it).
+#: and gui options, the start pose, and the pace (a run is on sim time; --gui paces it).
 RUNNER_BRIDGE_PARAMETERS = ('world', 'seed', 'gui', 'start_pose', 'real_time_factor')
 SETPOINT_PARAMETER = 'distance'
 PROGRESS_AFTER_S = 2.0
@@ -73,7 +79,7 @@ def parse_param(text: str) -> tuple[str, str, Any]:
     if not (colon and equals and node and name):
         raise RunError(f"--param '{text}': expected NODE:NAME=VALUE, "
                        'e.g. wall_follow:distance=0.6')
-    return node, name, yaml_value(value)
+    return node, name, parameter_value_to_python(get_parameter_value(value))
 
 
 def load_world(world: str) -> World:
@@ -125,12 +131,10 @@ def write_params_file(path: Path, params: Params) -> None:
 
 class Observer:
     """
-    Fill a Trace from the bridge's simulator, and keep a few scans (a tap on ``/scan``).
+    Fill a Trace from the bridge's simulator, and keep a few of the scans sent on ``/scan``.
 
     The simulator appends its ground truth to the trace after every physics step.
     """
-
-    TOPICS = ('/scan',)
 
     def __init__(self, simulator, duration_s: float):
         self.sim = simulator
@@ -139,7 +143,8 @@ class Observer:
         self.snapshot_period_s = duration_s / SCANS_DRAWN
         self.next_snapshot_s = self.snapshot_period_s / 2.0
 
-    def __call__(self, topic: str, msg: Any, t_ns: int) -> None:
+    def on_scan(self, msg: Any) -> None:
+        """Keep the scan (a LaserScan) when a snapshot is due."""
         if self.sim.time >= self.next_snapshot_s:
             self.trace.scans.append(self.snapshot(msg))
             self.next_snapshot_s += self.snapshot_period_s
@@ -158,66 +163,137 @@ class Observer:
         return self.trace
 
 
-class LockstepRun:
+class RunRecorder:
     """
-    The SimBridge node and the target nodes in one lockstep runtime, stepped to an end time.
+    What the run records: the bridge's messages as it publishes them, the rest as DDS delivers.
 
-    What the nodes publish before :meth:`record` (while they start) is held back for the bag,
+    The bridge's own messages are serialised by rclpy (``serialize_message``) as they are
+    published; every other recorded topic (/cmd_vel, TF) has a raw subscription on the
+    runner's own node, as ``ros2 bag record`` has. Messages are stamped with the sim time of the
+    step that sent them. Messages sent before :meth:`record` (while the nodes start) are held,
     so that a run which cannot start has written nothing.
     """
 
-    def __init__(self, runtime, params_file: Path, quiet: bool):
-        import rclpy
-        self.runtime = runtime
-        self.rclpy = rclpy
-        self.node_arguments = ['--ros-args', '--params-file', str(params_file)]
-        self.nodes = []
-        self.held: list[tuple[str, Any, int]] = []
-        runtime.add_tap(self.hold)
-        if quiet:
-            runtime.set_log_sink(lambda record: None)
-        rclpy.init(args=[])
+    def __init__(self, run: 'SteppedRun', observer: 'Observer', record: bool):
+        from rclpy.qos import DurabilityPolicy, QoSProfile
+        self.run = run
+        self.observer = observer
+        self.recording = record
+        self.held: list[tuple[str, str, bytes, int]] | None = []
+        self.bag = None
+        self.type_names: dict[type, str] = {}
+        bridge = run.bridge
+        bridge.on_publish = self.on_bridge_message
+        if not record:
+            return
+        node = run.node('sim_bridge_recorder')
+        bridge_topics = {publisher.topic_name for publisher in bridge.publishers}
+        subscribed = {sub.topic_name: sub.msg_type for sub in bridge.subscriptions}
+        for publisher in bridge.publishers:
+            subscribed.setdefault(publisher.topic_name, publisher.msg_type)
+        latched = QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        for topic, msg_type in subscribed.items():
+            if topic in DEFAULT_TOPICS and (topic not in bridge_topics or topic.startswith('/tf')):
+                write = functools.partial(self.write, topic, self.type_name(msg_type))
+                node.create_subscription(msg_type, topic, write,
+                                         latched if topic == '/tf_static' else 10, raw=True)
 
-    def hold(self, topic: str, msg: Any, t_ns: int) -> None:
-        """Keep a copy of a message published before the bag is open (a runtime tap)."""
-        self.held.append((topic, msg._lockstep_copy(msg), t_ns))
+    def type_name(self, msg_type: type) -> str:
+        """Return (and keep) the ROS type name of a message class."""
+        if msg_type not in self.type_names:
+            self.type_names[msg_type] = message_type_name(msg_type)
+        return self.type_names[msg_type]
+
+    def on_bridge_message(self, topic: str, msg: Any) -> None:
+        """Record a message the bridge publishes; show scans to the observer."""
+        if topic == '/scan':
+            self.observer.on_scan(msg)
+        if self.recording and topic in DEFAULT_TOPICS:
+            self.write(topic, self.type_name(type(msg)), serialize_message(msg))
+
+    def write(self, topic: str, type_name: str, data: bytes) -> None:
+        """Write (or hold) one message's CDR bytes at the current sim time."""
+        if self.bag is not None:
+            self.bag.write(topic, type_name, data, self.run.bridge.now_ns)
+        elif self.held is not None:
+            self.held.append((topic, type_name, data, self.run.bridge.now_ns))
 
     def record(self, bag: BagRecorder | None) -> None:
-        """Write the held messages to ``bag`` and everything published from now on."""
-        self.runtime.remove_tap(self.hold)
+        """Write the held messages to ``bag`` and everything sent from now on."""
         if bag is not None:
             for message in self.held:
                 bag.write(*message)
-            self.runtime.add_tap(bag.write, topics=bag.topics)
-        self.held = []
+        self.bag, self.held = bag, None
 
-    def start(self, node_class: type, label: str):
+
+class SteppedRun:
+    """
+    The SimBridge node and the target nodes in one process on real rclpy, stepped to an end.
+
+    Every node but the bridge gets the command line its own process would have
+    (``--ros-args --params-file <params.yaml> -p use_sim_time:=true``); the bridge reads the
+    same params file. The run's DDS traffic stays in the process
+    (``ROS_AUTOMATIC_DISCOVERY_RANGE=OFF``, see README).
+    """
+
+    def __init__(self, params_file: Path, quiet: bool):
+        import rclpy
+        from rclpy.executors import SingleThreadedExecutor
+        from rclpy.signals import SignalHandlerOptions
+        self.rclpy = rclpy
+        self.node_arguments = ['--ros-args', '--params-file', str(params_file),  # bridge's too
+                               '-p', 'use_sim_time:=true',
+                               *(['--disable-stdout-logs'] if quiet else [])]
+        # The default context, as the nodes' own code uses it. Ctrl-C stays a
+        # KeyboardInterrupt: the runner then writes what the run produced.
+        rclpy.init(args=self.node_arguments, signal_handler_options=SignalHandlerOptions.NO)
+        self.context = rclpy.utilities.get_default_context()
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.nodes = []
+        self.bridge = None
+
+    def node(self, name: str):
+        """Create one of the runner's own nodes (no parameter services, no /rosout)."""
+        from rclpy.node import Node
+        node = Node(name, context=self.context, start_parameter_services=False,
+                    enable_rosout=False)
+        self.executor.add_node(node)
+        return node
+
+    def start(self, node_class: type, label: str, **kwargs):
         """
-        Create a node as if its process had been started with ``--params-file``.
+        Create a node as if its process had been started with the run's command line.
 
         A parameter override of the wrong type is a RunError; any other exception from the
         node's constructor is the node failing, reported as a NodeError under ``label``.
         """
-        context = self.rclpy.utilities.get_default_context()
         try:
-            with context.lockstep_arguments(self.node_arguments):
-                node = node_class()
+            node = node_class(**kwargs)
         except self.rclpy.exceptions.InvalidParameterTypeException as error:
             raise RunError(f'{label}: {error}') from None
-        except Exception as error:
-            raise lockstep.NodeError(label, error) from error
+        except BaseException as error:  # noqa: B902 sys.exit() in a constructor ends the run
+            raise NodeError(label, error) from error
         self.nodes.append(node)
+        self.executor.add_node(node)
         return node
 
     def start_simulator(self, bridge_class: type):
-        """Start the SimBridge node and return its simulator; RunError when it cannot start."""
+        """
+        Start the SimBridge node, stepped, and return it; RunError when it cannot start.
+
+        It reads the params file but not ``use_sim_time``: it makes sim time. Nothing in the
+        process could call its parameter services, so it has none (less for every wait).
+        """
         try:
-            return self.start(bridge_class, BRIDGE_NODE).sim
-        except lockstep.NodeError as error:
-            raise RunError(f'{BRIDGE_NODE}: {error.original}') from None
+            self.bridge = self.start(
+                bridge_class, BRIDGE_NODE, stepped=True, use_global_arguments=False,
+                cli_args=self.node_arguments[:3], start_parameter_services=False)
+        except NodeError as error:
+            raise RunError(f'{BRIDGE_NODE}: {describe(error.original)}') from None
+        return self.bridge
 
     def start_nodes(self, targets: Iterable[tuple[str, type]],
-                    params: Params) -> lockstep.NodeError | None:
+                    params: Params) -> NodeError | None:
         """
         Start each (label, Node class) in ``targets``; return the error of one that raised.
 
@@ -226,7 +302,7 @@ class LockstepRun:
         try:
             for label, node_class in targets:
                 self.start(node_class, label)
-        except lockstep.NodeError as error:
+        except NodeError as error:
             return error
         self.check_params(params)
         return None
@@ -244,16 +320,63 @@ class LockstepRun:
                      if node.has_parameter(name)), None)
 
     def advance(self, end_ns: int, step_ns: int, on_step: Callable[[int], None]) -> None:
-        """Run the loop to ``end_ns`` in steps of ``step_ns``, calling ``on_step(now_ns)``."""
-        while self.runtime.now_ns < end_ns:
-            self.runtime.run_until(min(self.runtime.now_ns + step_ns, end_ns))
-            on_step(self.runtime.now_ns)
+        """
+        Step physics to ``end_ns``, running every ready callback after each step.
+
+        /clock goes out with every message the bridge sends, and on its own only when a node's
+        timer falls due; ``on_step(now_ns)`` is called every ``step_ns`` of sim time.
+        """
+        bridge, executor = self.bridge, self.executor
+        targets = [node for node in self.nodes if node is not bridge]
+        if bridge.now_ns == 0:
+            bridge.publish(bridge.clock_pub, bridge.clock)
+        spin_until_idle(executor)
+        timer_due = next_timer_ns(targets)
+        next_call_ns = bridge.now_ns + step_ns
+        physics_ns = bridge.step_ns
+        while bridge.now_ns < end_ns:
+            clock_due = timer_due is not None and timer_due <= bridge.now_ns + physics_ns
+            if bridge.step(clock_due):
+                spin_until_idle(executor)
+                timer_due = next_timer_ns(targets)
+            if bridge.now_ns >= next_call_ns:
+                on_step(bridge.now_ns)
+                next_call_ns += step_ns
 
     def close(self) -> None:
-        """Destroy every node (the bridge last) and shut rclpy down."""
-        for node in reversed(self.nodes):
+        """Destroy every node (the bridge last) and shut this run's rclpy context down."""
+        own_nodes = [node for node in self.executor.get_nodes() if node not in self.nodes]
+        self.executor.shutdown()
+        for node in own_nodes + self.nodes[::-1]:
             node.destroy_node()
-        self.rclpy.try_shutdown()
+        self.rclpy.try_shutdown()  # a fresh default context for the next run
+
+
+class UserInterrupt:
+    """
+    While the block runs, Ctrl-C (SIGINT) is noted in ``pressed`` and raises KeyboardInterrupt.
+
+    So that the runner tells the user's Ctrl-C from a node raising KeyboardInterrupt itself.
+    Outside the main thread (where Python delivers signals) it only notes nothing.
+    """
+
+    def __init__(self) -> None:
+        self.pressed = False
+        self.previous = None
+
+    def __enter__(self) -> 'UserInterrupt':
+        if threading.current_thread() is threading.main_thread():
+            self.previous = signal.signal(signal.SIGINT, self.on_sigint)
+        return self
+
+    def on_sigint(self, signum, frame) -> None:
+        self.pressed = True
+        raise KeyboardInterrupt
+
+    def __exit__(self, *exc_info) -> None:
+        if self.previous is not None:
+            signal.signal(signal.SIGINT, self.previous)
+            self.previous = None
 
 
 class Pacing:
@@ -301,13 +424,16 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
                    out_dir: Path | str | None = None,
                    start: Sequence[float] | str | None = None, quiet: bool = False,
                    record: bool = True, plot: bool = True, gui: bool = False,
+                   field_checks: bool = True,
                    progress: Callable[[float, float], None] | None = None) -> RunResult:
     """
     Run ``targets`` (see sim_bridge.targets) with the simulator in ``world`` for ``duration_s``.
 
     ``params`` maps node names to parameter overrides; ``start`` overrides the robot's start
     pose (x m, y m, yaw rad), or is 'mirrored' to put the world's target on the robot's left.
-    ``gui`` shows the run in the pybullet window at wall-clock pace. Raises RunError when the
+    ``gui`` shows the run in the pybullet window at wall-clock pace. ``field_checks``: rosidl
+    refuses a value of the wrong type in a message field (see sim_bridge.run_environment); off,
+    the run behaves as Jazzy's default does on a robot. Raises RunError when the
     run cannot start, before writing anything to ``out_dir``; a node that raises (while
     starting or during the run) ends it early, is reported in ``metrics['node_errors']`` and,
     unless ``quiet``, with its traceback on stderr, and every output is written up to that
@@ -320,7 +446,7 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
     out_dir = Path(out_dir) if out_dir is not None else default_out_dir(world_model, targets)
 
     node_errors, setpoint, wall_start = [], None, time.perf_counter()
-    with lockstep.installed_runtime() as runtime, tempfile.TemporaryDirectory() as scratch:
+    with run_environment(field_checks), tempfile.TemporaryDirectory() as scratch:
         from rclpy.node import Node
         from sim_bridge.bridge import SimBridge
         try:
@@ -329,22 +455,30 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
             raise RunError(str(error)) from None
         params_file = Path(scratch) / 'params.yaml'
         write_params_file(params_file, node_params)
-        run = LockstepRun(runtime, params_file, quiet)
-        bag = None
+        run = SteppedRun(params_file, quiet)
+        bag, interrupt = None, UserInterrupt()
         try:
-            observer = Observer(run.start_simulator(SimBridge), duration_s)
-            runtime.add_tap(observer, topics=Observer.TOPICS)
+            bridge = run.start_simulator(SimBridge)
+            observer = Observer(bridge.sim, duration_s)
+            recorder = RunRecorder(run, observer, record)
             start_failure = run.start_nodes(zip(targets, classes), node_params)
             setpoint = run.parameter(SETPOINT_PARAMETER)
             bag = open_outputs(out_dir, params_file, record)
-            run.record(bag)
+            recorder.record(bag)
             if start_failure is not None:
                 raise start_failure
             pacing = Pacing(duration_s, gui, progress)
-            run.advance(round(duration_s * NANOSECONDS_PER_SECOND), pacing.step_ns, pacing)
-        except lockstep.NodeError as error:
-            node_errors.append({'node': error.node_name, 'error': str(error)})
-            if not quiet:
+            with interrupt:
+                run.advance(round(duration_s * NANOSECONDS_PER_SECOND), pacing.step_ns, pacing)
+        except KeyboardInterrupt:
+            if not interrupt.pressed:
+                raise
+            # Ctrl-C outside the nodes' code: the outputs are written, then it goes on.
+        except NodeError as error:
+            hint = f' ({FIELD_CHECK_HINT})' if is_field_check_failure(error.original) else ''
+            if not interrupt.pressed:  # a Ctrl-C while a callback ran is the user's
+                node_errors.append({'node': error.node_name, 'error': str(error) + hint})
+            if not quiet and not interrupt.pressed:
                 # What the node's own process would print before dying.
                 traceback.print_exception(error.original, file=sys.stderr)
         finally:
@@ -358,6 +492,9 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
     if plot:
         plot_trajectory(observer.trace, world_model, out_dir / 'trajectory.png',
                         title=f"{world_model.name}: {', '.join(map(target_name, targets))}")
+    if interrupt.pressed:
+        raise KeyboardInterrupt(f'run interrupted at {metrics["sim_time_s"]:.1f} s of sim time; '
+                                f'its outputs are in {out_dir}')
     return RunResult(metrics, out_dir)
 
 
@@ -417,6 +554,9 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     parser.add_argument('--no-record', action='store_true',
                         help='write no rosbag2 recording (a faster run)')
     parser.add_argument('--no-plot', action='store_true', help='write no trajectory.png')
+    parser.add_argument('--no-field-checks', action='store_true',
+                        help="run with Jazzy's default: no type check of message fields "
+                             '(a wrong type is sent as garbage, as on a robot)')
     return parser.parse_args(argv)
 
 
@@ -431,11 +571,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         result = run_simulation(
             args.world, args.nodes, duration_s=args.duration, seed=args.seed, params=params,
             out_dir=args.out, quiet=args.quiet, gui=args.gui, record=not args.no_record,
-            plot=not args.no_plot,
+            plot=not args.no_plot, field_checks=not args.no_field_checks,
             progress=print_progress if sys.stderr.isatty() and not args.quiet else None)
     except RunError as error:
         print(f'error: {error}', file=sys.stderr)
         return 2
+    except KeyboardInterrupt as interrupt:
+        print(f'\n{interrupt}' if str(interrupt) else '\ninterrupted', file=sys.stderr)
+        return 130
     print(f'\nRun summary ({result.out_dir}):')
     print(summary_table(result.metrics))
     written = ['metrics.json', *(['trajectory.png'] if not args.no_plot else []),

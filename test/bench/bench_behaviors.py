@@ -10,7 +10,7 @@ caches carries over from one call to the next.
 Rows: ``read_scan`` (message to Scan); ``obstacle_points``, ``estimate_wall`` and
 ``corridor_distance`` (the wall follower's pieces); the WallFollower's ``update_scan`` +
 ``command`` and the Wanderer's (the controllers, without ROS); and the wall_follow node's
-``on_scan`` callback on the lockstep runtime (the above plus the clock and the Twist).
+``on_scan`` callback on real rclpy (the above plus the clock and the Twist).
 
 Run: python test/bench/bench_behaviors.py [--quick]
 """
@@ -19,13 +19,13 @@ import array
 import math
 
 import numpy as np
-from timing import microseconds_per_call
-
+import rclpy
 from scan_pkg.behaviors.wall_follow import estimate_wall, WallFollowConfig, WallFollower
 from scan_pkg.behaviors.wander import corridor_distance, obstacle_points, Wanderer
 from scan_pkg.laser import Scan
 from scan_pkg.report import read_scan
-from sim_bridge import lockstep
+from sim_bridge.run_environment import keep_dds_in_process
+from timing import microseconds_per_call
 
 BEAMS = (36, 1081)
 ANGLE_MIN, ANGLE_MAX = -1.57, 1.57
@@ -71,10 +71,8 @@ def follower_step(follower: WallFollower):
 
 
 def node_callback():
-    """Return the on_scan of a wall_follow node on the lockstep runtime (already installed)."""
-    import rclpy
+    """Return the on_scan of a wall_follow node on real rclpy (initialised by the caller)."""
     from scan_pkg.wall_follow import WallFollow
-    rclpy.init(args=[])
     return WallFollow().on_scan
 
 
@@ -83,7 +81,9 @@ def main() -> None:
     config = WallFollowConfig()
     length = config.distance + config.robot_radius
     rows = {}
-    with lockstep.installed_runtime():
+    keep_dds_in_process()
+    rclpy.init(args=[])
+    try:
         on_scan = node_callback()
         for beams in BEAMS:
             messages = [Message(wall_ranges(rng, beams)) for _ in range(POOL)]
@@ -110,6 +110,8 @@ def main() -> None:
                     follower_step(Wanderer()), scans),
                 'WallFollow.on_scan': microseconds_per_call(on_scan, lambda: messages),
             }
+    finally:
+        rclpy.try_shutdown()
     print(f"{'us per call':<30}" + ''.join(f'{beams:>10} beams' for beams in BEAMS))
     for name in rows[BEAMS[0]]:
         print(f'{name:<30}' + ''.join(f'{rows[beams][name]:>16.1f}' for beams in BEAMS))

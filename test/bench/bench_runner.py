@@ -1,21 +1,22 @@
 """
-Benchmark the lockstep runner: real-time factor of a wall-follow run at 36 and 1081 beams.
+Benchmark the stepped runner on real rclpy: real-time factor of a wall-follow run, per stage.
 
 Runs ``sim_bridge.run.run_simulation`` on ``wall_follow_box`` with the ``wall_follow`` node for
-600 simulated seconds (the issue's goal: at least 500x real time with 36 beams, 100x with
-1081), the beam count set by the bridge's ``lidar_samples`` parameter, with the rosbag2
-recording off and on, and prints one row per configuration side by side: simulated s, wall s,
-x real time (the best of ``--repeats`` runs; the plot is off, as it is a fixed cost after the
-run).
+600 simulated seconds (the goal: at least 100x real time with 36 beams, 50x with 1081, recorded),
+the beam count set by the bridge's ``lidar_samples`` parameter, and prints side by side, in one
+process and one sitting:
 
-Then, unless ``--no-breakdown``, each configuration runs once more with the main stages timed
-(exclusive time: a stage's own time without the stages it calls) and the table shows each
-stage's share of that run's wall time: the simulator's step (robot, collisions, the trace for
-the metrics), the lidar (ray casts, noise), the bridge building its messages, the wall_follow
-node, the runner's observer (scans kept for the plot), the recording, the metrics, and
-lockstep (publish checks, copies, delivery, timers; the rest of the run, with setup). The
-timing wrappers add a little time of their own, so those runs are slower than the first
-table's.
+1. the pure simulator alone (physics at 100 Hz and a 10 Hz scan, no rclpy), and the runner with
+   recording off and on, at 36 and 1081 beams (best of ``--repeats``; plot off);
+2. variants at 36 beams, recorded: /clock published every physics step instead of only with a
+   message a node hears or when a node's timer is due, and ``rclpy.experimental.EventsExecutor``
+   instead of the SingleThreadedExecutor (it has no exact "nothing is ready": it gets a fixed
+   number of ``spin_once(timeout_sec=0)`` per step, and the table says whether its runs are
+   complete and repeatable: same bag as the kept configuration, twice);
+3. unless ``--no-breakdown``, the share of each stage in a run's wall time (exclusive time):
+   simulator step (robot, collisions, trace), lidar, the bridge building its messages, rclpy
+   (publish, delivery, the executor's waits: the rest of the run, with set-up), the wall_follow
+   node's callback, recording (serialise and write) and metrics.
 
 Run: python test/bench/bench_runner.py [--duration S] [--repeats N] [--no-breakdown]
 """
@@ -27,17 +28,26 @@ from pathlib import Path
 import tempfile
 import time
 
-from sim_bridge import lockstep, run
+import rclpy.executors
+from rclpy.experimental import EventsExecutor
+
+from scan_pkg.wall_follow import WallFollow
+from sim_bridge import run
+from sim_bridge.bridge import SimBridge
+from sim_bridge.paths import find_world
 from sim_bridge.record import BagRecorder
 from sim_bridge.simulator import Simulator
+from sim_bridge.world import World
 
 WORLD = 'wall_follow_box'
 NODE = 'wall_follow'
 SEED = 1
 BEAMS = (36, 1081)
-GOALS = {36: 500.0, 1081: 100.0}
-STAGES = ('simulator step', 'lidar', 'bridge messages', 'wall_follow node', 'runner observer',
-          'recording', 'metrics', 'lockstep + setup')
+GOALS = {36: 100.0, 1081: 50.0}
+PHYSICS_RATE, SCAN_RATE = 100, 10
+EVENTS_SPINS_PER_STEP = 4
+STAGES = ('simulator step', 'lidar', 'bridge messages', 'rclpy + setup', 'wall_follow node',
+          'recording', 'metrics')
 
 
 class StageTimer:
@@ -77,20 +87,48 @@ class StageTimer:
 
 
 @contextmanager
+def patched(owner: object, name: str, value: object):
+    """Set ``owner.name`` to ``value`` while the block runs."""
+    original = getattr(owner, name)
+    setattr(owner, name, value)
+    try:
+        yield
+    finally:
+        setattr(owner, name, original)
+
+
+@contextmanager
+def clock_every_step():
+    """Make the runner publish /clock every physics step (a node timer always due)."""
+    with patched(run, 'next_timer_ns', lambda nodes: 0):
+        yield
+
+
+@contextmanager
+def events_executor():
+    """Run with rclpy's EventsExecutor, spun a fixed number of times after each step."""
+    def spin(executor) -> int:
+        for _ in range(EVENTS_SPINS_PER_STEP):
+            executor.spin_once(timeout_sec=0)
+        return EVENTS_SPINS_PER_STEP
+
+    def make(*, context=None):
+        return EventsExecutor(context=context)
+    with patched(rclpy.executors, 'SingleThreadedExecutor', make), \
+            patched(run, 'spin_until_idle', spin):
+        yield
+
+
+@contextmanager
 def timed_stages():
     """Time the runner's stages (see the module text) while the block runs; yield the timer."""
-    with lockstep.installed_runtime():
-        from sim_bridge.bridge import SimBridge
-        from sim_bridge.lockstep.rclpy.publisher import Publisher
-        from scan_pkg.wall_follow import WallFollow
     timer = StageTimer()
     for owner, name, stage in (
             (Simulator, 'step', 'simulator step'), (Simulator, 'scan', 'lidar'),
             (SimBridge, 'step', 'bridge messages'), (SimBridge, 'on_cmd_vel', 'bridge messages'),
             (WallFollow, 'on_scan', 'wall_follow node'),
-            (Publisher, 'publish', 'lockstep + setup'),
-            (run.Observer, '__call__', 'runner observer'), (BagRecorder, 'write', 'recording'),
-            (run, 'compute_metrics', 'metrics')):
+            (run.RunRecorder, 'on_bridge_message', 'recording'),
+            (BagRecorder, 'write', 'recording'), (run, 'compute_metrics', 'metrics')):
         timer.wrap(owner, name, stage)
     try:
         yield timer
@@ -110,33 +148,74 @@ def run_once(beams: int, record: bool, duration_s: float, folder: Path) -> float
     return wall_s
 
 
+def simulator_alone(beams: int, duration_s: float) -> float:
+    """Step the pure simulator as the bridge does (no rclpy); return the wall time (s)."""
+    world = World.load(find_world(WORLD))
+    start = time.perf_counter()
+    sim = Simulator(world, seed=SEED, lidar_samples=beams)
+    try:
+        sim.set_command(0.3, -0.2)
+        for step in range(1, round(duration_s * PHYSICS_RATE) + 1):
+            sim.step(1.0 / PHYSICS_RATE)
+            if step % (PHYSICS_RATE // SCAN_RATE) == 0:
+                sim.scan()
+                sim.set_command(0.3, -0.2)
+    finally:
+        sim.close()
+    return time.perf_counter() - start
+
+
+def row(label: str, duration_s: float, wall_s: float, goal: float | None,
+        note: str = '') -> None:
+    """Print one line of a table."""
+    factor = duration_s / wall_s
+    verdict = '' if goal is None else f"{goal:>5.0f}x {'met' if factor >= goal else 'MISSED'}"
+    print(f'{label:<44}  {wall_s:>7.2f}  {factor:>10.0f}x  {verdict:<11}  {note}')
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
     parser.add_argument('--duration', type=float, default=600.0, help='simulated s (600)')
     parser.add_argument('--repeats', type=int, default=1, help='timed runs per row (1)')
     parser.add_argument('--no-breakdown', action='store_true', help='skip the stage shares')
     args = parser.parse_args()
-    configurations = [(beams, record) for beams in BEAMS for record in (False, True)]
-    with tempfile.TemporaryDirectory() as folder:
-        run_once(BEAMS[0], False, 1.0, Path(folder) / 'warm-up')  # imports, type store
-        print(f'{args.duration:g} s of {NODE} in {WORLD} (seed {SEED}), plot off; '
-              f'best of {args.repeats}')
-        print(f'{"beams":>5}  {"recording":<9}  {"sim s":>6}  {"wall s":>6}  '
-              f'{"x real time":>11}  {"goal":>5}')
-        for beams, record in configurations:
-            wall_s = min(run_once(beams, record, args.duration, Path(folder) / 'run')
-                         for _ in range(args.repeats))
-            factor = args.duration / wall_s
-            verdict = 'met' if factor >= GOALS[beams] else 'MISSED'
-            print(f'{beams:>5}  {"on" if record else "off":<9}  {args.duration:>6g}  '
-                  f'{wall_s:>6.2f}  {factor:>10.0f}x  {GOALS[beams]:>4.0f}x {verdict}')
+    duration = args.duration
+    with tempfile.TemporaryDirectory() as scratch:
+        folder = Path(scratch)
+        run_once(BEAMS[0], False, 1.0, folder / 'warm-up')  # imports, type store
+        print(f'{duration:g} s of {NODE} in {WORLD} (seed {SEED}), plot off; best of '
+              f'{args.repeats}')
+        print(f'{"configuration":<44}  {"wall s":>7}  {"x real time":>11}  {"goal":<11}')
+        for beams in BEAMS:
+            row(f'{beams} beams: pure simulator, no rclpy', duration,
+                min(simulator_alone(beams, duration) for _ in range(args.repeats)), None)
+            for record in (False, True):
+                row(f'{beams} beams: run, recording {"on" if record else "off"}', duration,
+                    min(run_once(beams, record, duration, folder / 'run')
+                        for _ in range(args.repeats)),
+                    GOALS[beams] if record else None)
+        run_once(BEAMS[0], True, duration, folder / 'kept')
+        kept = (folder / 'kept' / 'run' / 'run.mcap').read_bytes()
+        for label, variant in (('36 beams: /clock every physics step', clock_every_step),
+                               (f'36 beams: EventsExecutor, {EVENTS_SPINS_PER_STEP} spins a '
+                                'step', events_executor)):
+            with variant():
+                walls = [run_once(BEAMS[0], True, duration, folder / name)
+                         for name in ('variant', 'again')]
+            bags = [(folder / name / 'run' / 'run.mcap').read_bytes()
+                    for name in ('variant', 'again')]
+            note = ('same bag as kept, twice' if bags[0] == bags[1] == kept else
+                    'repeatable, but not the kept bag' if bags[0] == bags[1] else
+                    'NOT repeatable')
+            row(label, duration, min(walls), None, note)
         if args.no_breakdown:
             return
+        configurations = [(beams, record) for beams in BEAMS for record in (False, True)]
         shares, walls = [], []
         for beams, record in configurations:
             with timed_stages() as timer:
-                wall_s = run_once(beams, record, args.duration, Path(folder) / 'timed')
-            timer.seconds['lockstep + setup'] += wall_s - sum(timer.seconds.values())
+                wall_s = run_once(beams, record, duration, folder / 'timed')
+            timer.seconds['rclpy + setup'] += wall_s - sum(timer.seconds.values())
             shares.append({stage: timer.seconds[stage] / wall_s for stage in STAGES})
             walls.append(wall_s)
     print('\nshare of the wall time per stage (instrumented runs)')
