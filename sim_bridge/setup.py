@@ -1,4 +1,4 @@
-"""Install sim_bridge: the pybullet simulator, its ROS 2 bridge node and the lockstep runner."""
+"""Install sim_bridge: the pybullet simulator, its ROS 2 bridge node, the runner and grader."""
 
 from glob import glob
 import os
@@ -34,7 +34,7 @@ setup(
     zip_safe=False,
     maintainer='Laser Lab Kit maintainers',
     maintainer_email='laser-lab@example.org',
-    description='pybullet stand-in for Gazebo, ROS 2 bridge node, lockstep runner and grader.',
+    description='pybullet stand-in for Gazebo, ROS 2 bridge node, stepped runner and grader.',
     license='Apache-2.0',
     entry_points={
         'console_scripts': [

@@ -2,7 +2,7 @@
 Scan geometry: an immutable, validated view of one planar laser scan.
 
 Pure numpy; no rclpy. A :class:`Scan` is built from any object with the fields of
-``sensor_msgs/msg/LaserScan`` (a real message, the lockstep runtime's message, a rosbags message)
+``sensor_msgs/msg/LaserScan`` (an rclpy message, a rosbags message)
 or directly from numbers, and answers the questions the lab's nodes and controllers ask: whether
 it holds any information, the range at a bearing, the minimum range in five fixed bearing bands,
 the nearest valid return and the returns as points in the laser frame.

@@ -1,7 +1,7 @@
 """
 The lab's tasks: which scan_pkg node each one runs, and in which world.
 
-One table shared by ``lab.launch.py`` (live ROS 2) and the demo (lockstep), so both start the
+One table shared by ``lab.launch.py`` (live ROS 2) and the demo (stepped runner), so both start the
 same thing for a task.
 """
 

@@ -1,7 +1,7 @@
 """
 The simulator: a world, a differential-drive robot with a round footprint, and its lidar.
 
-Pure (no rclpy): the ROS 2 bridge node and the lockstep runner drive it by calling
+Pure (no rclpy): the ROS 2 bridge node (live or stepped by the runner) drives it by calling
 :meth:`Simulator.set_command`, :meth:`Simulator.step` and :meth:`Simulator.scan` on simulated
 time. One pybullet client in DIRECT mode per simulator (the GUI on request), so several
 simulators coexist in one process; the lidar noise comes from a generator seeded by ``seed``,

@@ -5,7 +5,7 @@ TARGET forms: ``wall_follow`` (a console script, as ``ros2 run`` knows it),
 ``scan_pkg.wall_follow`` (a module), ``path/to/node.py`` (any file, run as written); each
 optionally followed by
 ``:ClassName`` when the module defines several Node subclasses. Modules are imported as they
-are, so the lockstep runtime must be installed first for their ``import rclpy`` to resolve.
+are, with the rclpy of this Python (a sourced ROS 2 Jazzy, or the PyPI wheels).
 """
 
 from importlib import import_module
@@ -36,7 +36,7 @@ def _console_script_module(name: str) -> str | None:
 def _load_file(path: Path) -> ModuleType:
     if not path.is_file():
         raise TargetError(f'node file not found: {path}')
-    module_name = f'lockstep_target_{path.stem}_{abs(hash(path.resolve())):x}'
+    module_name = f'lab_target_{path.stem}_{abs(hash(path.resolve())):x}'
     spec = importlib.util.spec_from_file_location(module_name, path)
     module = importlib.util.module_from_spec(spec)
     sys.modules[module_name] = module
