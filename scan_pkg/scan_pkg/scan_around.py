@@ -4,9 +4,8 @@ import rclpy
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data
-from sensor_msgs.msg import LaserScan
-
 from scan_pkg.report import positive_parameter, read_scan, regions_line
+from sensor_msgs.msg import LaserScan
 
 
 class ScanAround(Node):

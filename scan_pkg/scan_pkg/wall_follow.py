@@ -2,11 +2,10 @@
 
 from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data
-from sensor_msgs.msg import LaserScan
-
 from scan_pkg.behaviors.wall_follow import WallFollowConfig, WallFollower
 from scan_pkg.cmd_vel import CmdVelPublisher, declare_config, spin_then_stop
 from scan_pkg.report import read_scan
+from sensor_msgs.msg import LaserScan
 
 
 class WallFollow(Node):

@@ -3,11 +3,10 @@
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data
-from sensor_msgs.msg import LaserScan
-
 from scan_pkg.behaviors.wander import WanderConfig, Wanderer, yaw_from_quaternion
 from scan_pkg.cmd_vel import CmdVelPublisher, declare_config, spin_then_stop
 from scan_pkg.report import read_scan
+from sensor_msgs.msg import LaserScan
 
 
 class Wanderbot(Node):

@@ -47,9 +47,8 @@ from pathlib import Path
 import re
 from typing import Any, Callable
 
-import yaml
-
 from sim_bridge.metrics import METRIC_KINDS
+import yaml
 
 SCENARIO_SUFFIX = '.yaml'
 #: A parameter value replaced by each run's seed, so a node's own randomness follows it.

@@ -75,11 +75,10 @@ import os
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from sim_bridge import paths
 from sim_bridge.geometry import Footprint, Shape, wrap_angle
 from sim_bridge.sdf import load_model, Model, SdfError
+import yaml
 
 DEFAULT_ROBOT_MODEL = 'lab_robot'
 DEFAULT_WALL_THICKNESS = 0.15

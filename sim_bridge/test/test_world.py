@@ -4,12 +4,11 @@ import math
 
 import numpy as np
 import pytest
-import yaml
-
 from sim_bridge import paths
 from sim_bridge import world as world_module
 from sim_bridge.geometry import Footprint, Shape, signed_distance
 from sim_bridge.world import World, WorldError
+import yaml
 
 WALL_FOLLOW_WORLDS = ('wall_follow_box', 'wall_follow_cylinder', 'wall_follow_l_shape')
 SHIPPED_WORLDS = ('obstacles', 'room') + WALL_FOLLOW_WORLDS

@@ -14,9 +14,8 @@ import array
 import math
 
 import numpy as np
-from timing import microseconds_per_call
-
 from scan_pkg.laser import Scan
+from timing import microseconds_per_call
 
 SEED = 20240611
 POOL = 32

@@ -7,9 +7,8 @@ import sys
 
 import numpy as np
 import pytest
-import yaml
-
 from scan_pkg.laser import Scan
+import yaml
 
 LAB_BEAMS = 36
 LAB_ANGLE_MIN = -1.57
