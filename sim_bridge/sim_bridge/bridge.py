@@ -19,6 +19,7 @@ from geometry_msgs.msg import PointStamped, TransformStamped, Twist, TwistStampe
 from nav_msgs.msg import Odometry
 import rclpy
 from rclpy.clock import Clock as RclpyClock, ClockType
+from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.time import Time
@@ -91,10 +92,15 @@ class SimBridge(Node):
         #: Called as ``on_publish(topic, msg)`` after each message the bridge publishes itself.
         self.on_publish = None
 
-        self.scan_pub = self.create_publisher(LaserScan, 'scan', 10)
-        self.odom_pub = self.create_publisher(Odometry, 'odom', 10)
-        self.clock_pub = self.create_publisher(Clock, 'clock', 10)
-        self.collision_pub = self.create_publisher(PointStamped, 'collisions', 10)
+        # Stepped, every QoS event handler is one more entity in every wait of the executor;
+        # the other side's handlers still report incompatible QoS.
+        events, cmd_vel_events = ({}, {}) if not stepped else (
+            {'event_callbacks': PublisherEventCallbacks(use_default_callbacks=False)},
+            {'event_callbacks': SubscriptionEventCallbacks(use_default_callbacks=False)})
+        self.scan_pub = self.create_publisher(LaserScan, 'scan', 10, **events)
+        self.odom_pub = self.create_publisher(Odometry, 'odom', 10, **events)
+        self.clock_pub = self.create_publisher(Clock, 'clock', 10, **events)
+        self.collision_pub = self.create_publisher(PointStamped, 'collisions', 10, **events)
         if TransformBroadcaster is None:
             self.get_logger().warning(NO_TF_WARNING)
             self.tf_broadcaster = None
@@ -108,7 +114,7 @@ class SimBridge(Node):
         self.odom_transform = self.transform(self.clock.clock, 'odom', 'base_link',
                                              (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
         self.create_subscription(TwistStamped if stamped else Twist, 'cmd_vel',
-                                 self.on_cmd_vel, 10)
+                                 self.on_cmd_vel, 10, **cmd_vel_events)
         if not stepped:
             # The steady clock: this timer makes sim time, so it cannot wait for it.
             self.create_timer(1.0 / physics_rate / real_time_factor, self.step,

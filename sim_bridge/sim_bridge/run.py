@@ -23,7 +23,8 @@ import time
 import traceback
 from typing import Any, Callable, Iterable, Sequence
 
-from rclpy.parameter import get_parameter_value, parameter_value_to_python
+from rclpy.event_handler import SubscriptionEventCallbacks
+from rclpy.parameter import get_parameter_value, Parameter, parameter_value_to_python
 from rclpy.serialization import serialize_message
 from sim_bridge.metrics import compute_metrics
 from sim_bridge.paths import find_world
@@ -48,6 +49,8 @@ GUI_FRAME_RATE = 60
 NANOSECONDS_PER_SECOND = 10 ** 9
 
 Params = dict[str, dict[str, Any]]
+# The runner's own nodes serve nothing: the service is one more entity in every wait.
+NO_TYPE_DESCRIPTION_SERVICE = Parameter('start_type_description_service', value=False)
 
 
 class RunError(Exception):
@@ -195,8 +198,9 @@ class RunRecorder:
         for topic, msg_type in subscribed.items():
             if topic in DEFAULT_TOPICS and (topic not in bridge_topics or topic.startswith('/tf')):
                 write = functools.partial(self.write, topic, self.type_name(msg_type))
-                node.create_subscription(msg_type, topic, write,
-                                         latched if topic == '/tf_static' else 10, raw=True)
+                node.create_subscription(
+                    msg_type, topic, write, latched if topic == '/tf_static' else 10, raw=True,
+                    event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False))
 
     def type_name(self, msg_type: type) -> str:
         """Return (and keep) the ROS type name of a message class."""
@@ -253,10 +257,11 @@ class SteppedRun:
         self.bridge = None
 
     def node(self, name: str):
-        """Create one of the runner's own nodes (no parameter services, no /rosout)."""
+        """Create one of the runner's own nodes: no clock of its own, services or /rosout."""
         from rclpy.node import Node
-        node = Node(name, context=self.context, start_parameter_services=False,
-                    enable_rosout=False)
+        node = Node(name, context=self.context, use_global_arguments=False,
+                    start_parameter_services=False, enable_rosout=False,
+                    parameter_overrides=[NO_TYPE_DESCRIPTION_SERVICE])
         self.executor.add_node(node)
         return node
 
@@ -282,12 +287,14 @@ class SteppedRun:
         Start the SimBridge node, stepped, and return it; RunError when it cannot start.
 
         It reads the params file but not ``use_sim_time``: it makes sim time. Nothing in the
-        process could call its parameter services, so it has none (less for every wait).
+        process could call its services or read its /rosout, so it has none: every entity of
+        every node is one more for each wait of the executor.
         """
         try:
             self.bridge = self.start(
                 bridge_class, BRIDGE_NODE, stepped=True, use_global_arguments=False,
-                cli_args=self.node_arguments[:3], start_parameter_services=False)
+                cli_args=self.node_arguments[:3], start_parameter_services=False,
+                enable_rosout=False, parameter_overrides=[NO_TYPE_DESCRIPTION_SERVICE])
         except NodeError as error:
             raise RunError(f'{BRIDGE_NODE}: {describe(error.original)}') from None
         return self.bridge
