@@ -31,6 +31,11 @@ setup(
     ],
     install_requires=['setuptools', 'numpy', 'pybullet', 'rosbags>=0.11,<0.12', 'matplotlib',
                       'contourpy', 'PyYAML'],
+    extras_require={
+        'test': [
+            'pytest',
+        ],
+    },
     zip_safe=False,
     maintainer='Laser Lab Kit maintainers',
     maintainer_email='laser-lab@example.org',
@@ -41,6 +46,8 @@ setup(
             'sim_bridge = sim_bridge.bridge:main',
             'lab_run = sim_bridge.run:main',
             'lab_grade = sim_bridge.grade:main',
+            'teleop_keyboard = sim_bridge.teleop:main',
+            'send_cmd_vel = sim_bridge.send_cmd_vel:main',
         ],
     },
 )
