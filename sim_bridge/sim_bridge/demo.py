@@ -4,7 +4,8 @@ The README's demo: every lab task in the simulator, stepped on real rclpy, then 
 ``python -m sim_bridge.demo`` (``./lab demo``) runs each lab task's node in its world (see
 sim_bridge.lab_tasks), showing the node's log lines as a student sees them in a terminal and a
 summary of the run, then grades the shipped scenarios (test/scenarios/) and prints where every
-plot and recording is.
+plot and recording is. It ends with a short live run of ``wall_follow`` (sim_bridge.live): the
+simulator and the node as two ROS 2 processes, their lines interleaved as ros2 launch prints them.
 """
 
 import argparse
@@ -13,6 +14,7 @@ from pathlib import Path
 import sys
 from typing import Sequence
 
+from sim_bridge import live
 from sim_bridge.lab_tasks import LAB_TASKS
 from sim_bridge.paths import repo_root
 from sim_bridge.run import run_simulation, summary_table
@@ -21,6 +23,8 @@ from sim_bridge.run_environment import rclpy_origin
 #: Simulated seconds per task: a few scans for the scan readers, a few loops for the drivers.
 TASK_DURATION_S = {'scan_ahead': 1.0, 'scan_around': 1.0, 'closest_obstacle': 1.0,
                    'wanderbot': 120.0, 'wall_follow': 80.0}
+#: The live run at the end: its task and its length in wall seconds.
+LIVE_TASK, LIVE_DURATION_S = 'wall_follow', 10.0
 
 
 def run_tasks(out_dir: Path) -> bool:
@@ -50,20 +54,30 @@ def grade_scenarios(out_dir: Path) -> int:
                        '--jobs', str(os.cpu_count() or 1)])
 
 
+def run_live_task() -> bool:
+    """Run LIVE_TASK live for LIVE_DURATION_S wall seconds; return True when it ended cleanly."""
+    print(f'\n=== Live: ./lab live {LIVE_TASK} --duration {LIVE_DURATION_S:g} (the simulator and '
+          'the node as two ROS 2 processes) ===', flush=True)
+    return live.main([LIVE_TASK, '--duration', f'{LIVE_DURATION_S:g}']) == 0
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the demo; return 0 when every task ran and every scenario passed."""
+    """Run the demo; return 0 when every task ran, every scenario passed and live ran cleanly."""
     parser = argparse.ArgumentParser(prog='./lab demo', description=__doc__.strip().split('\n')[0])
     parser.add_argument('--out', type=Path, default=Path('out') / 'demo',
                         help='output folder (default out/demo)')
     parser.add_argument('--no-grade', action='store_true',
                         help='only run the lab tasks, not the grading scenarios')
+    parser.add_argument('--no-live', action='store_true',
+                        help='skip the live run at the end (separate ROS 2 processes)')
     args = parser.parse_args(argv)
     print(f'ROS 2: {rclpy_origin()}', flush=True)
     tasks_ok = run_tasks(args.out / 'tasks')
     status = 0 if args.no_grade else grade_scenarios(args.out / 'grade')
+    live_ok = args.no_live or run_live_task()
     print(f'\nDemo outputs: {args.out.resolve()} (tasks/<task>/, grade/<scenario>/seed_<n>/: '
           'trajectory.png, metrics.json, run/ rosbag2 recording)')
-    return status if tasks_ok else 1
+    return status if tasks_ok and live_ok else 1
 
 
 if __name__ == '__main__':

@@ -1,0 +1,440 @@
+"""
+Live runs (sim_bridge.live): the simulator and a lab node as separate ROS 2 processes.
+
+The pure parts (command lines, lines printed, environment) are checked without processes; the
+process handling with plain Python children; the live runs with the real simulator and node
+processes, watched by a third process (fixtures/live_observer.py). The ROS 2 children run on a
+ROS_DOMAIN_ID of this test process's own with discovery on (this process keeps its own DDS
+traffic to itself: see conftest.py).
+"""
+
+from contextlib import contextmanager
+import json
+import math
+import os
+from pathlib import Path
+import signal
+import subprocess
+import sys
+import threading
+import time
+
+import numpy as np
+import pytest
+from sim_bridge import live
+from sim_bridge.geometry import signed_distance
+from sim_bridge.lab_tasks import LAB_TASKS
+from sim_bridge.world import World
+
+FIXTURES = Path(__file__).parent / 'fixtures'
+PACKAGES = Path(__file__).resolve().parents[2]
+SCAN_RATE_HZ = 10.0
+WALL_DISTANCE_M = 0.5
+#: Longest wall time (s) any one wait of these tests may take.
+TIMEOUT_S = 60.0
+
+
+def live_env() -> dict:
+    """Return this environment with a ROS_DOMAIN_ID of this test process's own, discovery on."""
+    env = dict(os.environ, ROS_DOMAIN_ID=str(120 + os.getpid() % 80))
+    env.pop('ROS_AUTOMATIC_DISCOVERY_RANGE', None)
+    return env
+
+
+def python_spec(executable: str, code: str) -> live.ProcessSpec:
+    """Return a process running Python ``code``."""
+    return live.ProcessSpec(executable, (sys.executable, '-c', code))
+
+
+# ---------------------------------------------------------------------------------------------
+# The pure parts.
+
+def test_lines_are_printed_as_ros2_launch_prints_them():
+    specs = [python_spec('sim_bridge', ''), python_spec('wall_follow', '')]
+    assert live.process_names(specs) == ['sim_bridge-1', 'wall_follow-2']
+    assert live.prefixed('wall_follow-2', '[INFO] [1.5] [wall_follow]: hi') == \
+        '[wall_follow-2] [INFO] [1.5] [wall_follow]: hi'
+    assert live.started_line('sim_bridge-1', 1234) == \
+        '[INFO] [sim_bridge-1]: process started with pid [1234]'
+    assert live.ended_line('wall_follow-2', 1235, 0, ['wall_follow']) == \
+        '[INFO] [wall_follow-2]: process has finished cleanly [pid 1235]'
+    assert live.ended_line('wall_follow-2', 1235, 1, ['python', '-m', 'x']) == \
+        "[ERROR] [wall_follow-2]: process has died [pid 1235, exit code 1, cmd 'python -m x']."
+    assert live.signal_line('sim_bridge-1', 'SIGINT') == \
+        "[INFO] [sim_bridge-1]: sending signal 'SIGINT' to process[sim_bridge-1]"
+    assert live.escalation_line('sim_bridge-1', 5.0, 'SIGINT', 'SIGTERM') == (
+        "[ERROR] [sim_bridge-1]: process[sim_bridge-1] failed to terminate '5' seconds after "
+        "receiving 'SIGINT', escalating to 'SIGTERM'")
+
+
+def test_children_get_line_buffered_output_and_discovery_across_processes():
+    env, warning = live.child_environment({'ROS_DOMAIN_ID': '42', 'PATH': '/bin'})
+    assert env == {'ROS_DOMAIN_ID': '42', 'PATH': '/bin', 'PYTHONUNBUFFERED': '1',
+                   'RCUTILS_LOGGING_BUFFERED_STREAM': '1'}
+    assert warning is None
+    env, warning = live.child_environment({'ROS_AUTOMATIC_DISCOVERY_RANGE': 'OFF'})
+    assert env['ROS_AUTOMATIC_DISCOVERY_RANGE'] == 'LOCALHOST'
+    assert 'LOCALHOST' in warning
+    env, _ = live.child_environment({'ROS_AUTOMATIC_DISCOVERY_RANGE': 'SUBNET'})
+    assert env['ROS_AUTOMATIC_DISCOVERY_RANGE'] == 'SUBNET'
+
+
+def test_a_task_starts_the_simulator_and_its_node_as_lab_launch_does():
+    bridge, node = live.task_specs('wall_follow', real_time_factor=2,
+                                   params={'wall_follow': {'distance': '0.6'}},
+                                   python='python3')
+    assert bridge == live.ProcessSpec('sim_bridge', (
+        'python3', '-m', 'sim_bridge.bridge', '--ros-args',
+        '--params-file', str(PACKAGES / 'sim_bridge' / 'params' / 'sim.yaml'),
+        '-p', 'world:=wall_follow_box', '-p', 'gui:=false', '-p', 'real_time_factor:=2.0'))
+    # The node's overrides come after its params file and use_sim_time: the last one wins.
+    assert node == live.ProcessSpec('wall_follow', (
+        'python3', '-m', 'scan_pkg.wall_follow', '--ros-args',
+        '--params-file', str(PACKAGES / 'scan_pkg' / 'params' / 'wall_follow.yaml'),
+        '-p', 'use_sim_time:=true', '-p', 'distance:=0.6'))
+
+
+def test_the_world_and_the_window_can_be_chosen_and_a_node_without_params_file_has_none():
+    bridge, node = live.task_specs('scan_ahead', world='room', gui=True,
+                                   params={'sim_bridge': {'seed': '3'}})
+    assert bridge.cmd[-8:] == ('-p', 'world:=room', '-p', 'gui:=true',
+                               '-p', 'real_time_factor:=1.0', '-p', 'seed:=3')
+    assert node.cmd[1:] == ('-m', 'scan_pkg.scan_ahead', '--ros-args',
+                            '-p', 'use_sim_time:=true')
+
+
+@pytest.mark.parametrize('task', sorted(LAB_TASKS))
+def test_every_task_runs_its_console_scripts_module(task):
+    bridge, node = live.task_specs(task)
+    assert bridge.cmd[1:3] == ('-m', 'sim_bridge.bridge')
+    assert node.executable == LAB_TASKS[task].node
+    assert node.cmd[1:3] == ('-m', f'scan_pkg.{LAB_TASKS[task].node}')
+    assert f'world:={LAB_TASKS[task].world}' in bridge.cmd
+
+
+def test_bad_tasks_and_parameters_are_refused_before_anything_starts(capsys):
+    with pytest.raises(ValueError, match="unknown task 'fly'"):
+        live.task_specs('fly')
+    with pytest.raises(ValueError, match='parameters for wanderbot'):
+        live.task_specs('wall_follow', params={'wanderbot': {'speed': '1.0'}})
+    assert live.parse_param('wall_follow:distance=0.6') == ('wall_follow', 'distance', '0.6')
+    assert live.parse_param('sim_bridge:start_pose=[0.0, 1.0, 0.0]') == \
+        ('sim_bridge', 'start_pose', '[0.0, 1.0, 0.0]')
+    for text in ('distance=0.6', 'wall_follow:distance', ':x=1'):
+        with pytest.raises(ValueError, match='NODE:NAME=VALUE'):
+            live.parse_param(text)
+    assert live.main(['wall_follow', '--world', 'no_such_world']) == 2
+    assert live.main(['wall_follow', '--param', 'distance=0.6']) == 2
+    assert live.main(['wall_follow', '--param', 'wanderbot:speed=1.0']) == 2
+    assert 'error: ' in capsys.readouterr().err
+    for argv in (['fly'], ['wall_follow', '--rtf', '0'], ['wall_follow', '--duration', 'nan']):
+        with pytest.raises(SystemExit) as exit_info:
+            live.main(argv)
+        assert exit_info.value.code == 2
+
+
+# ---------------------------------------------------------------------------------------------
+# Process handling, with plain Python children.
+
+def test_output_of_both_streams_is_prefixed_per_process_in_order():
+    lines = []
+    code = ('import sys, time\nfor i in range(3):\n'
+            "    print('out', i); print('err', i, file=sys.stderr); time.sleep(0.05)")
+    with live.LiveRun([python_spec('one', code), python_spec('two', 'print("hello")')],
+                      env=live_env(), out=lines.append) as run:
+        run.start()
+        deadline = time.monotonic() + TIMEOUT_S
+        while run.running() and time.monotonic() < deadline:
+            run.pump(0.5)
+    assert [line for line in lines if line.startswith('[one-1] ')] == [
+        '[one-1] out 0', '[one-1] err 0', '[one-1] out 1', '[one-1] err 1', '[one-1] out 2',
+        '[one-1] err 2']
+    assert '[two-2] hello' in lines
+    pids = [process.pid for process in run.processes]
+    assert lines[:2] == [f'[INFO] [one-1]: process started with pid [{pids[0]}]',
+                         f'[INFO] [two-2]: process started with pid [{pids[1]}]']
+    # The end is reported after the process's last line.
+    assert lines.index(f'[INFO] [one-1]: process has finished cleanly [pid {pids[0]}]') > \
+        lines.index('[one-1] err 2')
+    assert run.returncodes == {'one-1': 0, 'two-2': 0} and run.clean()
+
+
+def test_a_process_that_ends_early_stops_the_others_and_is_named():
+    lines = []
+    status = live.run_live([python_spec('sim', 'import time; time.sleep(60)'),
+                            python_spec('node', 'raise SystemExit(3)')],
+                           duration_s=TIMEOUT_S, env=live_env(), out=lines.append)
+    assert status == 1
+    assert any(line.startswith('[ERROR] [node-2]: process has died [pid ')
+               and 'exit code 3, cmd ' in line for line in lines)
+    assert "[INFO] [sim-1]: sending signal 'SIGINT' to process[sim-1]" in lines
+    assert lines[-1] == ('[ERROR] [live]: node-2 ended before the run did (exit code 3): '
+                         'stopped the others')
+
+
+def test_stopping_goes_last_started_first_and_escalates_as_launch_does():
+    lines = []
+    ignores_sigint = ('import signal, time; signal.signal(signal.SIGINT, signal.SIG_IGN); '
+                      "print('ready', flush=True); time.sleep(60)")
+    ignores_both = ('import signal, time; signal.signal(signal.SIGINT, signal.SIG_IGN); '
+                    'signal.signal(signal.SIGTERM, signal.SIG_IGN); '
+                    "print('ready', flush=True); time.sleep(60)")
+    specs = [python_spec('sim', ignores_sigint), python_spec('node', ignores_both)]
+    with live.LiveRun(specs, env=live_env(), out=lines.append, sigterm_timeout_s=0.3,
+                      sigkill_timeout_s=0.3) as run:
+        run.start()
+        deadline = time.monotonic() + TIMEOUT_S
+        while sum(line.endswith('] ready') for line in lines) < 2 and \
+                time.monotonic() < deadline:
+            run.pump(0.1)
+    signals = [line for line in lines if 'sending signal' in line or 'escalating' in line]
+    assert signals == [
+        "[INFO] [node-2]: sending signal 'SIGINT' to process[node-2]",
+        "[ERROR] [node-2]: process[node-2] failed to terminate '0.3' seconds after receiving "
+        "'SIGINT', escalating to 'SIGTERM'",
+        "[INFO] [node-2]: sending signal 'SIGTERM' to process[node-2]",
+        "[ERROR] [node-2]: process[node-2] failed to terminate '0.3' seconds after receiving "
+        "'SIGTERM', escalating to 'SIGKILL'",
+        "[INFO] [node-2]: sending signal 'SIGKILL' to process[node-2]",
+        "[INFO] [sim-1]: sending signal 'SIGINT' to process[sim-1]",
+        "[ERROR] [sim-1]: process[sim-1] failed to terminate '0.3' seconds after receiving "
+        "'SIGINT', escalating to 'SIGTERM'",
+        "[INFO] [sim-1]: sending signal 'SIGTERM' to process[sim-1]"]
+    assert run.returncodes == {'node-2': -signal.SIGKILL, 'sim-1': -signal.SIGTERM}
+    assert not run.clean()
+
+
+def test_children_can_be_interrupted_even_when_started_with_sigint_ignored():
+    # A command started in the background has SIGINT ignored, and its children inherit that:
+    # Python would then install no KeyboardInterrupt handler in them.
+    lines = []
+    code = 'import signal; print(signal.getsignal(signal.SIGINT) is signal.default_int_handler)'
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        run = live.LiveRun([python_spec('child', code)], env=live_env(), out=lines.append)
+        run.start()
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    with run:
+        run.wait(TIMEOUT_S)
+    assert '[child-1] True' in lines
+
+
+def running(pid: int) -> bool:
+    """Tell whether process ``pid`` runs (exists and is no zombie waiting to be reaped)."""
+    try:
+        stat = Path(f'/proc/{pid}/stat').read_text()
+    except FileNotFoundError:
+        return False
+    return stat.rsplit(')', 1)[1].split()[0] != 'Z'
+
+
+@pytest.mark.skipif(not sys.platform.startswith('linux'), reason='prctl PR_SET_PDEATHSIG')
+def test_children_are_interrupted_when_the_live_process_dies():
+    code = ('import sys, time\n'
+            'from sim_bridge import live\n'
+            "run = live.LiveRun([live.ProcessSpec('sleeper', (sys.executable, '-c', "
+            "'import time; time.sleep(60)'))])\n"
+            'run.start()\n'
+            'time.sleep(60)\n')
+    parent = subprocess.Popen([sys.executable, '-c', code], env=live_env(),
+                              stdout=subprocess.PIPE, text=True)
+    try:
+        started = parent.stdout.readline()
+        child = int(started.rsplit('[', 1)[1].rstrip(']\n'))
+        parent.kill()
+        parent.wait(timeout=TIMEOUT_S)
+        deadline = time.monotonic() + TIMEOUT_S
+        while running(child) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert not running(child), started
+    finally:
+        parent.kill()
+
+
+# ---------------------------------------------------------------------------------------------
+# Live runs of the simulator and the lab's nodes.
+
+class LineReader:
+    """Collect a process's stdout lines in a thread, so a test can wait for one."""
+
+    def __init__(self, process: subprocess.Popen):
+        self.lines: list[str] = []
+        self._thread = threading.Thread(target=self._read, args=(process.stdout,), daemon=True)
+        self._thread.start()
+
+    def _read(self, stream) -> None:
+        for line in stream:
+            self.lines.append(line.rstrip('\n'))
+
+    def wait_for(self, predicate, timeout_s: float = TIMEOUT_S) -> bool:
+        """Wait (bounded) until a line satisfies ``predicate``; tell whether one did."""
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            if any(predicate(line) for line in list(self.lines)):
+                return True
+            time.sleep(0.05)
+        return False
+
+    def join(self) -> list[str]:
+        """Return every line, once the process's output has ended (bounded)."""
+        self._thread.join(timeout=TIMEOUT_S)
+        return self.lines
+
+
+@contextmanager
+def observing(env: dict):
+    """
+    Run fixtures/live_observer.py beside the block; yield a function returning what it saw.
+
+    The function stops the observer (SIGINT) and returns its JSON; the observer is killed
+    when the block ends, whatever happened.
+    """
+    process = subprocess.Popen([sys.executable, str(FIXTURES / 'live_observer.py'), '180'],
+                               env=env, stdout=subprocess.PIPE, text=True)
+
+    def finish() -> dict:
+        process.send_signal(signal.SIGINT)
+        return json.loads(process.communicate(timeout=TIMEOUT_S)[0])
+
+    try:
+        yield finish
+    finally:
+        process.kill()
+        process.wait()
+
+
+def start_live(argv: list[str], env: dict) -> subprocess.Popen:
+    """Start ``python -m sim_bridge.live ARGV``, its output in one text pipe."""
+    return subprocess.Popen([sys.executable, '-m', 'sim_bridge.live', *argv], env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+
+
+def test_wall_follow_live_circles_the_box_at_the_set_distance_and_stops_the_robot():
+    env = live_env()
+    with observing(env) as observed:
+        process = start_live(['wall_follow', '--duration', '25', '--rtf', '2'], env)
+        try:
+            output = process.communicate(timeout=TIMEOUT_S + 25)[0]
+        finally:
+            process.kill()
+        time.sleep(0.3)
+        seen = observed()
+    lines = output.splitlines()
+    assert process.returncode == 0, output
+    # Both processes' own lines, with their prefixes, and launch's lines about them.
+    assert any(line.startswith('[sim_bridge-1] [WARN] [') and '[sim_bridge]: tf2_ros' in line
+               for line in lines), output
+    assert any(line.startswith('[wall_follow-2] [INFO] [') and '[wall_follow]: ' in line
+               for line in lines), output
+    for name in ('sim_bridge-1', 'wall_follow-2'):
+        assert any(line.startswith(f'[INFO] [{name}]: process started with pid [')
+                   for line in lines)
+        assert any(line.startswith(f'[INFO] [{name}]: process has finished cleanly [pid ')
+                   for line in lines)
+    # The node is stopped first, and has ended before the simulator is asked to.
+    node_done = next(index for index, line in enumerate(lines)
+                     if line.startswith('[INFO] [wall_follow-2]: process has finished'))
+    assert node_done < lines.index(
+        "[INFO] [sim_bridge-1]: sending signal 'SIGINT' to process[sim_bridge-1]")
+    # /scan arrives at the lidar's rate times the real-time factor, one scan per 0.1 s of sim.
+    scans = np.array(seen['scan'])
+    assert len(scans) > 200
+    gaps = np.diff(scans[:, 0])
+    assert np.median(gaps) == pytest.approx(1.0 / (2 * SCAN_RATE_HZ), rel=0.15)
+    assert (len(scans) - 1) / (scans[-1, 0] - scans[0, 0]) == \
+        pytest.approx(2 * SCAN_RATE_HZ, rel=0.15)
+    assert np.median(np.diff(scans[:, 1])) == pytest.approx(1.0 / SCAN_RATE_HZ)
+    # odom is the world frame: the robot centre keeps the set distance from the box's surface,
+    # going clockwise (the box on its right) for more than half a turn.
+    odom = np.array(seen['odom'])
+    following = odom[odom[:, 0] > 5.0]
+    assert following[-1, 0] > 40.0  # sim seconds: about 25 s wall at rtf 2
+    distance = signed_distance(following[:, 1:3], World.load('wall_follow_box').footprints())
+    assert np.median(distance) == pytest.approx(WALL_DISTANCE_M, abs=0.1)
+    assert np.all(np.abs(distance - WALL_DISTANCE_M) < 0.25)
+    heading = np.unwrap(following[:, 3])
+    assert heading[0] - heading.min() > math.pi
+    # The node's last command, sent when it was interrupted, is a stop.
+    assert seen['cmd_vel'][-1][1:] == [0.0, 0.0]
+    assert any(abs(linear) > 0.1 for _, linear, _ in seen['cmd_vel'])
+
+
+def test_stopping_the_node_stops_the_robot_while_the_simulator_runs():
+    env = live_env()
+    lines = []
+    with observing(env) as observed:
+        specs = [live.bridge_spec('wall_follow_box', real_time_factor=2.0),
+                 live.node_spec('wall_follow')]
+        with live.LiveRun(specs, env=env, out=lines.append) as run:
+            run.start()
+            assert run.wait(8.0) is None, '\n'.join(lines)
+            assert run.stop('wall_follow-2') == 0, '\n'.join(lines)
+            stopped_at = time.monotonic()
+            assert run.wait(3.0) is None, '\n'.join(lines)
+            assert run.running() == ['sim_bridge-1']
+            seen = observed()
+        assert run.clean(), '\n'.join(lines)
+    cmd_vel = np.array(seen['cmd_vel'])
+    assert np.abs(cmd_vel[:, 1]).max() > 0.1  # it was driving
+    assert list(cmd_vel[-1, 1:]) == [0.0, 0.0] and cmd_vel[-1, 0] < stopped_at
+    # The simulator ran on: its odometry of the last 3 s of sim time has the robot at rest.
+    odom = np.array(seen['odom'])
+    assert odom[-1, 0] > 20.0
+    resting = odom[odom[:, 0] > odom[-1, 0] - 3.0]
+    assert len(resting) > 100
+    assert np.all(resting[:, 4:6] == 0.0)
+    assert np.ptp(resting[:, 1:4], axis=0).max() == 0.0
+
+
+def test_ctrl_c_stops_the_node_then_the_simulator_cleanly():
+    env = live_env()
+    process = start_live(['scan_ahead'], env)
+    reader = LineReader(process)
+    try:
+        # scan_ahead logs a range per scan: the scans reach it from the simulator's process.
+        assert reader.wait_for(lambda line: line.startswith('[scan_ahead-2] [INFO] [')
+                               and '[scan_ahead]: Range ahead: ' in line), reader.lines
+        process.send_signal(signal.SIGINT)
+        assert process.wait(timeout=TIMEOUT_S) == 0, reader.lines
+    finally:
+        process.kill()
+    lines = reader.join()
+    assert '[WARNING] [live]: user interrupted with ctrl-c (SIGINT)' in lines
+    signals = [line for line in lines if 'sending signal' in line or 'process has' in line]
+    assert [line.split(']:')[0] + ']' for line in signals] == [
+        '[INFO] [scan_ahead-2]', '[INFO] [scan_ahead-2]', '[INFO] [sim_bridge-1]',
+        '[INFO] [sim_bridge-1]']
+    assert 'finished cleanly' in signals[1] and 'finished cleanly' in signals[3]
+
+
+def test_a_node_with_a_bad_parameter_ends_the_run_naming_it():
+    process = start_live(['wall_follow', '--duration', '60',
+                          '--param', 'wall_follow:distance=-1.0'], live_env())
+    try:
+        output = process.communicate(timeout=TIMEOUT_S)[0]
+    finally:
+        process.kill()
+    lines = output.splitlines()
+    assert process.returncode == 1, output
+    assert '[wall_follow-2] ValueError: distance must be > 0, got -1.0' in lines
+    assert any(line.startswith('[ERROR] [wall_follow-2]: process has died [pid ') and
+               "exit code 1, cmd '" in line and 'distance:=-1.0' in line for line in lines)
+    assert any(line.startswith('[INFO] [sim_bridge-1]: process has finished cleanly')
+               for line in lines)
+    assert lines[-1] == ('[ERROR] [live]: wall_follow-2 ended before the run did (exit code 1): '
+                         'stopped the others')
+
+
+def test_a_node_that_raises_mid_run_ends_the_run_naming_it():
+    lines = []
+    specs = [live.bridge_spec('obstacles', real_time_factor=2.0),
+             live.ProcessSpec('raiser', (sys.executable, str(FIXTURES / 'raising_node.py')))]
+    assert live.run_live(specs, TIMEOUT_S, env=live_env(), out=lines.append) == 1
+    # Four scans crossed from the simulator's process before the fifth made it raise.
+    assert sum('[raiser]: scan ' in line for line in lines) == 4, lines
+    assert '[raiser-2] ZeroDivisionError: no valid beam to average' in lines
+    assert any(line.startswith('[ERROR] [raiser-2]: process has died') for line in lines)
+    assert any(line.startswith('[INFO] [sim_bridge-1]: process has finished cleanly')
+               for line in lines)
+    assert lines[-1].startswith('[ERROR] [live]: raiser-2 ended before the run did')
