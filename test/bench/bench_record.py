@@ -1,18 +1,17 @@
 """
-Benchmark recording: microseconds per message written to an MCAP bag, ours against rosbags'.
+Benchmark recording: microseconds per message written to a rosbag2 MCAP bag.
 
-Rows per message type (and for the mix a 600 s run publishes: per simulated second 100 /clock,
-50 /odom, 50 /tf, 10 /scan, 10 /cmd_vel), side by side:
-* ``serialise``: our generated CDR serialiser on the runtime message;
-* ``rosbags serialise``: the runtime message converted to a rosbags message
-  (``lockstep.msg_to_rosbags``) then ``typestore.serialize_cdr``;
-* ``record``: ``BagRecorder.write`` (serialise + lean MCAP write) into a real bag of
-  ``COUNT`` messages, the bag's open and close included;
-* ``rosbags record``: conversion + ``serialize_cdr`` + rosbags' ``Writer.write``, likewise.
-Each figure is the best of a few repeats. The last lines give a bag's own cost (open, one
-message per topic, close: mostly rosbags' YAML for ``metadata.yaml`` and the QoS profiles,
-which the rosbags route does not store, so it has less of it) and extrapolate the mix to a
-600 s run: that cost once, plus the mix's cost per message beyond it for each message.
+Rows per message as the bridge and a node publish them (real rclpy messages), and for the mix
+of a run: per simulated second 100 /clock, 50 /odom, 10 /scan (36 beams), 10 /cmd_vel. Columns:
+* ``serialise``: ``rclpy.serialization.serialize_message`` (what a raw subscription delivers
+  without it: the bytes of the publish);
+* ``write``: ``BagRecorder.write`` of those bytes into an open bag;
+* ``ser.+write``: both, per message;
+* ``naive``: ``serialize_message`` then rosbags' ``Writer.write`` on a connection looked up by
+  topic, the plain use of rosbags the recorder wraps (no QoS profiles, no time check).
+Writes go to a fresh bag of ``COUNT`` messages per figure, opening and closing it not timed.
+The last lines give a bag's own cost (open, one message per topic, close: mostly rosbags' YAML
+for ``metadata.yaml``) and extrapolate the mix to a 600 s run.
 
 Run: python test/bench/bench_record.py [--quick]
 """
@@ -23,119 +22,129 @@ import sys
 import tempfile
 import time
 
+from geometry_msgs.msg import Twist
+from nav_msgs.msg import Odometry
+from rclpy.serialization import serialize_message
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import get_typestore, Stores
-
-from sim_bridge.lockstep.messages import message_class
-from sim_bridge.lockstep.messages.rosbags_conversion import msg_to_rosbags
-from sim_bridge.record import BAG_VERSION, BagRecorder, CdrSerializer, ros_type_name
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import LaserScan
+from sim_bridge.record import BAG_VERSION, BagRecorder, message_type_name
+from timing import microseconds_per_call
 
 REPEATS = 3
 COUNT = 2000 if '--quick' in sys.argv else 10000
 TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
 # Messages per simulated second at the bridge's default rates (physics 100 Hz, odom 50 Hz,
-# lidar 10 Hz, one command per scan).
-RUN_MIX = {'/clock': 100, '/odom': 50, '/tf': 50, '/scan': 10, '/cmd_vel': 10}
+# lidar 10 Hz, one command per scan). No /tf: tf2_msgs is not on PyPI.
+RUN_MIX = {'/clock': 100, '/odom': 50, '/scan': 10, '/cmd_vel': 10}
 RUN_SECONDS = 600
 
 
-def stamp(t_ns):
-    time_msg = message_class('builtin_interfaces/msg/Time')()
+def stamp(time_msg, t_ns):
     time_msg.sec, time_msg.nanosec = divmod(t_ns, 10 ** 9)
-    return time_msg
 
 
 def sample_messages(beams):
-    """Return {topic: runtime message} shaped as the bridge and a node publish them."""
+    """Return {topic: rclpy message} shaped as the bridge and a node publish them."""
     t_ns = 12_340_000_000
-    odom = message_class('nav_msgs/msg/Odometry')(child_frame_id='base_link')
-    odom.header.stamp, odom.header.frame_id = stamp(t_ns), 'odom'
+    clock = Clock()
+    stamp(clock.clock, t_ns)
+    odom = Odometry(child_frame_id='base_link')
+    stamp(odom.header.stamp, t_ns)
+    odom.header.frame_id = 'odom'
     odom.pose.pose.position.x, odom.pose.pose.orientation.w = 1.25, 1.0
-    moved = message_class('geometry_msgs/msg/TransformStamped')(child_frame_id='base_link')
-    moved.header.stamp, moved.header.frame_id = stamp(t_ns), 'odom'
-    scan = message_class('sensor_msgs/msg/LaserScan')(
-        angle_min=-1.57, angle_max=1.57, angle_increment=3.14 / (beams - 1), range_min=0.12,
-        range_max=10.0, ranges=[1.0 + 0.001 * index for index in range(beams - 1)] + [math.inf])
-    scan.header.stamp, scan.header.frame_id = stamp(t_ns), 'laser'
-    twist = message_class('geometry_msgs/msg/Twist')()
+    scan = LaserScan(angle_min=-1.57, angle_max=1.57, angle_increment=3.14 / (beams - 1),
+                     range_min=0.12, range_max=10.0,
+                     ranges=[1.0 + 0.001 * index for index in range(beams - 1)] + [math.inf])
+    stamp(scan.header.stamp, t_ns)
+    scan.header.frame_id = 'laser'
+    twist = Twist()
     twist.linear.x, twist.angular.z = 0.3, -0.2
-    return {'/clock': message_class('rosgraph_msgs/msg/Clock')(clock=stamp(t_ns)),
-            '/odom': odom, '/tf': message_class('tf2_msgs/msg/TFMessage')(transforms=[moved]),
-            '/scan': scan, '/cmd_vel': twist}
+    return {'/clock': clock, '/odom': odom, '/scan': scan, '/cmd_vel': twist}
 
 
-def best_us(action, count):
-    """Return the best per-call time (us) of ``action(index)`` over REPEATS rounds."""
+def new_bag(folder):
+    return Path(tempfile.mkdtemp(dir=folder)) / 'bag'
+
+
+def write_us(messages, folder, route):
+    """
+    Return the best time (us per message) of writing ``messages`` (list of (topic, msg)).
+
+    ``route`` is 'write' (the recorder, bytes serialised beforehand), 'both' (the recorder,
+    serialising each message) or 'naive' (serialising, then rosbags' Writer).
+    """
+    items = [(topic, message_type_name(msg), msg, serialize_message(msg))
+             for topic, msg in messages]
     best = math.inf
     for _ in range(REPEATS):
-        start = time.perf_counter()
-        for index in range(count):
-            action(index)
-        best = min(best, (time.perf_counter() - start) / count)
-    return best * 1e6
-
-
-def record_seconds(messages, folder, ours):
-    """Return the time (s) to open a new bag, write ``messages`` (list of (topic, msg)), close."""
-    best = math.inf
-    for _ in range(REPEATS):
-        path = Path(tempfile.mkdtemp(dir=folder)) / 'bag'
-        start = time.perf_counter()
-        if ours:
-            with BagRecorder(path) as recorder:
-                for index, (topic, msg) in enumerate(messages):
-                    recorder.write(topic, msg, index)
+        if route == 'naive':
+            bag = Writer(new_bag(folder), version=BAG_VERSION, storage_plugin=StoragePlugin.MCAP)
+            bag.open()
+            connections = {}
+            start = time.perf_counter()
+            for t_ns, (topic, type_name, msg, _) in enumerate(items):
+                connection = connections.get(topic)
+                if connection is None:
+                    connection = connections[topic] = bag.add_connection(
+                        topic, type_name, typestore=TYPESTORE)
+                bag.write(connection, t_ns, serialize_message(msg))
         else:
-            with Writer(path, version=BAG_VERSION, storage_plugin=StoragePlugin.MCAP) as writer:
-                connections = {}
-                for index, (topic, msg) in enumerate(messages):
-                    typename = ros_type_name(msg)
-                    if topic not in connections:
-                        connections[topic] = writer.add_connection(topic, typename,
-                                                                   typestore=TYPESTORE)
-                    data = TYPESTORE.serialize_cdr(msg_to_rosbags(msg, TYPESTORE), typename)
-                    writer.write(connections[topic], index, data)
+            bag = BagRecorder(new_bag(folder))
+            write = bag.write
+            start = time.perf_counter()
+            if route == 'write':
+                for t_ns, (topic, type_name, _, data) in enumerate(items):
+                    write(topic, type_name, data, t_ns)
+            else:
+                for t_ns, (topic, type_name, msg, _) in enumerate(items):
+                    write(topic, type_name, serialize_message(msg), t_ns)
+        best = min(best, time.perf_counter() - start)
+        bag.close()
+    return best / len(items) * 1e6
+
+
+def bag_seconds(messages, folder):
+    """Return the best time (s) to open a bag, write ``messages`` ((topic, msg)), close it."""
+    best = math.inf
+    for _ in range(REPEATS):
+        path = new_bag(folder)
+        start = time.perf_counter()
+        with BagRecorder(path) as recorder:
+            for t_ns, (topic, msg) in enumerate(messages):
+                recorder.write(topic, message_type_name(msg), serialize_message(msg), t_ns)
         best = min(best, time.perf_counter() - start)
     return best
 
 
 def main():
-    serializer = CdrSerializer(TYPESTORE)
-    print(f'{"message":<22}{"serialise":>11}{"rosbags ser.":>14}{"record":>9}'
-          f'{"rosbags rec.":>14}   (us per message)')
+    print(f'{"message":<22}{"serialise":>11}{"write":>9}{"ser.+write":>12}{"naive":>9}'
+          '   (us per message)')
     with tempfile.TemporaryDirectory() as folder:
         for beams in (36, 1081):
             samples = sample_messages(beams)
             rows = [(topic, [(topic, msg)]) for topic, msg in samples.items()
                     if beams == 36 or topic == '/scan']
             if beams == 36:
-                per_second = [(topic, samples[topic]) for topic, rate in RUN_MIX.items()
-                              for _ in range(rate)]
-                rows.append(('run mix', per_second))
+                rows.append(('run mix', [(topic, samples[topic]) for topic, rate
+                                         in RUN_MIX.items() for _ in range(rate)]))
             for label, pattern in rows:
                 messages = (pattern * (COUNT // len(pattern) + 1))[:COUNT]
-                ours = best_us(lambda index: serializer.serialize(messages[index][1]), COUNT)
-                theirs = best_us(lambda index: TYPESTORE.serialize_cdr(
-                    msg_to_rosbags(messages[index][1], TYPESTORE),
-                    ros_type_name(messages[index][1])), COUNT)
-                recorded = record_seconds(messages, folder, ours=True) / COUNT * 1e6
-                rosbags_recorded = record_seconds(messages, folder, ours=False) / COUNT * 1e6
+                serialise = microseconds_per_call(
+                    serialize_message, lambda: [msg for _, msg in messages[:1000]])
+                figures = [write_us(messages, folder, route)
+                           for route in ('write', 'both', 'naive')]
                 name = f'{label} ({beams} beams)' if label == '/scan' else label
-                print(f'{name:<22}{ours:>11.2f}{theirs:>14.2f}{recorded:>9.2f}'
-                      f'{rosbags_recorded:>14.2f}')
+                print(f'{name:<22}{serialise:>11.2f}{figures[0]:>9.2f}{figures[1]:>12.2f}'
+                      f'{figures[2]:>9.2f}')
                 if label == 'run mix':
-                    mix = (recorded, rosbags_recorded)
-        one_each = list(sample_messages(36).items())
-        bag = [record_seconds(one_each, folder, ours) for ours in (True, False)]
-    print(f"a bag's own cost (open, one message per topic, close): {bag[0] * 1e3:.1f} ms, "
-          f'{bag[1] * 1e3:.1f} ms with the rosbags route')
+                    mix = figures[1]
+        bag = bag_seconds(list(sample_messages(36).items()), folder)
     total = RUN_SECONDS * sum(RUN_MIX.values())
-    run = []
-    for cost, per_message in zip(bag, mix):
-        beyond = (COUNT * per_message * 1e-6 - cost) / (COUNT - len(one_each))  # s per message
-        run.append(cost + (total - len(one_each)) * beyond)
-    print(f'a {RUN_SECONDS} s run ({total} messages, 36 beams): {run[0]:.2f} s recording, '
-          f'{run[1]:.2f} s with the rosbags route')
+    print(f"a bag's own cost (open, one message per topic, close): {bag * 1e3:.1f} ms")
+    print(f'a {RUN_SECONDS} s run ({total} messages, 36 beams): '
+          f'{bag + total * mix * 1e-6:.2f} s serialising and recording')
 
 
 if __name__ == '__main__':
