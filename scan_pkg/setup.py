@@ -16,6 +16,11 @@ setup(
         ('share/' + package_name + '/params', glob('params/*.yaml')),
     ],
     install_requires=['setuptools', 'numpy'],
+    extras_require={
+        'test': [
+            'pytest',
+        ],
+    },
     zip_safe=True,
     maintainer='Laser Lab Kit maintainers',
     maintainer_email='laser-lab@example.org',

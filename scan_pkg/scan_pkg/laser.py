@@ -298,7 +298,7 @@ class Scan:
 
     @property
     def ranges(self) -> np.ndarray:
-        """Readings (m) as a read-only float64 array, one per beam."""
+        """Return the readings (m) as a read-only float64 array, one per beam."""
         return self._ranges
 
     @property

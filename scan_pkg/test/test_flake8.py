@@ -12,9 +12,8 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
+from ament_flake8.main import main_with_errors
 import pytest
-
-main_with_errors = pytest.importorskip('ament_flake8.main').main_with_errors
 
 
 @pytest.mark.flake8

@@ -12,9 +12,8 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
+from ament_pep257.main import main
 import pytest
-
-main = pytest.importorskip('ament_pep257.main').main
 
 
 @pytest.mark.linter
