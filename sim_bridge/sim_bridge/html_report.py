@@ -102,7 +102,7 @@ def _run_section(index: int, run: dict[str, Any], folder: Path) -> str:
     parts = [f'<section id="run-{index}">',
              f'<h2>{escape(run["run"])}: {_verdict(run["passed"])}</h2>',
              _table([], [f'<tr><th>{escape(key)}</th><td>{_text(value)}</td></tr>'
-                               for key, value in facts])]
+                         for key, value in facts])]
     if run['error'] is not None:
         parts.append(f'<p class="fail">error: {escape(run["error"])}</p>')
     plot = out_dir / 'trajectory.png'
