@@ -82,6 +82,20 @@ def test_shipped_wall_follow_models_have_the_documented_shapes():
                               Shape('box', -0.75, 0.5, 0.5, size=(1.0, 1.5, 1.0)))
     # The concave corner: inside the L's bounding square but outside both arms.
     assert min(fp.distance(0.5, 0.5) for fp in l_shape.footprints) == pytest.approx(0.75)
+    u_shape = load_model(paths.find_model('obstacle_u_shape'))
+    assert u_shape.shapes == (Shape('box', 0.0, -1.25, 0.5, size=(2.6, 0.3, 1.0)),
+                              Shape('box', -1.15, 0.15, 0.5, size=(0.3, 2.5, 1.0)),
+                              Shape('box', 1.15, 0.15, 0.5, size=(0.3, 2.5, 1.0)))
+    # The notch: 2 m wide, 2.5 m deep; its bottom's middle is 1 m from either arm.
+    assert min(fp.distance(0.0, -1.1) for fp in u_shape.footprints) == pytest.approx(0.0)
+    assert min(fp.distance(0.0, -0.5) for fp in u_shape.footprints) == pytest.approx(0.6)
+    cross = load_model(paths.find_model('obstacle_cross'))
+    assert cross.shapes == (Shape('box', 0.0, 0.0, 0.5, size=(3.0, 0.8, 1.0)),
+                            Shape('box', 0.0, 0.0, 0.5, size=(0.8, 3.0, 1.0)))
+    thin_wall = load_model(paths.find_model('obstacle_thin_wall'))
+    assert thin_wall.shapes == (Shape('box', 0.0, 0.0, 0.5, size=(3.0, 0.1, 1.0)),)
+    post = load_model(paths.find_model('obstacle_post'))
+    assert post.shapes == (Shape('cylinder', 0.0, 0.0, 0.5, radius=0.1, length=1.0),)
 
 
 def test_editing_the_sensor_block_of_a_copied_robot_model_changes_the_lidar(tmp_path):

@@ -16,6 +16,7 @@ from sim_bridge.world import World
 
 INSTANT = DriveLimits(max_linear_accel=math.inf, max_angular_accel=math.inf)
 ROBOT_RADIUS = 0.15
+WALL_FOLLOW_WORLDS = [name for name in paths.world_names() if name.startswith('wall_follow_')]
 
 
 def ray_entry(start: np.ndarray, direction: np.ndarray, shape: Shape) -> float:
@@ -94,8 +95,7 @@ def probe_rays(world: World):
             yield obstacle.name, centre + [0.0, 0.0, top + 1.0 - shape.z], np.array([0, 0, -1.0])
 
 
-@pytest.mark.parametrize('name', ['obstacles', 'room', 'wall_follow_box', 'wall_follow_cylinder',
-                                  'wall_follow_l_shape'])
+@pytest.mark.parametrize('name', ['obstacles', 'room', *WALL_FOLLOW_WORLDS])
 def test_rays_find_every_declared_obstacle_where_the_world_file_puts_it(name):
     world = World.load(name)
     rays = list(probe_rays(world))
@@ -116,8 +116,7 @@ def test_rays_find_every_declared_obstacle_where_the_world_file_puts_it(name):
     assert all(count >= 10 for count in found.values()), found
 
 
-@pytest.mark.parametrize('name', ['wall_follow_box', 'wall_follow_cylinder',
-                                  'wall_follow_l_shape'])
+@pytest.mark.parametrize('name', WALL_FOLLOW_WORLDS)
 def test_wall_follow_start_reads_half_a_metre_on_the_right_and_mirrored_on_the_left(name):
     world = World.load(name)
     with Simulator(world, lidar_noise_stddev=0.0) as simulator:
