@@ -56,43 +56,36 @@ def path_length(x: np.ndarray, y: np.ndarray) -> float:
     return float(np.hypot(np.diff(x), np.diff(y)).sum())
 
 
-def footprint_area(footprint: Footprint) -> float:
-    """Return the floor area (m²) of a footprint."""
-    if footprint.kind == 'circle':
-        return math.pi * footprint.radius ** 2
-    return 4.0 * footprint.half_x * footprint.half_y
-
-
-def footprints_centre(footprints: Sequence[Footprint]) -> tuple[float, float]:
-    """Return the area-weighted centroid (x m, y m) of the footprints' centres."""
-    weights = np.array([footprint_area(footprint) for footprint in footprints])
-    centres = np.array([(footprint.x, footprint.y) for footprint in footprints])
-    if weights.sum() <= 0.0:
-        return tuple(float(value) for value in centres.mean(axis=0))
-    return tuple(float(value) for value in weights @ centres / weights.sum())
-
-
 def laps_around(time: np.ndarray, x: np.ndarray, y: np.ndarray,
-                centre: tuple[float, float]) -> tuple[int, list[float]]:
+                inside: Sequence[tuple[float, float]]) -> tuple[int, list[float]]:
     """
-    Count the robot's completed loops around ``centre`` (m) and time each of them.
+    Count the robot's completed loops around a body and time each of them.
 
-    The angle of the robot's position (m) about the centre is unwrapped over the run; the net
-    angle divided by 2π and truncated toward zero is the signed lap count (positive
-    counter-clockwise). Lap k ends the first time the net angle reaches k·2π in that
-    direction; the second value lists each lap's duration (s), the first lap counted from the
-    first sample.
+    ``inside`` are points (x m, y m) inside the body, e.g. one per footprint's centre: the
+    robot's centre can never reach them, and a loop round the whole body, whatever its shape
+    (concave, thin, its centroid outside it), winds once round each of them. The angle of the
+    robot's position (m) about each point is unwrapped over the run; its net angle divided by
+    2π and truncated toward zero is that point's winding count. The lap count is the smallest
+    in magnitude of the points' counts when all have the same sign (positive
+    counter-clockwise), else 0: a lap goes round every point. Lap k ends when the last of
+    the points is first wound k·2π in that direction; the second value lists each lap's
+    duration (s), the first lap counted from the first sample.
     """
-    if len(time) < 2:
+    points = np.asarray(inside, dtype=float).reshape(-1, 2)
+    if len(time) < 2 or not len(points):
         return 0, []
-    turned = np.unwrap(np.arctan2(y - centre[1], x - centre[0]))
+    turned = np.unwrap(np.arctan2(y[:, np.newaxis] - points[:, 1],
+                                  x[:, np.newaxis] - points[:, 0]), axis=0)
     turned -= turned[0]
-    laps = int(turned[-1] / (2.0 * math.pi))
-    direction = 1.0 if laps >= 0 else -1.0
+    windings = np.trunc(turned[-1] / (2.0 * math.pi)).astype(int)
+    if not (np.all(windings > 0) or np.all(windings < 0)):
+        return 0, []
+    direction = int(np.sign(windings[0]))
+    laps = direction * int(np.abs(windings).min())
     ends = [time[0]]
     for lap in range(1, abs(laps) + 1):
-        index = int(np.argmax(direction * turned >= lap * 2.0 * math.pi))
-        ends.append(time[index])
+        reached = direction * turned >= lap * 2.0 * math.pi
+        ends.append(time[int(np.argmax(reached, axis=0).max())])
     return laps, [float(end - start) for start, end in zip(ends, ends[1:])]
 
 
@@ -259,7 +252,8 @@ def compute_metrics(trace: Trace, world: Any, *, setpoint: float | None = None,
     wall_distance = distance_stats(np.empty(0), None)
     if world.target is not None and len(time):
         target = world.obstacle(world.target).footprints
-        laps, lap_times = laps_around(time, x, y, footprints_centre(target))
+        # Each footprint's centre lies inside the target, where the robot's centre never goes.
+        laps, lap_times = laps_around(time, x, y, [(fp.x, fp.y) for fp in target])
         wall_distance = distance_stats(signed_distance(np.column_stack((x, y)), target),
                                        setpoint)
     obstacles = [footprint for obstacle in world.obstacles for footprint in obstacle.footprints]

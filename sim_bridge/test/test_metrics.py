@@ -6,10 +6,9 @@ import math
 import numpy as np
 import pytest
 
-from sim_bridge.geometry import Footprint
-from sim_bridge.metrics import (compute_metrics, coverage, footprints_centre, laps_around,
-                                longest_stationary, METRIC_KINDS, offset_path_length,
-                                stop_and_turn_angles)
+from sim_bridge.geometry import Footprint, signed_distance
+from sim_bridge.metrics import (compute_metrics, coverage, laps_around, longest_stationary,
+                                METRIC_KINDS, offset_path_length, stop_and_turn_angles)
 from sim_bridge.run_trace import CollisionEvent, Trace
 from sim_bridge.world import World
 
@@ -68,7 +67,7 @@ def test_laps_count_completed_loops_signed_by_direction(turns, laps):
 
 def test_each_lap_time_is_the_duration_of_that_loop():
     x, y = circle_path(-2.5, steps_per_turn=1000)
-    laps, lap_times = laps_around(STEP * np.arange(len(x)), x, y, (1.0, 2.0))
+    laps, lap_times = laps_around(STEP * np.arange(len(x)), x, y, [(1.0, 2.0)])
     assert laps == -2
     assert lap_times == pytest.approx([10.0, 10.0], abs=2 * STEP)
 
@@ -80,13 +79,146 @@ def test_going_round_and_coming_back_is_no_lap():
     assert metrics_of(trace)['laps'] == 0
 
 
-def test_a_target_of_several_footprints_is_circled_about_their_area_centroid():
-    # The L model: a 2.5 m x 1 m arm centred at (0, -0.75) and a 1 m x 1.5 m one at (-0.75, 0.5).
-    world = make_world([{'name': 'l', 'type': 'model', 'model': 'obstacle_l_shape',
-                         'pose': [0.0, 0.0, 0.0]}], 'l', robot_pose=(3.0, 3.0, 0.0))
-    assert footprints_centre(world.obstacle('l').footprints) == pytest.approx((-0.28125,) * 2)
-    assert metrics_of(make_trace(*circle_path(-1.2, radius=2.0, centre=(0.0, 0.0))),
-                      world)['laps'] == -1
+def polyline(vertices, speed=0.3, loops=1.0):
+    """
+    Sample the closed loop through ``vertices`` (m), from the first, once per STEP at ``speed``.
+
+    ``loops`` times round (negative: backwards through the vertices). Returns x, y (m) and the
+    loop's length (m).
+    """
+    vertices = np.asarray(vertices, dtype=float)
+    if loops < 0:
+        vertices = np.vstack((vertices[:1], vertices[:0:-1]))
+    closed = np.vstack((vertices, vertices[:1]))
+    along = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(closed, axis=0).T))))
+    length = along[-1]
+    travelled = speed * STEP * np.arange(round(abs(loops) * length / (speed * STEP)) + 1)
+    where = np.where(travelled > 0, np.mod(travelled, length), 0.0)
+    where[(where == 0.0) & (travelled > 0)] = length
+    return np.interp(where, along, closed[:, 0]), np.interp(where, along, closed[:, 1]), length
+
+
+def there_and_back(x, y):
+    """Return the path (``x``, ``y``) (m) followed by the same path driven back."""
+    return np.concatenate((x, x[-2::-1])), np.concatenate((y, y[-2::-1]))
+
+
+def rotated(points, yaw):
+    """Return (x, y) points (m) turned by ``yaw`` (rad) about the origin."""
+    cos, sin = math.cos(yaw), math.sin(yaw)
+    return [(cos * x - sin * y, sin * x + cos * y) for x, y in points]
+
+
+# Loops 0.5 m off the shipped wall-follow targets, clockwise from each world's start, with
+# square corners outside the convex ones (0.71 m from them) and mitred at the concave ones.
+# The U (walls 0.3 m thick, x from -1.3 to 1.3, y from -1.4 to 1.4, the notch between x = -1
+# and 1 open towards +y) is circled into its notch down to 0.5 m above its bottom (y = -1.1).
+U_LOOP = [(0.0, -1.9), (-1.8, -1.9), (-1.8, 1.9), (-0.5, 1.9), (-0.5, -0.6), (0.5, -0.6),
+          (0.5, 1.9), (1.8, 1.9), (1.8, -1.9)]
+# The U's area centroid, (0, -0.329): in the notch, outside the loop above.
+U_CENTROID = (0.0, (2.6 * 0.3 * -1.25 + 2 * 0.3 * 2.5 * 0.15) / (2.6 * 0.3 + 2 * 0.3 * 2.5))
+# The cross: two 3 m x 0.8 m bars crossing at the origin, concave corners at (+-0.4, +-0.4).
+CROSS_LOOP = [(0.0, -2.0), (-0.9, -2.0), (-0.9, -0.9), (-2.0, -0.9), (-2.0, 0.9), (-0.9, 0.9),
+              (-0.9, 2.0), (0.9, 2.0), (0.9, 0.9), (2.0, 0.9), (2.0, -0.9), (0.9, -0.9),
+              (0.9, -2.0)]
+# The thin wall: 3 m x 0.1 m along x at the origin.
+THIN_WALL_LOOP = [(0.0, 0.55), (2.0, 0.55), (2.0, -0.55), (-2.0, -0.55), (-2.0, 0.55)]
+# The 2 m x 1 m box turned 0.6 rad about the origin.
+BOX_ROTATED_LOOP = rotated([(0.0, 1.0), (1.5, 1.0), (1.5, -1.0), (-1.5, -1.0), (-1.5, 1.0)],
+                           0.6)
+# The post of radius 0.1 m at the origin, circled at 0.5 m from its surface.
+POST_LOOP = [(0.6 * math.sin(angle), 0.6 * math.cos(angle))
+             for angle in np.linspace(0.0, 2.0 * math.pi, 120, endpoint=False)]
+SHAPE_LOOPS = {'wall_follow_u_shape': U_LOOP, 'wall_follow_cross': CROSS_LOOP,
+               'wall_follow_thin_wall': THIN_WALL_LOOP, 'wall_follow_post': POST_LOOP,
+               'wall_follow_box_rotated': BOX_ROTATED_LOOP}
+
+
+@pytest.mark.parametrize('world_name', SHAPE_LOOPS)
+@pytest.mark.parametrize('loops', [-1, 1])
+def test_one_loop_round_any_shape_is_one_lap_timed_by_its_length(world_name, loops):
+    world = World.load(world_name)
+    target = world.obstacle(world.target)
+    x, y, length = polyline(SHAPE_LOOPS[world_name], loops=-1.05 * loops)
+    # 0.5 m off, but for the post's 120-gon (0.2 mm inside the circle at its chords' middles).
+    assert np.all(signed_distance(np.column_stack((x, y)), target.footprints) >= 0.4997)
+    metrics = metrics_of(make_trace(x, y), world)
+    assert metrics['laps'] == loops
+    assert metrics['lap_times_s'] == pytest.approx([length / 0.3], abs=2 * STEP)
+
+
+def test_a_loop_round_a_u_into_its_notch_is_a_lap_though_it_leaves_out_the_centroid():
+    world = World.load('wall_follow_u_shape')
+    x, y, _ = polyline(U_LOOP)
+    # The loop winds 0 times about the U's centroid: the angle about it comes back unchanged.
+    turned = np.unwrap(np.arctan2(y - U_CENTROID[1], x - U_CENTROID[0]))
+    assert abs(turned[-1] - turned[0]) < 1e-9
+    assert metrics_of(make_trace(*polyline(U_LOOP, loops=1.05)[:2]), world)['laps'] == -1
+
+
+def test_circling_inside_the_notch_of_a_u_round_its_centroid_is_no_lap():
+    world = World.load('wall_follow_u_shape')
+    angles = np.linspace(0.0, 4.0 * math.pi, 1200)
+    x = U_CENTROID[0] + 0.45 * np.cos(angles)
+    y = U_CENTROID[1] + 0.45 * np.sin(angles)
+    assert np.all(signed_distance(np.column_stack((x, y)),
+                                  world.obstacle('u_shape').footprints) > 0.3)
+    assert metrics_of(make_trace(x, y), world)['laps'] == 0
+
+
+def test_two_loops_round_the_cross_are_two_laps_each_timed():
+    world = World.load('wall_follow_cross')
+    x, y, length = polyline(CROSS_LOOP, loops=-2.3)
+    metrics = metrics_of(make_trace(x, y), world)
+    assert metrics['laps'] == 2
+    assert metrics['lap_times_s'] == pytest.approx([length / 0.3] * 2, abs=2 * STEP)
+
+
+def test_three_quarters_round_the_cross_and_back_is_no_lap():
+    world = World.load('wall_follow_cross')
+    x, y, _ = polyline(CROSS_LOOP, loops=0.75)
+    assert metrics_of(make_trace(*there_and_back(x, y)), world)['laps'] == 0
+
+
+def test_back_and_forth_along_one_side_of_a_thin_wall_is_no_lap():
+    world = World.load('wall_follow_thin_wall')
+    x, y, _ = polyline([(-2.0, 0.55), (2.0, 0.55)], loops=5.0)
+    metrics = metrics_of(make_trace(x, y), world)
+    assert (metrics['laps'], metrics['lap_times_s']) == (0, [])
+
+
+def test_a_loop_beside_a_post_not_round_it_is_no_lap():
+    world = World.load('wall_follow_post')
+    # Six loops of 0.5 m radius 1.2 m from its centre: the robot turns round six times.
+    angles = np.linspace(0.0, 12.0 * math.pi, 3600)
+    x, y = 1.2 + 0.5 * np.cos(angles), 0.5 * np.sin(angles)
+    assert metrics_of(make_trace(x, y), world)['laps'] == 0
+
+
+def test_laps_of_several_inside_points_are_the_fewest_and_end_with_the_last_point():
+    # Once round (2, 0) alone (r 0.5, 10.47 s), out to (4, 0) (5 s), then once round both
+    # points (r 4, 83.78 s): the first point is wound twice, the second once.
+    small = np.linspace(0.0, 2.0 * math.pi, 1048)
+    out = np.linspace(2.5, 4.0, 501)[1:]
+    big = np.linspace(0.0, 2.0 * math.pi, 8378)[1:]
+    x = np.concatenate((2.0 + 0.5 * np.cos(small), out, 4.0 * np.cos(big)))
+    y = np.concatenate((0.5 * np.sin(small), np.zeros(len(out)), 4.0 * np.sin(big)))
+    time = STEP * np.arange(len(x))
+    laps, lap_times = laps_around(time, x, y, [(2.0, 0.0), (-2.0, 0.0)])
+    assert laps == 1
+    assert lap_times == pytest.approx([time[-1]], abs=2 * STEP)
+    assert laps_around(time, x, y, [(2.0, 0.0)])[0] == 2
+
+
+def test_inside_points_wound_in_opposite_directions_are_no_lap():
+    # A figure of eight: counter-clockwise round (-1, 0), then clockwise round (1, 0).
+    angles = np.linspace(0.0, 2.0 * math.pi, 600)
+    x = np.concatenate((-1.0 + np.cos(angles), 1.0 - np.cos(angles)))
+    y = np.concatenate((np.sin(angles), np.sin(angles)))
+    time = STEP * np.arange(len(x))
+    assert laps_around(time, x, y, [(-1.0, 0.0)])[0] == 1
+    assert laps_around(time, x, y, [(1.0, 0.0)])[0] == -1
+    assert laps_around(time, x, y, [(-1.0, 0.0), (1.0, 0.0)]) == (0, [])
 
 
 def test_without_target_laps_are_zero_and_wall_distances_null():
