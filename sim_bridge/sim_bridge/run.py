@@ -14,6 +14,7 @@ import functools
 import json
 import math
 from pathlib import Path
+import resource
 import shutil
 import signal
 import sys
@@ -34,7 +35,8 @@ from sim_bridge.run_environment import (
     FIELD_CHECK_HINT, is_field_check_failure, run_environment)
 from sim_bridge.run_trace import CollisionEvent, ScanSnapshot, Trace
 from sim_bridge.scenario import target_name
-from sim_bridge.stepping import describe, next_timer_ns, NodeError, spin_until_idle
+from sim_bridge.stepping import (
+    describe, next_timer_ns, NodeError, origin, spin_until_idle)
 from sim_bridge.targets import load_node_class, TargetError
 from sim_bridge.world import World, WorldError
 import yaml
@@ -55,6 +57,15 @@ NO_TYPE_DESCRIPTION_SERVICE = Parameter('start_type_description_service', value=
 
 class RunError(Exception):
     """A run that could not start: unknown world, bad target or parameter, bad output folder."""
+
+
+class RunStopped(BaseException):
+    """
+    Raised into a run by whoever supervises it (the grader's watchdog); the text says why.
+
+    A BaseException, so that a node's ``except Exception`` does not swallow it: the run ends
+    as a failed one with its outputs written, naming the node code that was running.
+    """
 
 
 @dataclass
@@ -392,7 +403,7 @@ class Pacing:
 
     With ``gui``, steps are one frame of the pybullet window (1/GUI_FRAME_RATE s) and sim time
     waits for the wall clock; otherwise steps are 1 s and ``progress(sim_s, duration_s)`` is
-    called once the run has taken PROGRESS_AFTER_S of wall time.
+    called after each.
     """
 
     def __init__(self, duration_s: float, gui: bool,
@@ -407,8 +418,34 @@ class Pacing:
         elapsed = time.perf_counter() - self.wall_start
         if self.gui:
             time.sleep(max(0.0, now_ns / NANOSECONDS_PER_SECOND - elapsed))
-        elif self.progress is not None and elapsed > PROGRESS_AFTER_S:
+        elif self.progress is not None:
             self.progress(now_ns / NANOSECONDS_PER_SECOND, self.duration_s)
+
+
+def memory_limit() -> str | None:
+    """Return this process's address-space limit as text ('2 GiB'), or None when unlimited."""
+    limit = resource.getrlimit(resource.RLIMIT_AS)[0]
+    if limit == resource.RLIM_INFINITY:
+        return None
+    return f'{limit / 2 ** 30:g} GiB' if limit >= 2 ** 30 else f'{limit / 2 ** 20:g} MiB'
+
+
+def node_failure(error: NodeError) -> str:
+    """
+    Say how a node failed a run, with what a student needs to fix it.
+
+    A watchdog's stop names the callback that did not return; a field check failure explains
+    what Jazzy's default would have done; a MemoryError names the run's memory limit.
+    """
+    if isinstance(error.original, RunStopped):
+        return (f"{error.original}: node '{error.node_name}' did not return from "
+                f'{error.place}{origin(error.original)}')
+    hint = ''
+    if is_field_check_failure(error.original):
+        hint = f' ({FIELD_CHECK_HINT})'
+    elif isinstance(error.original, MemoryError) and memory_limit() is not None:
+        hint = f' (memory limit {memory_limit()} reached in {error.place})'
+    return str(error) + hint
 
 
 def default_out_dir(world: World, targets: Sequence[str]) -> Path:
@@ -475,6 +512,7 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
             if start_failure is not None:
                 raise start_failure
             pacing = Pacing(duration_s, gui, progress)
+            pacing(bridge.now_ns)  # the nodes are up: simulated time starts
             with interrupt:
                 run.advance(round(duration_s * NANOSECONDS_PER_SECOND), pacing.step_ns, pacing)
         except KeyboardInterrupt:
@@ -482,12 +520,13 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
                 raise
             # Ctrl-C outside the nodes' code: the outputs are written, then it goes on.
         except NodeError as error:
-            hint = f' ({FIELD_CHECK_HINT})' if is_field_check_failure(error.original) else ''
             if not interrupt.pressed:  # a Ctrl-C while a callback ran is the user's
-                node_errors.append({'node': error.node_name, 'error': str(error) + hint})
+                node_errors.append({'node': error.node_name, 'error': node_failure(error)})
             if not quiet and not interrupt.pressed:
                 # What the node's own process would print before dying.
                 traceback.print_exception(error.original, file=sys.stderr)
+        except RunStopped as stop:
+            node_errors.append({'node': BRIDGE_NODE, 'error': f'{stop} (in the simulator)'})
         finally:
             if bag is not None:
                 bag.close()
@@ -529,12 +568,19 @@ def summary_table(metrics: dict) -> str:
     return '\n'.join(f'  {name:<{width}}  {value}' for name, value in rows)
 
 
-def print_progress(sim_s: float, duration_s: float) -> None:
-    """Redraw a one-line progress bar on stderr (a terminal only)."""
-    done = int(30 * sim_s / duration_s)
-    sys.stderr.write(f"\r[{'#' * done}{'.' * (30 - done)}] {sim_s:6.1f} / {duration_s:g} s sim")
-    sys.stderr.write('\n' if sim_s >= duration_s else '')
-    sys.stderr.flush()
+def terminal_progress() -> Callable[[float, float], None]:
+    """Return a progress callback that redraws a bar on stderr once a run takes 2 s of wall."""
+    wall_start = time.perf_counter()
+
+    def draw(sim_s: float, duration_s: float) -> None:
+        if time.perf_counter() - wall_start < PROGRESS_AFTER_S:
+            return
+        done = int(30 * sim_s / duration_s)
+        bar = '#' * done + '.' * (30 - done)
+        sys.stderr.write(f'\r[{bar}] {sim_s:6.1f} / {duration_s:g} s sim')
+        sys.stderr.write('\n' if sim_s >= duration_s else '')
+        sys.stderr.flush()
+    return draw
 
 
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
@@ -579,7 +625,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             args.world, args.nodes, duration_s=args.duration, seed=args.seed, params=params,
             out_dir=args.out, quiet=args.quiet, gui=args.gui, record=not args.no_record,
             plot=not args.no_plot, field_checks=not args.no_field_checks,
-            progress=print_progress if sys.stderr.isatty() and not args.quiet else None)
+            progress=terminal_progress() if sys.stderr.isatty() and not args.quiet else None)
     except RunError as error:
         print(f'error: {error}', file=sys.stderr)
         return 2

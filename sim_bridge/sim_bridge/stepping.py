@@ -9,6 +9,7 @@ that hands out nothing is the exact "nothing is ready": no message waits in any 
 its clock. This is the lockstep Gazebo keeps with its ROS nodes, on the real executor.
 """
 
+import os
 import traceback
 from typing import Iterable
 
@@ -16,34 +17,57 @@ from rclpy.clock import ClockType
 from rclpy.executors import Executor, TimeoutException
 from rclpy.node import Node
 
+#: Frames in here are the runner's, never a node's own code.
+PACKAGE_DIR = os.path.dirname(os.path.abspath(__file__)) + os.sep
+
 
 class NodeError(Exception):
-    """An exception raised by a node's code (a callback or its constructor), with the node."""
+    """
+    An exception raised by a node's code, with the node and where: a callback or constructor.
 
-    def __init__(self, node_name: str, original: BaseException):
+    ``place`` says what of the node's code ran, e.g. 'its /scan callback'.
+    """
+
+    def __init__(self, node_name: str, original: BaseException, place: str = 'its constructor'):
         self.node_name = node_name
         self.original = original
+        self.place = place
         super().__init__(f"node '{node_name}' raised {describe(original)}")
 
 
-def describe(error: BaseException) -> str:
-    """
-    Say what ``error`` was and where the node's own code raised it.
+def callback_place(entity: object) -> str:
+    """Name the callback an executor entity runs: 'its /scan callback', 'its timer callback'."""
+    topic = getattr(entity, 'topic_name', None)
+    if topic is not None:
+        return f'its {topic} callback'
+    if hasattr(entity, 'timer_period_ns'):
+        return 'its timer callback'
+    return f'its {type(entity).__name__.lower()} callback'
 
-    The place is the innermost frame outside generated message code, so an int assigned to a
-    float field points at the assignment, not at rosidl's setter.
-    """
+
+def describe(error: BaseException) -> str:
+    """Say what ``error`` was and where the node's own code raised it (see :func:`origin`)."""
     text = f'{type(error).__name__}: {error}' if str(error) else type(error).__name__
     if isinstance(error, SystemExit):
         text = f'SystemExit (sys.exit({error.code!r}))'
+    return text + origin(error)
+
+
+def origin(error: BaseException) -> str:
+    """
+    Return ' at file:line: code' of where ``error`` was raised, or '' when unknown.
+
+    The place is the innermost frame outside generated message code, rclpy and this package,
+    so an int assigned to a float field points at the assignment, not at rosidl's setter, and
+    a watchdog's stop at the node's line it interrupted, not at the signal handler.
+    """
     frames = [frame for frame in traceback.extract_tb(error.__traceback__)
-              if '/msg/_' not in frame.filename and '/rclpy/' not in frame.filename]
-    if frames:
-        frame = frames[-1]
-        text += f' at {frame.filename}:{frame.lineno}'
-        if frame.line:
-            text += f': {frame.line}'
-    return text
+              if '/msg/_' not in frame.filename and '/rclpy/' not in frame.filename
+              and not frame.filename.startswith(PACKAGE_DIR)]
+    if not frames:
+        return ''
+    frame = frames[-1]
+    return f' at {frame.filename}:{frame.lineno}' + (f': {frame.line}' if frame.line else '')
 
 
 def spin_until_idle(executor: Executor) -> int:
@@ -58,14 +82,15 @@ def spin_until_idle(executor: Executor) -> int:
         ran_before = count
         try:
             while True:
-                task, _, node = executor.wait_for_ready_callbacks(timeout_sec=0)
+                task, entity, node = executor.wait_for_ready_callbacks(timeout_sec=0)
                 count += 1
                 try:
                     task()
                 except BaseException as error:  # noqa: B902 sys.exit() in a callback ends it
-                    raise NodeError(node.get_name(), error) from error
+                    raise NodeError(node.get_name(), error, callback_place(entity)) from error
                 if task.exception() is not None:
-                    raise NodeError(node.get_name(), task.exception()) from task.exception()
+                    raise NodeError(node.get_name(), task.exception(),
+                                    callback_place(entity)) from task.exception()
         except TimeoutException:
             if count == ran_before:
                 return count

@@ -372,17 +372,17 @@ def test_node_raising_in_its_callback_fails_the_run(tmp_path, run_main):
 
 
 @pytest.mark.parametrize('how, says', [
-    ('sys.exit', "node 'exiter' raised SystemExit (sys.exit(3)) at "),
-    ('KeyboardInterrupt', "node 'exiter' raised KeyboardInterrupt at "),
+    ('sys.exit', "node 'misbehaver' raised SystemExit (sys.exit(3)) at "),
+    ('KeyboardInterrupt', "node 'misbehaver' raised KeyboardInterrupt at "),
 ])
 def test_node_ending_its_process_in_a_callback_fails_the_run_with_outputs(how, says, tmp_path):
     out_dir = tmp_path / 'out'
-    done = run_in_subprocess('--world', 'obstacles', '--node', str(FIXTURES / 'exiting_node.py'),
-                             '--param', f'exiter:how={how}', '--duration', '3', '--out',
-                             str(out_dir))
+    done = run_in_subprocess('--world', 'obstacles', '--node',
+                             str(FIXTURES / 'misbehaving_node.py'), '--param',
+                             f'misbehaver:how={how}', '--duration', '3', '--out', str(out_dir))
     assert done.returncode == 1, done.stderr
     (error,) = load_metrics(out_dir)['node_errors']
-    assert error['error'].startswith(says) and 'exiting_node.py' in error['error']
+    assert error['error'].startswith(says) and 'misbehaving_node.py' in error['error']
     assert 'Run summary' in done.stdout
     assert load_metrics(out_dir)['sim_time_s'] == pytest.approx(0.5)
     assert len(read_bag(out_dir / 'run')['/scan']) == 5
