@@ -2,31 +2,44 @@
 Grade nodes against scenario files: run each scenario's seeds and judge its criteria.
 
 ``python -m sim_bridge.grade test/scenarios/`` runs every scenario in the folder through the
-runner (``sim_bridge.run.run_simulation``, real rclpy), shows a progress bar over the batch,
-prints a pass/fail table with what was measured per criterion, writes ``report.json`` and
-each run's outputs (metrics, plot, recording) below ``--out``, and exits non-zero when any run
-fails. ``--node-override path/to/student.py`` grades someone else's node on the same scenarios.
-See :mod:`sim_bridge.scenario` for the scenario format.
+runner (``sim_bridge.run.run_simulation``, real rclpy), each run in a child process of its own
+bounded in time and memory (:mod:`sim_bridge.isolate`), shows a progress bar over the batch,
+prints a pass/fail table with what was measured per criterion, writes ``report.json``,
+``report.html`` and each run's outputs (metrics, plot, recording, log) below ``--out``, and
+exits non-zero when any run fails. ``--node-override path/to/student.py`` grades someone
+else's node on the same scenarios; ``--submissions DIR`` grades a whole class
+(:mod:`sim_bridge.grade_class`). A second invocation with the same ``--out`` resumes: runs
+already finished with the same inputs are not run again. See :mod:`sim_bridge.scenario` for
+the scenario format.
 """
 
 import argparse
 from collections.abc import Callable, Iterable
-from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
+import hashlib
 import json
-import multiprocessing
 import os
 from pathlib import Path
+import select
+import shutil
 import sys
 import time
 import traceback
 from typing import Any, TextIO
 
-from sim_bridge.scenario import CriterionResult, load_scenarios, ScenarioError, ScenarioRun
+from sim_bridge.isolate import (
+    BUDGET_BASE_S, BUDGET_PER_SIM_S, Child, DEFAULT_MEMORY_BYTES, DEFAULT_STALL_S, Job, Limits,
+    LOG_NAME)
+from sim_bridge.scenario import CriterionResult, load_scenarios, ScenarioRun
 
 DEFAULT_OUT = Path('out') / 'grade'
 REPORT_NAME = 'report.json'
+PAGE_NAME = 'report.html'
+#: Each run's folder gets its report here when it ends; a later invocation resumes from it.
+RESULT_NAME = 'result.json'
 BAR_WIDTH = 24
+#: Wall seconds between two looks at the running children.
+POLL_S = 0.2
 
 #: A run of the simulator: (world, targets, keyword options) -> RunResult with ``metrics``.
 Simulate = Callable[..., Any]
@@ -49,6 +62,12 @@ class RunReport:
         """Return True when the run completed and every criterion holds."""
         return self.error is None and all(result.passed for result in self.results)
 
+    @classmethod
+    def from_dict(cls, run: ScenarioRun, out_dir: Path, entry: dict[str, Any]) -> 'RunReport':
+        """Return the report of ``run`` from its JSON entry (:meth:`as_dict`)."""
+        return cls(run, out_dir, [CriterionResult(**result) for result in entry['criteria']],
+                   entry['metrics'], entry['error'], entry['wall_time_s'], entry['traceback'])
+
     def as_dict(self) -> dict[str, Any]:
         """Return the run's entry of the JSON report."""
         scenario = self.run.scenario
@@ -62,6 +81,7 @@ class RunReport:
             'criteria': [result.as_dict() for result in self.results],
             'out_dir': str(self.out_dir), 'wall_time_s': self.wall_time_s,
             'metrics': self.metrics,
+            'log': str(self.out_dir / LOG_NAME) if (self.out_dir / LOG_NAME).is_file() else None,
         }
 
 
@@ -93,82 +113,193 @@ def run_scenario(run: ScenarioRun, out_dir: Path, *, simulate: Simulate | None =
 
 class BatchProgress:
     """
-    Report progress over a batch of runs on a text stream (stderr).
+    Report progress over a batch of runs on a text stream (stderr), with the time left.
 
-    On a terminal, one bar line is redrawn in place (with the sim time of the current run);
-    elsewhere (CI logs) a plain line is printed as each run ends.
+    On a terminal, one bar line is redrawn in place: runs done, the share of the batch's
+    simulated seconds done (finished runs plus the running ones' progress) and an estimate of
+    the wall time left from the pace so far; elsewhere (CI logs) a plain line is printed as
+    each run ends. Runs resumed from an earlier invocation count as done but not for the pace.
     """
 
-    def __init__(self, total: int, stream: TextIO = sys.stderr, enabled: bool = True) -> None:
+    def __init__(self, total: int, total_sim_s: float = 0.0, stream: TextIO = sys.stderr,
+                 enabled: bool = True, clock: Callable[[], float] = time.monotonic) -> None:
         self.total = total
+        self.total_sim_s = total_sim_s
         self.stream = stream
         self.enabled = enabled
         self.live = enabled and stream.isatty()
         self.done = 0
-        self.current = ''
+        self.done_sim_s = 0.0
+        self.resumed_sim_s = 0.0
+        self.running: dict[str, float] = {}
+        self.clock = clock
+        self.wall_start = clock()
+
+    def resume(self, report: 'RunReport') -> None:
+        """Note a run finished by an earlier invocation."""
+        self.done += 1
+        self.done_sim_s += report.run.scenario.duration_s
+        self.resumed_sim_s += report.run.scenario.duration_s
 
     def start(self, run: ScenarioRun) -> None:
         """Note that ``run`` begins."""
-        self.current = run.name
-        self._draw(0.0)
+        self.running[run.name] = 0.0
+        self._draw()
 
-    def advance(self, sim_s: float, duration_s: float) -> None:
-        """Note the current run's progress in simulated seconds (the runner's callback)."""
-        fraction = sim_s / duration_s if duration_s > 0 else 0.0
-        self._draw(fraction, f' {sim_s:.0f}/{duration_s:.0f} s')
+    def advance(self, run: ScenarioRun, sim_s: float) -> None:
+        """Note that ``run`` has simulated ``sim_s`` seconds."""
+        self.running[run.name] = sim_s
+        self._draw()
 
-    def finish(self, report: RunReport) -> None:
+    def finish(self, report: 'RunReport') -> None:
         """Note that a run ended and print its one-line outcome."""
+        self.running.pop(report.run.name, None)
         self.done += 1
+        self.done_sim_s += report.run.scenario.duration_s
         if not self.enabled:
             return
         verdict = 'PASS' if report.passed else 'FAIL'
         line = (f'[{self.done:{len(str(self.total))}d}/{self.total}] {verdict} '
                 f'{report.run.name} ({report.run.scenario.duration_s:g} s sim in '
                 f'{report.wall_time_s:.1f} s)')
+        left = self.time_left_s()
+        if left is not None and self.done < self.total:
+            line += f', about {format_duration(left)} left'
         self.stream.write(('\r\033[K' if self.live else '') + line + '\n')
         self.stream.flush()
+        self._draw()
 
-    def _draw(self, fraction: float, detail: str = '') -> None:
-        if not self.live:
+    def time_left_s(self) -> float | None:
+        """Return the estimated wall seconds left (None before any pace is known)."""
+        simulated = self.done_sim_s - self.resumed_sim_s + sum(self.running.values())
+        elapsed = self.clock() - self.wall_start
+        if simulated <= 0 or elapsed <= 0:
+            return None
+        remaining = self.total_sim_s - self.done_sim_s - sum(self.running.values())
+        return max(remaining, 0.0) * elapsed / simulated
+
+    def _draw(self) -> None:
+        if not self.live or self.done >= self.total:
             return
-        share = (self.done + min(max(fraction, 0.0), 1.0)) / self.total
-        filled = round(BAR_WIDTH * share)
+        done_sim = self.done_sim_s + sum(self.running.values())
+        share = done_sim / self.total_sim_s if self.total_sim_s > 0 else self.done / self.total
+        filled = round(BAR_WIDTH * min(share, 1.0))
+        left = self.time_left_s()
         self.stream.write(f"\r\033[K[{'#' * filled}{'.' * (BAR_WIDTH - filled)}] "
-                          f'{self.done}/{self.total} {self.current}{detail}')
+                          f'{self.done}/{self.total} runs, {share:.0%} of the simulated time'
+                          + (f', about {format_duration(left)} left' if left is not None else '')
+                          + (f" (running: {', '.join(self.running)})" if self.running else ''))
         self.stream.flush()
 
 
-def _run_in_worker(job: tuple) -> RunReport:
-    run, out_dir, options = job
-    return run_scenario(run, out_dir, **options)
+def format_duration(seconds: float) -> str:
+    """Return a duration (s) as a person reads it: '45 s', '3 min 20 s', '1 h 5 min'."""
+    seconds = round(seconds)
+    if seconds < 60:
+        return f'{seconds} s'
+    if seconds < 3600:
+        return f'{seconds // 60} min {seconds % 60} s'
+    return f'{seconds // 3600} h {seconds % 3600 // 60} min'
 
 
-def grade_runs(runs: list[ScenarioRun], out_dir: Path, *, jobs: int = 1,
-               progress: BatchProgress | None = None, **options: Any) -> list[RunReport]:
+@dataclass(frozen=True)
+class GradeJob:
+    """A run to grade and its output folder."""
+
+    run: ScenarioRun
+    out_dir: Path
+
+
+def fingerprint(job: GradeJob, options: dict[str, Any], limits: Limits) -> str:
     """
-    Run and judge every run, each writing below ``out_dir/<scenario>/seed_<n>``.
+    Return a digest of everything a run's outcome depends on.
 
-    ``jobs`` > 1 runs that many in parallel processes; ``options`` go to :func:`run_scenario`.
-    Returns the reports in the order of ``runs``.
+    The scenario's settings, the runner options and limits, and the contents of the scenario,
+    world and node files: a run is resumed only when none of them changed since it ran.
     """
-    progress = progress or BatchProgress(len(runs), enabled=False)
-    folders = [out_dir / run.name for run in runs]
-    if jobs <= 1:
-        reports = []
-        for run, folder in zip(runs, folders):
-            progress.start(run)
-            reports.append(run_scenario(run, folder, progress=progress.advance, **options))
-            progress.finish(reports[-1])
-        return reports
-    context = multiprocessing.get_context('spawn')
-    with ProcessPoolExecutor(max_workers=jobs, mp_context=context) as pool:
-        reports = []
-        for report in pool.map(_run_in_worker,
-                               [(run, folder, options) for run, folder in zip(runs, folders)]):
-            progress.finish(report)
-            reports.append(report)
-        return reports
+    scenario = job.run.scenario
+    digest = hashlib.sha256(json.dumps({
+        'run': job.run.name, 'seed': job.run.seed, 'params': job.run.params,
+        'world': scenario.world, 'nodes': scenario.nodes, 'duration_s': scenario.duration_s,
+        'start': scenario.start, 'criteria': [criterion.text for criterion in scenario.criteria],
+        'options': options, 'limits': asdict(limits)}, sort_keys=True, default=str).encode())
+    for reference in (str(scenario.path or ''), scenario.world, *scenario.nodes):
+        path = Path(reference.partition(':')[0])
+        if path.is_file():
+            digest.update(path.read_bytes())
+    return digest.hexdigest()
+
+
+def finished_report(job: GradeJob, digest: str) -> 'RunReport | None':
+    """Return the report of ``job`` from an earlier invocation, if it ran with ``digest``."""
+    try:
+        saved = json.loads((job.out_dir / RESULT_NAME).read_text(encoding='utf-8'))
+    except (OSError, ValueError):
+        return None
+    if saved.get('fingerprint') != digest:
+        return None
+    return RunReport.from_dict(job.run, job.out_dir, saved['report'])
+
+
+def save_result(report: 'RunReport', digest: str) -> None:
+    """Write a finished run's report to its folder, whole or not at all (a Ctrl-C)."""
+    path = report.out_dir / RESULT_NAME
+    partial = path.with_suffix('.partial')
+    partial.write_text(json.dumps({'fingerprint': digest, 'report': report.as_dict()},
+                                  indent=2, allow_nan=False) + '\n', encoding='utf-8')
+    partial.replace(path)
+
+
+def grade_runs(jobs: list[GradeJob], *, workers: int = 1, limits: Limits = Limits(),
+               progress: BatchProgress | None = None, resume: bool = True,
+               **options: Any) -> list[RunReport]:
+    """
+    Run and judge every job, each in a child process of its own (see sim_bridge.isolate).
+
+    ``workers`` children run at once; ``limits`` bound each in wall-clock time and memory;
+    ``options`` go to :func:`run_scenario` in the child. With ``resume``, a job whose folder
+    holds the result of a run with the same inputs is not run again. Returns the reports in
+    the order of ``jobs``. A KeyboardInterrupt kills the running children and propagates;
+    finished runs keep their results.
+    """
+    progress = progress or BatchProgress(len(jobs), enabled=False)
+    reports: dict[int, RunReport] = {}
+    digests = [fingerprint(job, options, limits) for job in jobs]
+    pending = []
+    for index, job in enumerate(jobs):
+        report = finished_report(job, digests[index]) if resume else None
+        if report is None:
+            pending.append(index)
+        else:
+            reports[index] = report
+            progress.resume(report)
+    running: dict[int, Child] = {}
+    try:
+        while pending or running:
+            while pending and len(running) < workers:
+                index = pending.pop(0)
+                job = jobs[index]
+                shutil.rmtree(job.out_dir, ignore_errors=True)
+                # The child works in a scratch folder: every path it gets is absolute.
+                run = ScenarioRun(job.run.scenario.absolute(), job.run.seed)
+                running[index] = Child(Job(run, job.out_dir.resolve(), limits, options),
+                                       run.scenario.duration_s)
+                progress.start(job.run)
+            select.select(list(running.values()), [], [], POLL_S)
+            for index, child in list(running.items()):
+                result = child.poll()
+                job = jobs[index]
+                if result is None:
+                    progress.advance(job.run, child.sim_s or 0.0)
+                    continue
+                del running[index]
+                reports[index] = RunReport.from_dict(job.run, job.out_dir, result)
+                save_result(reports[index], digests[index])
+                progress.finish(reports[index])
+    finally:
+        for child in running.values():
+            child.kill()
+    return [reports[index] for index in range(len(jobs))]
 
 
 def format_table(reports: Iterable[RunReport], *, failures_only: bool = False) -> str:
@@ -227,42 +358,83 @@ def build_parser() -> argparse.ArgumentParser:
                         help='run TARGET (a console script, module or path.py[:Class]) instead '
                         "of the scenario's node of the same name (or its only node); "
                         'NODE=TARGET replaces node NODE only; repeatable')
+    parser.add_argument('--submissions', type=Path, metavar='DIR',
+                        help='grade a class: DIR holds one folder per student with node files '
+                        "named as the lab names them (wall_follow.py, ...); each scenario's "
+                        "node is replaced by the student's file of the same name")
     parser.add_argument('--out', type=Path, default=DEFAULT_OUT, metavar='DIR',
-                        help=f'folder for {REPORT_NAME} and the outputs of each run '
-                        f'(default {DEFAULT_OUT})')
+                        help=f'folder for {REPORT_NAME}, {PAGE_NAME} and the outputs of each '
+                        f'run (default {DEFAULT_OUT}); the same folder again resumes')
     parser.add_argument('--jobs', type=int, default=1, metavar='N',
-                        help='runs in parallel processes (default 1)')
+                        help='runs at once, each in its own process (default 1)')
+    parser.add_argument('--timeout', type=float, metavar='S',
+                        help='wall-clock seconds a run may take (default '
+                        f'{BUDGET_BASE_S:g} + {BUDGET_PER_SIM_S:g} per simulated second)')
+    parser.add_argument('--stall-timeout', type=float, default=DEFAULT_STALL_S, metavar='S',
+                        help='wall-clock seconds a run may go without simulated time passing '
+                        f'(a node stuck in a callback; default {DEFAULT_STALL_S:g})')
+    parser.add_argument('--memory-limit', type=float, default=DEFAULT_MEMORY_BYTES / 2 ** 30,
+                        metavar='GIB', help='address space of each run, in GiB (default '
+                        f'{DEFAULT_MEMORY_BYTES / 2 ** 30:g})')
+    parser.add_argument('--fresh', action='store_true',
+                        help='run everything again, even runs finished by an earlier invocation')
     parser.add_argument('--quiet', action='store_true',
                         help='no progress; the table lists failures only')
-    parser.add_argument('--logs', action='store_true', help="show the nodes' log lines")
+    parser.add_argument('--logs', action='store_true',
+                        help="keep the nodes' log lines in each run's log.txt")
     parser.add_argument('--no-record', action='store_true', help='skip the rosbag2 recordings')
     parser.add_argument('--no-plot', action='store_true', help='skip the trajectory plots')
     return parser
 
 
+def limits_from(args: argparse.Namespace) -> Limits:
+    """Return the run limits the command line asks for; ValueError names a bad one."""
+    for name in ('timeout', 'stall_timeout', 'memory_limit'):
+        value = getattr(args, name)
+        if value is not None and not 0 < value < float('inf'):
+            raise ValueError(f"--{name.replace('_', '-')} must be a positive number, got {value}")
+    return Limits(args.timeout, args.stall_timeout, round(args.memory_limit * 2 ** 30))
+
+
 def main(argv: list[str] | None = None) -> int:
     """Grade the scenarios named on the command line; return 0 when every run passed."""
+    from sim_bridge import grade_class, html_report
     args = build_parser().parse_args(argv)
-    if args.jobs < 1:
-        print('error: --jobs must be at least 1', file=sys.stderr)
-        return 2
     try:
+        if args.jobs < 1:
+            raise ValueError('--jobs must be at least 1')
+        limits = limits_from(args)
         scenarios = load_scenarios(args.scenarios)
         for override in args.node_override:
             scenarios = [scenario.with_node_override(override) for scenario in scenarios]
-    except ScenarioError as error:
+        batch = (grade_class.ClassBatch(scenarios, args.submissions, args.out)
+                 if args.submissions is not None else None)
+    except (ValueError, OSError) as error:
         print(f'error: {error}', file=sys.stderr)
         return 2
-    runs = [run for scenario in scenarios for run in scenario.runs()]
-    progress = BatchProgress(len(runs), enabled=not args.quiet)
-    reports = grade_runs(runs, args.out, jobs=args.jobs, progress=progress,
-                         quiet=not args.logs, record=not args.no_record, plot=not args.no_plot)
+    jobs = batch.jobs if batch is not None else [
+        GradeJob(run, args.out / run.name) for scenario in scenarios for run in scenario.runs()]
+    progress = BatchProgress(len(jobs), sum(job.run.scenario.duration_s for job in jobs),
+                             enabled=not args.quiet)
+    try:
+        reports = grade_runs(jobs, workers=args.jobs, limits=limits, progress=progress,
+                             resume=not args.fresh, quiet=not args.logs,
+                             record=not args.no_record, plot=not args.no_plot)
+    except KeyboardInterrupt:
+        print(f'\ninterrupted: {progress.done} of {len(jobs)} runs finished; the same command '
+              'again resumes from there', file=sys.stderr)
+        return 130
+    if batch is not None:
+        print(batch.write_outputs(reports))
+        return 0 if all(report.passed for report in reports) else 1
     write_report(reports, args.out / REPORT_NAME, overrides=args.node_override)
+    html_report.write_runs_page(args.out / PAGE_NAME, 'Grading report',
+                                [report.as_dict() for report in reports])
     table = format_table(reports, failures_only=args.quiet)
     if not args.quiet or not all(report.passed for report in reports):
         print(table)
     print(summary(reports))
-    print(f'report: {os.fspath(args.out / REPORT_NAME)}')
+    print(f'report: {os.fspath(args.out / REPORT_NAME)} and {os.fspath(args.out / PAGE_NAME)}')
     return 0 if all(report.passed for report in reports) else 1
 
 

@@ -225,6 +225,11 @@ class Scenario:
         """Judge every criterion on one run's metrics."""
         return [criterion.evaluate(metrics) for criterion in self.criteria]
 
+    def absolute(self) -> 'Scenario':
+        """Return the scenario with relative world and node file paths made absolute."""
+        return replace(self, world=_resolve(self.world, Path.cwd(), SCENARIO_SUFFIX),
+                       nodes=tuple(_resolve(node, Path.cwd(), '.py') for node in self.nodes))
+
     def with_node_override(self, override: str) -> 'Scenario':
         """
         Return the scenario with a node replaced, e.g. by a student's file.

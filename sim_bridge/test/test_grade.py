@@ -1,4 +1,9 @@
-"""The grader's batch logic with a stand-in simulator: judging, errors, table, report, exit."""
+"""
+The grader's logic with a stand-in simulator: judging, errors, progress, table, report, exit.
+
+Runs in child processes are tested in test_isolation.py; here ``grade_runs`` is replaced by
+in-process runs of the stand-in, so each test is about one piece of the grader.
+"""
 
 import io
 import json
@@ -8,8 +13,8 @@ from types import SimpleNamespace
 import pytest
 
 from sim_bridge import grade
-from sim_bridge.grade import (BatchProgress, format_table, grade_runs, main, run_scenario,
-                              summary, write_report)
+from sim_bridge.grade import (BatchProgress, format_duration, format_table, GradeJob, main,
+                              run_scenario, summary, write_report)
 from sim_bridge.scenario import scenario_from_dict
 
 SCENARIO = {
@@ -61,39 +66,90 @@ def test_a_run_that_cannot_start_fails_with_its_error(tmp_path, runs):
     assert 'in broken_simulate' in report.traceback
 
 
-def test_every_run_is_graded_in_order_into_its_own_folder(tmp_path, runs):
-    reports = grade_runs(runs, tmp_path, simulate=fake_simulate)
+def grade_in_process(jobs, *, progress=None, **options):
+    """Stand in for grade_runs: run each job's run_scenario in this process with fake_simulate."""
+    reports = []
+    for job in jobs:
+        reports.append(run_scenario(job.run, job.out_dir, simulate=fake_simulate))
+        if progress is not None:
+            progress.finish(reports[-1])
+    return reports
+
+
+def graded(runs, folder):
+    return grade_in_process([GradeJob(run, folder / run.name) for run in runs])
+
+
+def test_summary_names_the_failed_runs(tmp_path, runs):
+    reports = graded(runs, tmp_path)
     assert [report.passed for report in reports] == [True, False, False]
-    assert [report.out_dir for report in reports] == [
-        tmp_path / 'box_ccw' / f'seed_{seed}' for seed in (1, 2, 3)]
     assert summary(reports) == '1 of 3 runs passed; failed: box_ccw/seed_2, box_ccw/seed_3'
 
 
 def test_progress_prints_a_line_per_run_outside_a_terminal(tmp_path, runs):
     stream = io.StringIO()
-    grade_runs(runs, tmp_path, simulate=fake_simulate, progress=BatchProgress(3, stream))
+    progress = BatchProgress(3, 90.0, stream)
+    for report in graded(runs, tmp_path):
+        progress.start(report.run)
+        progress.finish(report)
     lines = stream.getvalue().splitlines()
     assert [line.split(' (')[0] for line in lines] == [
         '[1/3] PASS box_ccw/seed_1', '[2/3] FAIL box_ccw/seed_2', '[3/3] FAIL box_ccw/seed_3']
+    assert lines[0].endswith(' s left') and lines[1].endswith(' s left')
+    assert not lines[2].endswith('left')
     assert '\r' not in stream.getvalue()
 
 
-def test_progress_redraws_one_bar_on_a_terminal(tmp_path, runs):
-    class Terminal(io.StringIO):
+class Terminal(io.StringIO):
 
-        def isatty(self):
-            return True
+    def isatty(self):
+        return True
 
-    stream = Terminal()
-    grade_runs(runs[:1], tmp_path, simulate=fake_simulate, progress=BatchProgress(1, stream))
-    text = stream.getvalue()
-    assert '\r\033[K[............' in text
-    assert '0/1 box_ccw/seed_1 15/30 s' in text
-    assert text.endswith('PASS box_ccw/seed_1 (30 s sim in ' + text.split(' in ')[-1])
+
+class Clock:
+
+    def __init__(self):
+        self.now = 0.0
+
+    def __call__(self):
+        return self.now
+
+
+def test_progress_redraws_one_bar_with_the_time_left_on_a_terminal(tmp_path, runs):
+    clock, stream = Clock(), Terminal()
+    progress = BatchProgress(3, 90.0, stream, clock=clock)
+    first, second, _ = graded(runs, tmp_path)
+    progress.start(first.run)
+    clock.now = 10.0
+    progress.advance(first.run, 15.0)   # 15 simulated s in 10 wall s: 75 s left take 50 s
+    assert stream.getvalue().endswith(
+        '0/3 runs, 17% of the simulated time, about 50 s left (running: box_ccw/seed_1)')
+    clock.now = 20.0
+    progress.finish(first)              # 30 s in 20 s: 60 s left take 40 s
+    assert '[1/3] PASS box_ccw/seed_1 (30 s sim in ' in stream.getvalue()
+    assert stream.getvalue().endswith('1/3 runs, 33% of the simulated time, about 40 s left')
+    assert '\r\033[K[########................] ' in stream.getvalue()
+
+
+def test_resumed_runs_count_as_done_but_not_for_the_pace(tmp_path, runs):
+    clock = Clock()
+    progress = BatchProgress(3, 90.0, enabled=False, clock=clock)
+    first, second, _ = graded(runs, tmp_path)
+    progress.resume(first)
+    assert progress.time_left_s() is None
+    clock.now = 10.0
+    progress.advance(second.run, 15.0)  # 15 s in 10 s this time; 45 s left
+    assert progress.time_left_s() == pytest.approx(30.0)
+
+
+@pytest.mark.parametrize('seconds, text', [
+    (0.4, '0 s'), (59.4, '59 s'), (200, '3 min 20 s'), (3900, '1 h 5 min')])
+def test_durations_read_as_a_person_says_them(seconds, text):
+    assert format_duration(seconds) == text
 
 
 def test_table_lists_each_criterion_with_its_measured_value(tmp_path, runs):
-    reports = grade_runs(runs, tmp_path, simulate=fake_simulate)
+    reports = graded(runs, tmp_path)
     reports.append(run_scenario(runs[0], tmp_path, simulate=broken_simulate))
     lines = format_table(reports).splitlines()
     assert lines[0].split() == ['run', 'criterion', 'measured', 'result']
@@ -120,7 +176,7 @@ def test_table_shows_the_error_of_a_node_that_failed(tmp_path, runs):
 
 
 def test_report_is_json_with_every_run_and_the_verdict(tmp_path, runs):
-    reports = grade_runs(runs[:2], tmp_path, simulate=fake_simulate)
+    reports = graded(runs[:2], tmp_path)
     write_report(reports, tmp_path / 'report.json', overrides=['ana.py'])
     document = json.loads((tmp_path / 'report.json').read_text())
     assert document['passed'] is False
@@ -133,11 +189,6 @@ def test_report_is_json_with_every_run_and_the_verdict(tmp_path, runs):
     assert second['params'] == {'wall_follow': {'side': 'left', 'seed': 2}}
 
 
-def test_runs_can_go_in_parallel_processes(tmp_path, runs):
-    reports = grade_runs(runs, tmp_path, jobs=2, simulate=fake_simulate)
-    assert [report.passed for report in reports] == [True, False, False]
-
-
 def scenario_file(folder: Path, **changes) -> Path:
     path = folder / 'box_ccw.yaml'
     path.write_text(json.dumps({**SCENARIO, **changes}))
@@ -146,7 +197,7 @@ def scenario_file(folder: Path, **changes) -> Path:
 
 def test_main_exits_non_zero_and_writes_the_report_when_a_run_fails(
         tmp_path, monkeypatch, capsys):
-    monkeypatch.setattr('sim_bridge.run.run_simulation', fake_simulate)
+    monkeypatch.setattr(grade, 'grade_runs', grade_in_process)
     status = main([str(scenario_file(tmp_path)), '--out', str(tmp_path / 'out'), '--quiet'])
     out = capsys.readouterr().out
     assert status == 1
@@ -156,7 +207,7 @@ def test_main_exits_non_zero_and_writes_the_report_when_a_run_fails(
 
 
 def test_main_exits_zero_when_every_run_passes(tmp_path, monkeypatch, capsys):
-    monkeypatch.setattr('sim_bridge.run.run_simulation', fake_simulate)
+    monkeypatch.setattr(grade, 'grade_runs', grade_in_process)
     status = main([str(scenario_file(tmp_path, seeds=[1])), '--out', str(tmp_path / 'out'),
                    '--node-override', 'students/ana.py'])
     assert status == 0
@@ -172,3 +223,16 @@ def test_main_refuses_a_bad_scenario_naming_file_and_field(tmp_path, capsys):
     assert capsys.readouterr().err == (
         f'error: {path}: duration: must be a positive number of seconds, got 0\n')
     assert not (tmp_path / 'out').exists()
+
+
+@pytest.mark.parametrize('options, says', [
+    (['--jobs', '0'], '--jobs must be at least 1'),
+    (['--timeout', '0'], '--timeout must be a positive number, got 0.0'),
+    (['--stall-timeout', 'inf'], '--stall-timeout must be a positive number, got inf'),
+    (['--memory-limit', '-1'], '--memory-limit must be a positive number, got -1.0'),
+    (['--submissions', 'nowhere'], '--submissions nowhere: not a folder'),
+])
+def test_main_refuses_bad_options_naming_them(tmp_path, capsys, options, says):
+    path = scenario_file(tmp_path)
+    assert main([str(path), '--out', str(tmp_path / 'out'), *options]) == 2
+    assert capsys.readouterr().err == f'error: {says}\n'
