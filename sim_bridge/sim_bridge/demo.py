@@ -3,14 +3,16 @@ The README's demo: every lab task in the simulator, stepped on real rclpy, then 
 
 ``python -m sim_bridge.demo`` (``./lab demo``) runs each lab task's node in its world (see
 sim_bridge.lab_tasks), showing the node's log lines as a student sees them in a terminal and a
-summary of the run, then grades the shipped scenarios (test/scenarios/) and prints where every
-plot and recording is. It ends with a short live run of ``wall_follow`` (sim_bridge.live): the
+summary of the run, then grades the shipped scenarios (test/scenarios/), then a small class of
+four submissions (:func:`make_class`, ``--submissions``), and prints where every plot,
+recording and report is. It ends with a short live run of ``wall_follow`` (sim_bridge.live): the
 simulator and the node as two ROS 2 processes, their lines interleaved as ros2 launch prints them.
 """
 
 import argparse
 import os
 from pathlib import Path
+import shutil
 import sys
 from typing import Sequence
 
@@ -23,6 +25,36 @@ from sim_bridge.run_environment import rclpy_origin
 #: Simulated seconds per task: a few scans for the scan readers, a few loops for the drivers.
 TASK_DURATION_S = {'scan_ahead': 1.0, 'scan_around': 1.0, 'closest_obstacle': 1.0,
                    'wanderbot': 120.0, 'wall_follow': 80.0}
+#: A scan reader that ends its own process on its first scan.
+SYS_EXIT_NODE = """import sys
+
+from rclpy.node import Node
+from sensor_msgs.msg import LaserScan
+
+
+class ScanAhead(Node):
+
+    def __init__(self):
+        super().__init__('scan_ahead')
+        self.create_subscription(LaserScan, 'scan', self.on_scan, 10)
+
+    def on_scan(self, msg):
+        sys.exit(3)
+"""
+#: The demo's class: each student's files, copied from the workspace (a path relative to its
+#: top) or written as given. ``ana`` hands in the project's own nodes, ``ben`` the lab's naive
+#: wall follower, ``cleo`` a node with an int in a float field and no wall follower, ``dev``
+#: a wall follower that does not compile and a scan reader that calls sys.exit().
+CLASS = {
+    'ana': {'scan_ahead.py': Path('scan_pkg/scan_pkg/scan_ahead.py'),
+            'wall_follow.py': Path('scan_pkg/scan_pkg/wall_follow.py')},
+    'ben': {'scan_ahead.py': Path('scan_pkg/scan_pkg/scan_ahead.py'),
+            'wall_follow.py': Path('test/naive_nodes/naive_wall_follow.py')},
+    'cleo': {'scan_ahead.py': Path('test/naive_nodes/int_twist.py')},
+    'dev': {'wall_follow.py': 'class WallFollow(Node)\n', 'scan_ahead.py': SYS_EXIT_NODE},
+}
+#: The scenarios the demo's class is graded on (in test/scenarios/).
+CLASS_SCENARIOS = ('scan_ahead.yaml', 'wall_follow_box_cw.yaml')
 #: The live run at the end: its task and its length in wall seconds.
 LIVE_TASK, LIVE_DURATION_S = 'wall_follow', 10.0
 
@@ -54,6 +86,32 @@ def grade_scenarios(out_dir: Path) -> int:
                        '--jobs', str(os.cpu_count() or 1)])
 
 
+def make_class(folder: Path, root: Path) -> Path:
+    """Write the submissions of :data:`CLASS` below ``folder`` from workspace ``root``."""
+    for student, files in CLASS.items():
+        (folder / student).mkdir(parents=True, exist_ok=True)
+        for name, source in files.items():
+            if isinstance(source, Path):
+                shutil.copyfile(root / source, folder / student / name)
+            else:
+                (folder / student / name).write_text(source)
+    return folder
+
+
+def grade_class(out_dir: Path) -> int:
+    """Grade the demo's class into ``out_dir``; return the grader's exit status."""
+    from sim_bridge import grade
+    root = repo_root()
+    if root is None:
+        return 0
+    print(f'\n=== Grading a class: {", ".join(CLASS)} on {", ".join(CLASS_SCENARIOS)} ===',
+          flush=True)
+    submissions = make_class(out_dir / 'submissions', root)
+    return grade.main([*(str(root / 'test' / 'scenarios' / name) for name in CLASS_SCENARIOS),
+                       '--submissions', str(submissions), '--out', str(out_dir / 'graded'),
+                       '--jobs', str(os.cpu_count() or 1)])
+
+
 def run_live_task() -> bool:
     """Run LIVE_TASK live for LIVE_DURATION_S wall seconds; return True when it ended cleanly."""
     print(f'\n=== Live: ./lab live {LIVE_TASK} --duration {LIVE_DURATION_S:g} (the simulator and '
@@ -74,9 +132,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     print(f'ROS 2: {rclpy_origin()}', flush=True)
     tasks_ok = run_tasks(args.out / 'tasks')
     status = 0 if args.no_grade else grade_scenarios(args.out / 'grade')
+    if not args.no_grade:
+        grade_class(args.out / 'class')  # its table shows who failed; that is the demo
     live_ok = args.no_live or run_live_task()
     print(f'\nDemo outputs: {args.out.resolve()} (tasks/<task>/, grade/<scenario>/seed_<n>/: '
-          'trajectory.png, metrics.json, run/ rosbag2 recording)')
+          'trajectory.png, metrics.json, run/ rosbag2 recording; grade/report.html; '
+          'class/graded/index.html)')
     return status if tasks_ok and live_ok else 1
 
 

@@ -1,10 +1,11 @@
 """
-A class graded with one command: four submissions, each run in its own child process.
+A class graded with one command: the demo's four submissions, each run in its own process.
 
 ``ana`` hands in the project's own nodes, ``ben`` the lab's naive wall follower, ``cleo`` a
 scan reader that puts an int in a float field and no wall follower, ``dev`` a wall follower
-that does not compile and a scan reader that calls ``sys.exit``. The class table, class.csv,
-every student's report and the HTML pages (every link resolving) are checked.
+that does not compile and a scan reader that calls ``sys.exit`` (sim_bridge.demo.CLASS). The
+class table, class.csv, every student's report and the HTML pages (every link resolving) are
+checked.
 """
 
 import contextlib
@@ -12,29 +13,16 @@ import csv
 import io
 import json
 from pathlib import Path
-import shutil
 
 import pytest
 
 from sim_bridge import grade
+from sim_bridge.demo import CLASS, CLASS_SCENARIOS, make_class
 from sim_bridge.grade_class import CSV_NAME, INDEX_NAME
 from sim_bridge.html_report import linked_files
 
-HERE = Path(__file__).resolve().parent
-WORKSPACE = HERE.parents[1]
-SCAN_PKG = WORKSPACE / 'scan_pkg' / 'scan_pkg'
-NAIVE = WORKSPACE / 'test' / 'naive_nodes'
-SCENARIOS = [WORKSPACE / 'test' / 'scenarios' / name
-             for name in ('scan_ahead.yaml', 'wall_follow_box_cw.yaml')]
-SUBMISSIONS = {
-    'ana': {'scan_ahead.py': SCAN_PKG / 'scan_ahead.py',
-            'wall_follow.py': SCAN_PKG / 'wall_follow.py'},
-    'ben': {'scan_ahead.py': SCAN_PKG / 'scan_ahead.py',
-            'wall_follow.py': NAIVE / 'naive_wall_follow.py'},
-    'cleo': {'scan_ahead.py': NAIVE / 'int_twist.py'},
-    'dev': {'scan_ahead.py': HERE / 'fixtures' / 'misbehaving_node.py',
-            'wall_follow.py': 'class WallFollow(Node)\n'},
-}
+WORKSPACE = Path(__file__).resolve().parents[2]
+SCENARIOS = [WORKSPACE / 'test' / 'scenarios' / name for name in CLASS_SCENARIOS]
 EXPECTED_TABLE = [
     ['student', 'scan_ahead', 'wall_follow_box_cw', 'total'],
     ['ana', '1/1', '3/3', '4/4'],
@@ -48,14 +36,7 @@ EXPECTED_TABLE = [
 def graded(tmp_path_factory):
     """Grade the class once through the command line; return (out folder, status, stdout)."""
     root = tmp_path_factory.mktemp('class')
-    for student, files in SUBMISSIONS.items():
-        folder = root / 'submissions' / student
-        folder.mkdir(parents=True)
-        for name, source in files.items():
-            if isinstance(source, Path):
-                shutil.copyfile(source, folder / name)
-            else:
-                (folder / name).write_text(source)
+    make_class(root / 'submissions', WORKSPACE)
     out = root / 'out'
     stdout = io.StringIO()
     with contextlib.redirect_stdout(stdout):
@@ -77,7 +58,7 @@ def test_the_class_table_is_printed_and_written_as_csv(graded):
 def test_each_student_has_a_report_with_the_reasons(graded):
     out, _, _ = graded
     reports = {student: json.loads((out / student / grade.REPORT_NAME).read_text())
-               for student in SUBMISSIONS}
+               for student in CLASS}
     assert [run['run'] for run in reports['ana']['runs']] == [
         'scan_ahead/seed_1', *(f'wall_follow_box_cw/seed_{seed}' for seed in (1, 2, 3))]
     cleo = {run['run']: run for run in reports['cleo']['runs']}
@@ -95,8 +76,8 @@ def test_each_student_has_a_report_with_the_reasons(graded):
 
 def test_the_pages_link_only_files_that_exist(graded):
     out, _, _ = graded
-    pages = [out / INDEX_NAME, *(out / student / grade.PAGE_NAME for student in SUBMISSIONS)]
+    pages = [out / INDEX_NAME, *(out / student / grade.PAGE_NAME for student in CLASS)]
     links = [link for page in pages for link in linked_files(page)]
     assert [link for link in links if not link.exists()] == []
     assert sum(link.name == 'trajectory.png' for link in links) >= 6
-    assert {out / student / grade.PAGE_NAME for student in SUBMISSIONS} <= set(links)
+    assert {out / student / grade.PAGE_NAME for student in CLASS} <= set(links)
