@@ -29,6 +29,12 @@ COLLISION_FREE = 'collisions == 0'
 RECORDED_RUN = 'wall_follow_box_cw/seed_1'
 #: Scenario name prefix -> naive node file that must fail that scenario on every seed.
 NAIVE_OVERRIDES = {'wall_follow_': 'naive_wall_follow.py', 'wanderbot': 'naive_wanderbot.py'}
+#: Scenario name prefix -> the behaviour criteria its naive node passes (it fails all others).
+#: Round the post (radius 0.1 m) the naive node's fixed circle, of radius 1.0 m about a point
+#: 0.4 m beyond the post's centre, goes round the post 0.35 m clear of it: it does its laps
+#: without touching it and fails on the wall distance only (0.5 to 1.3 m from the post).
+NAIVE_PASSES = {'wall_follow_post_': {'laps <= -1', 'laps >= 1', COLLISION_FREE,
+                                      'min_clearance_m >= 0.15'}}
 
 SHIPPED_RUNS = [run for scenario in load_scenarios([SCENARIOS]) for run in scenario.runs()]
 NAIVE_RUNS = [run for scenario in load_scenarios([SCENARIOS])
@@ -148,13 +154,16 @@ def test_the_recorded_run_is_one_of_the_shipped_runs():
 
 
 @pytest.mark.parametrize('run', NAIVE_RUNS, ids=run_id)
-def test_naive_node_runs_to_the_end_but_fails_every_behaviour_criterion(run, tmp_path, figures):
+def test_naive_node_runs_to_the_end_but_fails_its_behaviour_criteria(run, tmp_path, figures):
     report = run_scenario(run, tmp_path, record=False, plot=False)
     assert report.error is None, report.traceback
     figures.add_failure(run_id(run), failed_criteria(report))
     behaviour = {criterion.text for criterion in run.scenario.criteria} - {NO_NODE_ERRORS}
     assert COLLISION_FREE in behaviour
-    assert failed_criteria(report).keys() == behaviour
+    passes = next((criteria for prefix, criteria in NAIVE_PASSES.items()
+                   if run.scenario.name.startswith(prefix)), set())
+    assert failed_criteria(report).keys() == behaviour - passes
+    assert failed_criteria(report)
 
 
 def test_every_naive_node_is_graded_on_every_seed_of_its_scenarios():
