@@ -380,8 +380,6 @@ def build_parser() -> argparse.ArgumentParser:
                         help='run everything again, even runs finished by an earlier invocation')
     parser.add_argument('--quiet', action='store_true',
                         help='no progress; the table lists failures only')
-    parser.add_argument('--logs', action='store_true',
-                        help="keep the nodes' log lines in each run's log.txt")
     parser.add_argument('--no-record', action='store_true', help='skip the rosbag2 recordings')
     parser.add_argument('--no-plot', action='store_true', help='skip the trajectory plots')
     return parser
@@ -418,7 +416,7 @@ def main(argv: list[str] | None = None) -> int:
                              enabled=not args.quiet)
     try:
         reports = grade_runs(jobs, workers=args.jobs, limits=limits, progress=progress,
-                             resume=not args.fresh, quiet=not args.logs,
+                             resume=not args.fresh, quiet=False,
                              record=not args.no_record, plot=not args.no_plot)
     except KeyboardInterrupt:
         print(f'\ninterrupted: {progress.done} of {len(jobs)} runs finished; the same command '
