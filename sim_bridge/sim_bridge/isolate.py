@@ -1,14 +1,14 @@
 """
 One graded run in a child process of its own, bounded in wall-clock time and memory.
 
-The grader never runs a student's code in its own process. For each scenario run it starts
-``python -m sim_bridge.isolate FD`` in a scratch working directory, with a trimmed environment
-(:func:`child_environment`), in a session of its own (the terminal's Ctrl-C goes to the grader
-only), its stdout and stderr in the run's ``log.txt``. The child reads its job (a pickled
-:class:`Job`) from stdin, limits its own address space, runs the scenario with
-:func:`sim_bridge.grade.run_scenario` exactly as an in-process run does, writes ``progress
-SIM_S`` lines to the pipe FD as simulated time passes and ``result JSON`` (the run's report)
-when it ends.
+The grader never runs a student's code in its own process. For each scenario run it forks a
+child from a server process that has imported rclpy, pybullet and the runner once
+(:func:`fork_server`). The child (:func:`run_child`) first makes itself a session of its own
+(the terminal's Ctrl-C goes to the grader only), sends its stdout and stderr to the run's
+``log.txt``, works in a scratch directory with a trimmed environment
+(:func:`child_environment`) and a bounded address space; then it runs the scenario with
+:func:`sim_bridge.grade.run_scenario` exactly as an in-process run does, sending its progress
+in simulated seconds and, when it ends, the run's report over a pipe.
 
 The parent (:class:`Child`) watches that pipe. When no simulated second has passed for
 ``Limits.stall_s`` of wall time, it sends SIGUSR1; when the run's wall-clock budget is used up,
@@ -22,14 +22,14 @@ with its exit status or signal and the end of its log.
 
 from dataclasses import dataclass, field
 import faulthandler
-import json
+import multiprocessing
+import multiprocessing.connection
+import multiprocessing.context
 import os
 from pathlib import Path
-import pickle
 import resource
 import shutil
 import signal
-import subprocess
 import sys
 import tempfile
 import time
@@ -50,6 +50,9 @@ DEFAULT_MEMORY_BYTES = 2 * 2 ** 30
 GRACE_S = 10.0
 ABORT_GRACE_S = 2.0
 LOG_NAME = 'log.txt'
+#: What the fork server imports once for every child (see :func:`fork_server`).
+PRELOADED = ('sim_bridge.grade', 'sim_bridge.run', 'sim_bridge.bridge', 'sim_bridge.plot',
+             'rclpy.executors', 'geometry_msgs.msg', 'sensor_msgs.msg', 'nav_msgs.msg')
 #: Lines of a dead child's log kept in its report.
 LOG_TAIL_LINES = 40
 #: Variables a child keeps: what Python, ROS 2 and the numeric libraries need to run. Anything
@@ -152,59 +155,47 @@ class Child:
         self.stop_reason: str | None = None
         self.stop_sent_at: float | None = None
         self.aborted = False
-        self.buffer = b''
         job.out_dir.mkdir(parents=True, exist_ok=True)
         self.log_path = job.out_dir / LOG_NAME
         self.scratch = Path(tempfile.mkdtemp(prefix='lab-grade-'))
-        read_fd, write_fd = os.pipe()
-        with open(self.log_path, 'wb') as log:
-            self.process = subprocess.Popen(
-                [sys.executable, '-m', 'sim_bridge.isolate', str(write_fd)],
-                stdin=subprocess.PIPE, stdout=log, stderr=subprocess.STDOUT,
-                cwd=self.scratch, env=child_environment(self.scratch), pass_fds=(write_fd,),
-                start_new_session=True)
-        os.close(write_fd)
-        os.set_blocking(read_fd, False)
-        self.pipe = read_fd
+        context = fork_server()
+        self.pipe, writer = context.Pipe(duplex=False)
+        self.process = context.Process(
+            target=run_child, name=f'grade {job.run.name}',
+            args=(job, writer, self.log_path, self.scratch, child_environment(self.scratch)))
+        self.process.start()
+        writer.close()
         self.started = self.progressed = time.monotonic()
-        try:
-            self.process.stdin.write(pickle.dumps(job))
-            self.process.stdin.close()
-        except BrokenPipeError:  # it died at once: poll() says how
-            pass
 
     def fileno(self) -> int:
         """Return the progress pipe (for select)."""
-        return self.pipe
+        return self.pipe.fileno()
 
     def read(self) -> bool:
-        """Read what the child wrote; return False once the pipe is closed."""
-        while True:
-            try:
-                chunk = os.read(self.pipe, 65536)
-            except BlockingIOError:
-                return True
-            if not chunk:
-                return False
-            *lines, self.buffer = (self.buffer + chunk).split(b'\n')
-            for line in lines:
-                kind, _, value = line.decode('utf-8', 'replace').partition(' ')
+        """Read what the child sent; return False once the pipe is closed."""
+        try:
+            while self.pipe.poll():
+                kind, value = self.pipe.recv()
                 if kind == 'progress':
-                    self.sim_s = float(value)
+                    self.sim_s = value
                     self.progressed = time.monotonic()
                 elif kind == 'result':
-                    self.result = json.loads(value)
+                    self.result = value
+        except (EOFError, OSError):  # closed, or cut mid-message by a kill
+            return False
+        return True
 
     def poll(self) -> dict[str, Any] | None:
         """Read progress, enforce the limits; return the report dict once the child ended."""
         open_pipe = self.read()
-        if self.process.poll() is None or open_pipe:
+        if self.process.exitcode is None or open_pipe:
             self.enforce_limits(time.monotonic())
-            if self.process.poll() is None:
+            if self.process.exitcode is None:
                 return None
         self.read()
+        report = self.result if self.result is not None else self.failure()
         self.close()
-        return self.result if self.result is not None else self.failure()
+        return report
 
     def enforce_limits(self, now: float) -> None:
         """Ask a child over a limit to stop; abort, then kill, one that does not."""
@@ -226,15 +217,19 @@ class Child:
         self.signal(signum)
 
     def signal(self, signum: int) -> None:
-        """Send ``signum`` to the child's whole process group (a node may have forked)."""
+        """Send ``signum`` to the child's process group (a node may have forked), or to it."""
         try:
             os.killpg(self.process.pid, signum)
         except ProcessLookupError:
-            pass
+            if self.process.exitcode is None:  # alive, but not yet in a session of its own
+                try:
+                    os.kill(self.process.pid, signum)
+                except ProcessLookupError:
+                    pass
 
     def failure(self) -> dict[str, Any]:
         """Return the report of a child that ended without a result."""
-        reason = exit_reason(self.process.returncode)
+        reason = exit_reason(self.process.exitcode)
         if self.stop_reason is not None:
             reason = f'{self.stop_reason}; the run did not stop when asked ({reason})'
         return {'error': reason, 'traceback': log_tail(self.log_path), 'metrics': None,
@@ -244,28 +239,53 @@ class Child:
     def kill(self) -> None:
         """End the child now (the grader was interrupted) and clean up."""
         self.signal(signal.SIGKILL)
-        self.process.wait()
+        self.process.join()
         self.close()
 
     def close(self) -> None:
         """Kill what is left of the process group, close the pipe, remove the scratch folder."""
         self.signal(signal.SIGKILL)
-        if self.pipe >= 0:
-            os.close(self.pipe)
-            self.pipe = -1
+        self.pipe.close()
+        self.process.join()
         shutil.rmtree(self.scratch, ignore_errors=True)
 
 
-def run_child(status_fd: int) -> int:
-    """Run the job on stdin in this process (the child's side); return the exit status."""
-    job: Job = pickle.load(sys.stdin.buffer)
+def fork_server() -> multiprocessing.context.ForkServerContext:
+    """
+    Return the context that forks children from a server process with PRELOADED imported.
+
+    Importing rclpy, pybullet, numpy and matplotlib takes about a second; the server does it
+    once, and each child starts as a fork of it. Nothing there has started a thread that a fork
+    would lose: rclpy starts DDS only at ``rclpy.init``, in the child.
+    """
+    context = multiprocessing.get_context('forkserver')
+    context.set_forkserver_preload(list(PRELOADED))
+    return context
+
+
+def run_child(job: Job, status: multiprocessing.connection.Connection, log: Path,
+              scratch: Path, environ: dict[str, str]) -> None:
+    """
+    Run ``job`` in this process, the child (see the module docstring); send its report.
+
+    First the child makes itself what the module docstring says: a session of its own, output
+    to the ``log`` file, working directory ``scratch``, environment ``environ``, bounded memory.
+    """
+    os.setsid()
+    log_fd = os.open(log, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
+    for stream in (sys.stdout, sys.stderr):
+        stream.flush()
+        os.dup2(log_fd, stream.fileno())
+        stream.reconfigure(line_buffering=True)
+    os.close(log_fd)
+    os.chdir(scratch)
+    os.environ.clear()
+    os.environ.update(environ)
     resource.setrlimit(resource.RLIMIT_AS, (job.limits.memory_bytes,) * 2)
     faulthandler.enable()
-    status = os.fdopen(status_fd, 'w', buffering=1)
     from sim_bridge.grade import RunReport, run_scenario
     from sim_bridge.run import RunStopped
     from sim_bridge.stepping import describe
-
     started = False
 
     def stop(signum: int, frame: Any) -> None:
@@ -276,7 +296,7 @@ def run_child(status_fd: int) -> int:
     def progress(sim_s: float, duration_s: float) -> None:
         nonlocal started
         started = True
-        status.write(f'progress {sim_s!r}\n')
+        status.send(('progress', sim_s))
 
     duration = job.run.scenario.duration_s
     signal.signal(signal.SIGUSR1, stop)
@@ -289,10 +309,4 @@ def run_child(status_fd: int) -> int:
                            time.perf_counter() - wall_start, traceback.format_exc())
     signal.signal(signal.SIGUSR1, signal.SIG_IGN)
     signal.signal(signal.SIGUSR2, signal.SIG_IGN)
-    status.write('result ' + json.dumps(report.as_dict(), allow_nan=False) + '\n')
-    status.flush()
-    return 0
-
-
-if __name__ == '__main__':
-    sys.exit(run_child(int(sys.argv[1])))
+    status.send(('result', report.as_dict()))
