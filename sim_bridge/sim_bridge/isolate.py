@@ -51,7 +51,7 @@ GRACE_S = 10.0
 ABORT_GRACE_S = 2.0
 LOG_NAME = 'log.txt'
 #: What the fork server imports once for every child (see :func:`fork_server`).
-PRELOADED = ('sim_bridge.grade', 'sim_bridge.run', 'sim_bridge.bridge', 'sim_bridge.plot',
+PRELOADED = ('sim_bridge.run', 'sim_bridge.bridge', 'sim_bridge.plot',
              'rclpy.executors', 'geometry_msgs.msg', 'sensor_msgs.msg', 'nav_msgs.msg')
 #: Lines of a dead child's log kept in its report.
 LOG_TAIL_LINES = 40
