@@ -30,6 +30,7 @@ from typing import Any, TextIO
 from sim_bridge.isolate import (
     BUDGET_BASE_S, BUDGET_PER_SIM_S, Child, DEFAULT_MEMORY_BYTES, DEFAULT_STALL_S, Job, Limits,
     LOG_NAME)
+from sim_bridge.paths import find_world
 from sim_bridge.scenario import CriterionResult, load_scenarios, ScenarioRun
 
 DEFAULT_OUT = Path('out') / 'grade'
@@ -223,7 +224,11 @@ def fingerprint(job: GradeJob, options: dict[str, Any], limits: Limits) -> str:
         'world': scenario.world, 'nodes': scenario.nodes, 'duration_s': scenario.duration_s,
         'start': scenario.start, 'criteria': [criterion.text for criterion in scenario.criteria],
         'options': options, 'limits': asdict(limits)}, sort_keys=True, default=str).encode())
-    for reference in (str(scenario.path or ''), scenario.world, *scenario.nodes):
+    try:
+        world = str(find_world(scenario.world))
+    except FileNotFoundError:  # the run fails on it, as it does when run
+        world = ''
+    for reference in (str(scenario.path or ''), world, *scenario.nodes):
         path = Path(reference.partition(':')[0])
         if path.is_file():
             digest.update(path.read_bytes())
