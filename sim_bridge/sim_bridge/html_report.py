@@ -27,7 +27,7 @@ th { background: #eee; }
 .fail { background: #f9d6d5; color: #8a1212; }
 .some { background: #fde9c4; color: #7a4a00; }
 pre { background: #f4f4f4; padding: 0.6em; overflow-x: auto; }
-img { max-width: 100%; border: 1px solid #ccc; }
+img { max-width: min(100%, 48em); border: 1px solid #ccc; }
 """
 
 
