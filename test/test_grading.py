@@ -1,23 +1,25 @@
 """
 Closed-loop grading: the shipped scenarios pass through the real grader, naive nodes fail them.
 
-Every seed of every scenario in ``test/scenarios/`` is one test, run in the stepped
-simulator on real rclpy by ``sim_bridge.grade.run_scenario`` exactly as
-``python -m sim_bridge.grade`` runs it.
-Recording and plotting are off except for one run, which checks they are written too.
+Every seed of every scenario in ``test/scenarios/`` is one test. The module grades them all at
+once as ``python -m sim_bridge.grade --jobs N`` does (``grade_runs``: each run a child process
+of its own, in the stepped simulator on real rclpy, N the machine's cores); each test checks
+its run's report. Recording and plotting are off except for one run, graded again in this
+process with ``run_scenario``, which checks they are written too.
 The naive nodes in ``test/naive_nodes/`` (written the way the lab's own solutions are) replace
 the scenario's node, as ``--node-override`` does, and must fail on behaviour, not by crashing.
 ``pytest -s`` prints the measured figures as tables when the module ends.
 """
 
 import json
+import os
 from pathlib import Path
 import re
 
 import pytest
 
 from sim_bridge import grade
-from sim_bridge.grade import run_scenario
+from sim_bridge.grade import grade_runs, GradeJob, run_scenario
 from sim_bridge.scenario import load_scenarios, ScenarioRun
 
 HERE = Path(__file__).resolve().parent
@@ -132,10 +134,20 @@ def failed_criteria(report: grade.RunReport) -> dict[str, str]:
     return {result.criterion: result.shown for result in report.results if not result.passed}
 
 
+@pytest.fixture(scope='module')
+def graded(tmp_path_factory) -> dict[str, grade.RunReport]:
+    """Grade every shipped and naive run in child processes, all cores busy; by run id."""
+    folder = tmp_path_factory.mktemp('graded')
+    runs = {run_id(run): run for run in SHIPPED_RUNS + NAIVE_RUNS}
+    reports = grade_runs([GradeJob(run, folder / name) for name, run in runs.items()],
+                         workers=os.cpu_count() or 1, resume=False, quiet=True, record=False,
+                         plot=False)
+    return dict(zip(runs, reports))
+
+
 @pytest.mark.parametrize('run', SHIPPED_RUNS, ids=run_id)
-def test_shipped_scenario_run_passes_every_criterion(run, tmp_path, figures):
-    recorded = run.name == RECORDED_RUN
-    report = run_scenario(run, tmp_path, record=recorded, plot=recorded)
+def test_shipped_scenario_run_passes_every_criterion(run, graded, figures):
+    report = graded[run_id(run)]
     assert report.error is None, report.traceback
     figures.add(report)
     assert failed_criteria(report) == {}
@@ -143,19 +155,23 @@ def test_shipped_scenario_run_passes_every_criterion(run, tmp_path, figures):
         [criterion.text for criterion in run.scenario.criteria]
     if run.scenario.name == 'wanderbot':
         assert 0.0 < report.metrics['coverage'] <= 1.0
-    if recorded:
-        assert (tmp_path / 'trajectory.png').stat().st_size > 0
-        assert (tmp_path / 'run' / 'metadata.yaml').is_file()
-        assert [path.stat().st_size > 0 for path in (tmp_path / 'run').glob('*.mcap')] == [True]
 
 
-def test_the_recorded_run_is_one_of_the_shipped_runs():
-    assert RECORDED_RUN in {run.name for run in SHIPPED_RUNS}
+def test_a_run_graded_in_process_writes_its_recording_and_plot(tmp_path, graded):
+    [run] = [run for run in SHIPPED_RUNS if run.name == RECORDED_RUN]
+    report = run_scenario(run, tmp_path, record=True, plot=True)
+    assert report.passed, report.error
+    # The same run in a child, unrecorded, measured the same: recording changes nothing.
+    assert {**report.metrics, 'wall_time_s': 0, 'real_time_factor': 0} == {
+        **graded[run_id(run)].metrics, 'wall_time_s': 0, 'real_time_factor': 0}
+    assert (tmp_path / 'trajectory.png').stat().st_size > 0
+    assert (tmp_path / 'run' / 'metadata.yaml').is_file()
+    assert [path.stat().st_size > 0 for path in (tmp_path / 'run').glob('*.mcap')] == [True]
 
 
 @pytest.mark.parametrize('run', NAIVE_RUNS, ids=run_id)
-def test_naive_node_runs_to_the_end_but_fails_its_behaviour_criteria(run, tmp_path, figures):
-    report = run_scenario(run, tmp_path, record=False, plot=False)
+def test_naive_node_runs_to_the_end_but_fails_its_behaviour_criteria(run, graded, figures):
+    report = graded[run_id(run)]
     assert report.error is None, report.traceback
     figures.add_failure(run_id(run), failed_criteria(report))
     behaviour = {criterion.text for criterion in run.scenario.criteria} - {NO_NODE_ERRORS}

@@ -263,8 +263,8 @@ def grade_runs(jobs: list[GradeJob], *, workers: int = 1, limits: Limits = Limit
 
     ``workers`` children run at once; ``limits`` bound each in wall-clock time and memory;
     ``options`` go to :func:`run_scenario` in the child. With ``resume``, a job whose folder
-    holds the result of a run with the same inputs is not run again. Returns the reports in
-    the order of ``jobs``. A KeyboardInterrupt kills the running children and propagates;
+    holds the result of a run with the same inputs is not run again. The longest runs start
+    first; the reports come back in the order of ``jobs``. A KeyboardInterrupt kills the running children and propagates;
     finished runs keep their results.
     """
     progress = progress or BatchProgress(len(jobs), enabled=False)
@@ -278,6 +278,8 @@ def grade_runs(jobs: list[GradeJob], *, workers: int = 1, limits: Limits = Limit
         else:
             reports[index] = report
             progress.resume(report)
+    # The longest runs first: the workers then finish at about the same time.
+    pending.sort(key=lambda index: -jobs[index].run.scenario.duration_s)
     running: dict[int, Child] = {}
     try:
         while pending or running:
