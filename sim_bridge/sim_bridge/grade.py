@@ -264,8 +264,8 @@ def grade_runs(jobs: list[GradeJob], *, workers: int = 1, limits: Limits = Limit
     ``workers`` children run at once; ``limits`` bound each in wall-clock time and memory;
     ``options`` go to :func:`run_scenario` in the child. With ``resume``, a job whose folder
     holds the result of a run with the same inputs is not run again. The longest runs start
-    first; the reports come back in the order of ``jobs``. A KeyboardInterrupt kills the running children and propagates;
-    finished runs keep their results.
+    first; the reports come back in the order of ``jobs``. A KeyboardInterrupt kills the
+    running children and propagates; finished runs keep their results.
     """
     progress = progress or BatchProgress(len(jobs), enabled=False)
     reports: dict[int, RunReport] = {}
