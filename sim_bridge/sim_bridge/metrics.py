@@ -28,6 +28,9 @@ PATH_ROUNDING = 1e-6
 # Side (m) of the square cells of the coverage grid.
 COVERAGE_CELL = 0.5
 
+#: What a node error in the metrics holds: the node's name, what it raised and where, and
+#: the traceback when there is one.
+NODE_ERROR_KEYS = ('node', 'error', 'traceback')
 #: What ``compute_metrics`` returns: each key's kind ('number', 'list', 'text') or, for a
 #: nested dict, the kinds of its keys. Scenario criteria are checked against it.
 METRIC_KINDS = {
@@ -242,7 +245,8 @@ def compute_metrics(trace: Trace, world: Any, *, setpoint: float | None = None,
 
     ``world`` is the run's ``World`` (obstacles, target, bounds); ``setpoint`` (m) the wall
     distance the node aims for, if it has one; ``wall_time_s`` (s) how long the run took;
-    ``node_errors`` the failures to report, each a mapping with ``node`` and ``error``.
+    ``node_errors`` the failures to report, each a mapping with ``node``, ``error`` and
+    optionally ``traceback``.
     """
     time, x, y = trace.array('time'), trace.array('x'), trace.array('y')
     sim_time = float(time[-1]) if len(time) else 0.0
@@ -274,6 +278,6 @@ def compute_metrics(trace: Trace, world: Any, *, setpoint: float | None = None,
                                           trace.array('yaw')),
         'max_stationary_s': longest_stationary(time, x, y),
         'coverage': coverage(x, y, world.bounds, obstacles, trace.robot_radius),
-        'node_errors': [{'node': str(error['node']), 'error': str(error['error'])}
+        'node_errors': [{key: str(error[key]) for key in NODE_ERROR_KEYS if key in error}
                         for error in node_errors],
     }

@@ -521,7 +521,9 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
             # Ctrl-C outside the nodes' code: the outputs are written, then it goes on.
         except NodeError as error:
             if not interrupt.pressed:  # a Ctrl-C while a callback ran is the user's
-                node_errors.append({'node': error.node_name, 'error': node_failure(error)})
+                node_errors.append({'node': error.node_name, 'error': node_failure(error),
+                                    'traceback': ''.join(traceback.format_exception(
+                                        error.original))})
             if not quiet and not interrupt.pressed:
                 # What the node's own process would print before dying.
                 traceback.print_exception(error.original, file=sys.stderr)

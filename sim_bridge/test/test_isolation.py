@@ -81,6 +81,8 @@ def test_unbounded_memory_fails_at_the_memory_limit(batch):
 def test_sys_exit_in_a_callback_fails_the_run_naming_it(batch):
     [error] = batch['sys_exit'].metrics['node_errors']
     assert error['error'].startswith("node 'misbehaver' raised SystemExit (sys.exit(3)) at ")
+    assert error['traceback'].startswith('Traceback (most recent call last):')
+    assert 'in on_scan' in error['traceback'] and 'sys.exit(3)' in error['traceback']
 
 
 def test_os_exit_fails_the_run_with_the_exit_status_and_its_log(batch):

@@ -390,3 +390,12 @@ def test_metrics_have_the_keys_and_kinds_criteria_are_checked_against():
 ])
 def test_offset_path_length_matches_the_analytic_perimeter(footprints, distance, expected):
     assert offset_path_length(footprints, distance) == pytest.approx(expected, rel=2e-3)
+
+
+def test_node_errors_keep_their_traceback_and_nothing_else():
+    metrics = metrics_of(Trace(robot_radius=0.2), wall_time_s=1.0, node_errors=[
+        {'node': 'wander', 'error': 'boom', 'traceback': 'Traceback ...', 'frame': object()},
+        {'node': 'other', 'error': 'bang'}])
+    assert metrics['node_errors'] == [
+        {'node': 'wander', 'error': 'boom', 'traceback': 'Traceback ...'},
+        {'node': 'other', 'error': 'bang'}]
