@@ -142,26 +142,26 @@ class BatchProgress:
         self.done_sim_s += report.run.scenario.duration_s
         self.resumed_sim_s += report.run.scenario.duration_s
 
-    def start(self, run: ScenarioRun) -> None:
-        """Note that ``run`` begins."""
-        self.running[run.name] = 0.0
+    def start(self, name: str) -> None:
+        """Note that the run called ``name`` (its job's :attr:`GradeJob.name`) begins."""
+        self.running[name] = 0.0
         self._draw()
 
-    def advance(self, run: ScenarioRun, sim_s: float) -> None:
-        """Note that ``run`` has simulated ``sim_s`` seconds."""
-        self.running[run.name] = sim_s
+    def advance(self, name: str, sim_s: float) -> None:
+        """Note that the run called ``name`` has simulated ``sim_s`` seconds."""
+        self.running[name] = sim_s
         self._draw()
 
-    def finish(self, report: 'RunReport') -> None:
-        """Note that a run ended and print its one-line outcome."""
-        self.running.pop(report.run.name, None)
+    def finish(self, name: str, report: 'RunReport') -> None:
+        """Note that the run called ``name`` ended and print its one-line outcome."""
+        self.running.pop(name, None)
         self.done += 1
         self.done_sim_s += report.run.scenario.duration_s
         if not self.enabled:
             return
         verdict = 'PASS' if report.passed else 'FAIL'
         line = (f'[{self.done:{len(str(self.total))}d}/{self.total}] {verdict} '
-                f'{report.run.name} ({report.run.scenario.duration_s:g} s sim in '
+                f'{name} ({report.run.scenario.duration_s:g} s sim in '
                 f'{report.wall_time_s:.1f} s)')
         left = self.time_left_s()
         if left is not None and self.done < self.total:
@@ -205,10 +205,16 @@ def format_duration(seconds: float) -> str:
 
 @dataclass(frozen=True)
 class GradeJob:
-    """A run to grade and its output folder."""
+    """A run to grade, its output folder, and what the progress calls it (default: the run's)."""
 
     run: ScenarioRun
     out_dir: Path
+    label: str = ''
+
+    @property
+    def name(self) -> str:
+        """Return what the progress calls the run: its label, or ``<scenario>/seed_<n>``."""
+        return self.label or self.run.name
 
 
 def fingerprint(job: GradeJob, options: dict[str, Any], limits: Limits) -> str:
@@ -291,18 +297,18 @@ def grade_runs(jobs: list[GradeJob], *, workers: int = 1, limits: Limits = Limit
                 run = ScenarioRun(job.run.scenario.absolute(), job.run.seed)
                 running[index] = Child(Job(run, job.out_dir.resolve(), limits, options),
                                        run.scenario.duration_s)
-                progress.start(job.run)
+                progress.start(job.name)
             select.select(list(running.values()), [], [], POLL_S)
             for index, child in list(running.items()):
                 result = child.poll()
                 job = jobs[index]
                 if result is None:
-                    progress.advance(job.run, child.sim_s or 0.0)
+                    progress.advance(job.name, child.sim_s or 0.0)
                     continue
                 del running[index]
                 reports[index] = RunReport.from_dict(job.run, job.out_dir, result)
                 save_result(reports[index], digests[index])
-                progress.finish(reports[index])
+                progress.finish(job.name, reports[index])
     finally:
         for child in running.values():
             child.kill()

@@ -45,7 +45,7 @@ class ClassBatch:
                 for name, path in files.items():
                     graded = graded.with_node_override(f'{name}={path.resolve()}')
                 for run in graded.runs():
-                    job = GradeJob(run, out / student / run.name)
+                    job = GradeJob(run, out / student / run.name, f'{student}/{run.name}')
                     if absent:
                         self.missing.append((student, RunReport(
                             run, job.out_dir, [], None,

@@ -72,7 +72,7 @@ def grade_in_process(jobs, *, progress=None, **options):
     for job in jobs:
         reports.append(run_scenario(job.run, job.out_dir, simulate=fake_simulate))
         if progress is not None:
-            progress.finish(reports[-1])
+            progress.finish(job.name, reports[-1])
     return reports
 
 
@@ -90,8 +90,8 @@ def test_progress_prints_a_line_per_run_outside_a_terminal(tmp_path, runs):
     stream = io.StringIO()
     progress = BatchProgress(3, 90.0, stream)
     for report in graded(runs, tmp_path):
-        progress.start(report.run)
-        progress.finish(report)
+        progress.start(report.run.name)
+        progress.finish(report.run.name, report)
     lines = stream.getvalue().splitlines()
     assert [line.split(' (')[0] for line in lines] == [
         '[1/3] PASS box_ccw/seed_1', '[2/3] FAIL box_ccw/seed_2', '[3/3] FAIL box_ccw/seed_3']
@@ -119,13 +119,13 @@ def test_progress_redraws_one_bar_with_the_time_left_on_a_terminal(tmp_path, run
     clock, stream = Clock(), Terminal()
     progress = BatchProgress(3, 90.0, stream, clock=clock)
     first, second, _ = graded(runs, tmp_path)
-    progress.start(first.run)
+    progress.start(first.run.name)
     clock.now = 10.0
-    progress.advance(first.run, 15.0)   # 15 simulated s in 10 wall s: 75 s left take 50 s
+    progress.advance(first.run.name, 15.0)   # 15 simulated s in 10 wall s: 75 s left take 50 s
     assert stream.getvalue().endswith(
         '0/3 runs, 17% of the simulated time, about 50 s left (running: box_ccw/seed_1)')
     clock.now = 20.0
-    progress.finish(first)              # 30 s in 20 s: 60 s left take 40 s
+    progress.finish(first.run.name, first)              # 30 s in 20 s: 60 s left take 40 s
     assert '[1/3] PASS box_ccw/seed_1 (30 s sim in ' in stream.getvalue()
     assert stream.getvalue().endswith('1/3 runs, 33% of the simulated time, about 40 s left')
     assert '\r\033[K[########................] ' in stream.getvalue()
@@ -138,7 +138,7 @@ def test_resumed_runs_count_as_done_but_not_for_the_pace(tmp_path, runs):
     progress.resume(first)
     assert progress.time_left_s() is None
     clock.now = 10.0
-    progress.advance(second.run, 15.0)  # 15 s in 10 s this time; 45 s left
+    progress.advance(second.run.name, 15.0)  # 15 s in 10 s this time; 45 s left
     assert progress.time_left_s() == pytest.approx(30.0)
 
 

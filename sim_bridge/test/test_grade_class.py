@@ -18,8 +18,9 @@ import pytest
 
 from sim_bridge import grade
 from sim_bridge.demo import CLASS, CLASS_SCENARIOS, make_class
-from sim_bridge.grade_class import CSV_NAME, INDEX_NAME
+from sim_bridge.grade_class import ClassBatch, CSV_NAME, INDEX_NAME
 from sim_bridge.html_report import linked_files
+from sim_bridge.scenario import load_scenarios
 
 WORKSPACE = Path(__file__).resolve().parents[2]
 SCENARIOS = [WORKSPACE / 'test' / 'scenarios' / name for name in CLASS_SCENARIOS]
@@ -81,3 +82,17 @@ def test_the_pages_link_only_files_that_exist(graded):
     assert [link for link in links if not link.exists()] == []
     assert sum(link.name == 'trajectory.png' for link in links) >= 6
     assert {out / student / grade.PAGE_NAME for student in CLASS} <= set(links)
+
+
+def test_each_job_is_named_after_its_student_and_a_missing_file_is_not_run(tmp_path):
+    batch = ClassBatch(load_scenarios(SCENARIOS), make_class(tmp_path / 'class', WORKSPACE),
+                       tmp_path / 'out')
+    assert [job.name for job in batch.jobs if job.name.startswith('cleo/')] == [
+        'cleo/scan_ahead/seed_1']
+    assert [report.run.name for student, report in batch.missing] == [
+        f'wall_follow_box_cw/seed_{seed}' for seed in (1, 2, 3)]
+    assert {student for student, _ in batch.missing} == {'cleo'}
+    ana = [job for job in batch.jobs if job.name.startswith('ana/')]
+    assert [job.out_dir for job in ana] == [tmp_path / 'out' / 'ana' / job.run.name for job in ana]
+    assert all(node.endswith('/ana/wall_follow.py') or node.endswith('/ana/scan_ahead.py')
+               for job in ana for node in job.run.scenario.nodes)

@@ -134,8 +134,8 @@ def test_a_node_that_swallows_the_stop_is_aborted_with_its_stack(tmp_path, monke
 def test_a_finished_batch_is_resumed_and_an_interrupted_one_keeps_its_finished_runs(tmp_path):
     class InterruptAfterFirst(BatchProgress):
 
-        def finish(self, report):
-            super().finish(report)
+        def finish(self, name, report):
+            super().finish(name, report)
             raise KeyboardInterrupt
 
     jobs = jobs_of(tmp_path, [scenario('first', 'scan_ahead'), scenario('second', 'scan_ahead')])
