@@ -6,17 +6,22 @@ clockwise and the L counter-clockwise, 3 seeds each: 7 runs, 467 simulated secon
 ``sim_bridge.grade.grade_runs`` with ``--jobs 1`` and ``--jobs 2``, fresh each time, and prints
 side by side: wall seconds, scenario runs per minute and simulated seconds per wall second.
 Then the per-run overhead of a child process: the same run (scan_ahead, 10 s) in this process
-(``run_scenario``) and in a child (``grade_runs``), best of ``--repeats``, and the difference.
+(``run_scenario``) and in a child (``grade_runs``: forked from the server that has the runner
+imported), best of ``--repeats``, and the difference; beside it, what a fresh interpreter per
+run would pay before its first step: importing the modules the fork server preloads.
 
 Run: python test/bench/bench_grade.py [--repeats N] [--no-record]
 """
 
 import argparse
 from pathlib import Path
+import subprocess
+import sys
 import tempfile
 import time
 
 from sim_bridge.grade import grade_runs, GradeJob, run_scenario
+from sim_bridge.isolate import PRELOADED
 from sim_bridge.run_environment import keep_dds_in_process
 from sim_bridge.scenario import load_scenarios
 
@@ -57,6 +62,17 @@ def overhead(repeats: int, options: dict) -> tuple[float, float]:
     return in_process, child
 
 
+def fresh_interpreter_imports(repeats: int) -> float:
+    """Return the best wall seconds a new Python takes to import what the fork server has."""
+    best = float('inf')
+    for _ in range(repeats):
+        start = time.perf_counter()
+        subprocess.run([sys.executable, '-c', f"import {', '.join(PRELOADED)}"], check=True,
+                       capture_output=True)
+        best = min(best, time.perf_counter() - start)
+    return best
+
+
 def main() -> None:
     """Measure and print the tables."""
     parser = argparse.ArgumentParser(description=__doc__.strip().splitlines()[0])
@@ -81,6 +97,8 @@ def main() -> None:
     print(f'  in a child       {child:6.2f} s')
     print(f'  overhead         {child - in_process:6.2f} s per run '
           f'({child / in_process:.1f}x)')
+    print(f'  a fresh interpreter per run would first import for '
+          f'{fresh_interpreter_imports(args.repeats):.2f} s')
 
 
 if __name__ == '__main__':
