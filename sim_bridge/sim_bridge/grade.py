@@ -295,8 +295,7 @@ def grade_runs(jobs: list[GradeJob], *, workers: int = 1, limits: Limits = Limit
                 shutil.rmtree(job.out_dir, ignore_errors=True)
                 # The child works in a scratch folder: every path it gets is absolute.
                 run = ScenarioRun(job.run.scenario.absolute(), job.run.seed)
-                running[index] = Child(Job(run, job.out_dir.resolve(), limits, options),
-                                       run.scenario.duration_s)
+                running[index] = Child(Job(run, job.out_dir.resolve(), limits, options))
                 progress.start(job.name)
             select.select(list(running.values()), [], [], POLL_S)
             for index, child in list(running.items()):

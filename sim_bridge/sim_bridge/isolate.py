@@ -6,7 +6,7 @@ child from a server process that has imported rclpy, pybullet and the runner onc
 (:func:`fork_server`). The child (:func:`run_child`) first makes itself a session of its own
 (the terminal's Ctrl-C goes to the grader only), sends its stdout and stderr to the run's
 ``log.txt``, works in a scratch directory with a trimmed environment
-(:func:`child_environment`) and a bounded address space; then it runs the scenario with
+(:func:`trimmed_environment`) and a bounded address space; then it runs the scenario with
 :func:`sim_bridge.grade.run_scenario` exactly as an in-process run does, sending its progress
 in simulated seconds and, when it ends, the run's report over a pipe.
 
@@ -35,6 +35,8 @@ import tempfile
 import time
 import traceback
 from typing import Any
+
+from sim_bridge.scenario import ScenarioRun
 
 #: Wall seconds a run may take: BUDGET_BASE_S (start-up, writing outputs) plus this many per
 #: simulated second (a run slower than real time is a node doing far too much per callback).
@@ -87,24 +89,18 @@ class Limits:
             return self.timeout_s
         return BUDGET_BASE_S + BUDGET_PER_SIM_S * duration_s
 
-    @property
-    def memory_text(self) -> str:
-        """Return the memory limit as a person writes it: '2 GiB', '512 MiB'."""
-        gib = self.memory_bytes / 2 ** 30
-        return f'{gib:g} GiB' if gib >= 1 else f'{self.memory_bytes / 2 ** 20:g} MiB'
-
 
 @dataclass(frozen=True)
 class Job:
     """A run for a child: the scenario run, its output folder, its limits and runner options."""
 
-    run: Any
+    run: ScenarioRun
     out_dir: Path
     limits: Limits
     options: dict[str, Any] = field(default_factory=dict)
 
 
-def child_environment(scratch: Path, environ: dict[str, str] | None = None) -> dict[str, str]:
+def trimmed_environment(scratch: Path, environ: dict[str, str] | None = None) -> dict[str, str]:
     """
     Return a child's environment, made from ``environ`` (default: this process's).
 
@@ -146,10 +142,9 @@ class Child:
     report dict (as ``RunReport.as_dict``) once the child has ended, else None.
     """
 
-    def __init__(self, job: Job, duration_s: float) -> None:
+    def __init__(self, job: Job) -> None:
         self.job = job
-        self.duration_s = duration_s
-        self.budget_s = job.limits.budget_s(duration_s)
+        self.budget_s = job.limits.budget_s(job.run.scenario.duration_s)
         self.sim_s: float | None = None
         self.result: dict[str, Any] | None = None
         self.stop_reason: str | None = None
@@ -162,7 +157,7 @@ class Child:
         self.pipe, writer = context.Pipe(duplex=False)
         self.process = context.Process(
             target=run_child, name=f'grade {job.run.name}',
-            args=(job, writer, self.log_path, self.scratch, child_environment(self.scratch)))
+            args=(job, writer, self.log_path, self.scratch, trimmed_environment(self.scratch)))
         self.process.start()
         writer.close()
         self.started = self.progressed = time.monotonic()

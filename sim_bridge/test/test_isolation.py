@@ -14,7 +14,7 @@ import pytest
 
 from sim_bridge import isolate
 from sim_bridge.grade import BatchProgress, grade_runs, GradeJob, RESULT_NAME
-from sim_bridge.isolate import child_environment, exit_reason, Limits
+from sim_bridge.isolate import exit_reason, Limits, trimmed_environment
 from sim_bridge.scenario import scenario_from_dict
 
 FIXTURES = Path(__file__).resolve().parent / 'fixtures'
@@ -159,7 +159,7 @@ def test_a_finished_batch_is_resumed_and_an_interrupted_one_keeps_its_finished_r
 def test_a_child_gets_a_trimmed_environment_and_a_scratch_home(tmp_path):
     environ = {'PATH': '/usr/bin', 'ROS_DOMAIN_ID': '7', 'AWS_SECRET_ACCESS_KEY': 'x',
                'HOME': '/home/teacher', 'LC_ALL': 'C.UTF-8', 'XDG_CACHE_HOME': '/cache'}
-    child = child_environment(tmp_path, environ)
+    child = trimmed_environment(tmp_path, environ)
     assert child['PATH'] == '/usr/bin' and child['ROS_DOMAIN_ID'] == '7'
     assert child['LC_ALL'] == 'C.UTF-8'
     assert 'AWS_SECRET_ACCESS_KEY' not in child
