@@ -44,9 +44,9 @@ BUDGET_BASE_S = 60.0
 BUDGET_PER_SIM_S = 1.0
 #: Wall seconds without a simulated second passing before the run is stopped.
 DEFAULT_STALL_S = 30.0
-#: Wall seconds a child may take to start (Python, rclpy, pybullet, the nodes' constructors)
-#: before simulated time starts, if the stall limit is shorter.
-STARTUP_S = 30.0
+#: Wall seconds a child may take to start (rclpy, pybullet, the nodes' constructors) before
+#: simulated time starts, if the stall limit is shorter.
+DEFAULT_STARTUP_S = 30.0
 DEFAULT_MEMORY_BYTES = 2 * 2 ** 30
 #: Wall seconds a stopped run gets to write its outputs, and a SIGABRT for its stack dump.
 GRACE_S = 10.0
@@ -71,17 +71,18 @@ class Limits:
     What a child run may use, in wall-clock time and memory.
 
     ``timeout_s`` (s) is the run's wall-clock budget (None: derived from its duration),
-    ``stall_s`` (s) the wall time without simulated progress it may take, ``memory_bytes`` its
-    address space.
+    ``stall_s`` (s) the wall time without simulated progress it may take, ``startup_s`` (s)
+    what it may take to start if that is longer, ``memory_bytes`` its address space.
     """
 
     timeout_s: float | None = None
     stall_s: float = DEFAULT_STALL_S
     memory_bytes: int = DEFAULT_MEMORY_BYTES
+    startup_s: float = DEFAULT_STARTUP_S
 
     def stall_limit_s(self, started: bool) -> float:
         """Return the wall seconds (s) a run may go without progress, before or once started."""
-        return self.stall_s if started else max(self.stall_s, STARTUP_S)
+        return self.stall_s if started else max(self.stall_s, self.startup_s)
 
     def budget_s(self, duration_s: float) -> float:
         """Return the wall-clock budget (s) of a run of ``duration_s`` simulated seconds."""

@@ -500,7 +500,7 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
         params_file = Path(scratch) / 'params.yaml'
         write_params_file(params_file, node_params)
         run = SteppedRun(params_file, quiet)
-        bag, interrupt = None, UserInterrupt()
+        bag, interrupt, outputs_open = None, UserInterrupt(), False
         try:
             bridge = run.start_simulator(SimBridge)
             observer = Observer(bridge.sim, duration_s)
@@ -509,6 +509,7 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
             setpoint = run.parameter(SETPOINT_PARAMETER)
             bag = open_outputs(out_dir, params_file, record)
             recorder.record(bag)
+            outputs_open = True
             if start_failure is not None:
                 raise start_failure
             pacing = Pacing(duration_s, gui, progress)
@@ -528,6 +529,8 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
                 # What the node's own process would print before dying.
                 traceback.print_exception(error.original, file=sys.stderr)
         except RunStopped as stop:
+            if not outputs_open:  # stopped while starting: there is nothing to write yet
+                raise
             node_errors.append({'node': BRIDGE_NODE, 'error': f'{stop} (in the simulator)'})
         finally:
             if bag is not None:

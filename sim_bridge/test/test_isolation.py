@@ -120,6 +120,19 @@ def test_the_wall_clock_budget_stops_a_run_that_sleeps(tmp_path):
                                      'not return from its /scan callback')
 
 
+def test_a_node_that_hangs_while_starting_is_stopped_naming_its_constructor(tmp_path):
+    [report] = grade_runs(
+        jobs_of(tmp_path, [scenario('hang', str(MISBEHAVING), how='hang_at_start')]),
+        limits=Limits(stall_s=2.0, startup_s=3.0), quiet=True, record=False, plot=False)
+    [error] = report.metrics['node_errors']
+    # Before its constructor returns, a node is known by its TARGET.
+    assert error['error'].startswith(
+        f"no reply for 3 s: node '{MISBEHAVING}' did not return from its constructor at ")
+    assert error['error'].endswith('misbehaving_node.py:28: time.sleep(3600.0)')
+    assert report.metrics['sim_time_s'] == 0.0
+    assert (report.out_dir / 'metrics.json').is_file()
+
+
 def test_a_node_that_swallows_the_stop_is_aborted_with_its_stack(tmp_path, monkeypatch):
     monkeypatch.setattr(isolate, 'GRACE_S', 1.0)
     [report] = grade_runs(
