@@ -254,14 +254,17 @@ class SimBridge(Node):
 
 
 def main(args=None):
+    """Spin the simulator until Ctrl-C, which also ends it cleanly while the world is loading."""
     rclpy.init(args=args)
-    node = SimBridge()
     try:
-        rclpy.spin(node)
+        node = SimBridge()
+        try:
+            rclpy.spin(node)
+        finally:
+            node.destroy_node()
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
-        node.destroy_node()
         rclpy.try_shutdown()
 
 

@@ -725,3 +725,15 @@ def test_the_installed_params_file_starts_the_bridge(session):
     assert bridge.get_parameter('world').value == 'obstacles'
     session.run_for(0.1)
     assert bridge.now_ns == SCAN_PERIOD_NS
+
+
+def test_ctrl_c_while_the_world_loads_ends_the_bridge_cleanly(monkeypatch):
+    # As `ros2 run` or `ros2 launch` stopping it before its first step: no traceback, and rclpy
+    # shut down, as when Ctrl-C comes while it spins.
+    def interrupted_while_loading():
+        assert rclpy.ok()
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(bridge_module, 'SimBridge', interrupted_while_loading)
+    bridge_module.main(args=[])
+    assert not rclpy.ok()

@@ -419,11 +419,14 @@ def test_a_node_with_a_bad_parameter_ends_the_run_naming_it():
     assert process.returncode == 1, output
     assert '[wall_follow-2] ValueError: distance must be > 0, got -1.0' in lines
     assert any(line.startswith('[ERROR] [wall_follow-2]: process has died [pid ') and
-               "exit code 1, cmd '" in line and 'distance:=-1.0' in line for line in lines)
-    assert any(line.startswith('[INFO] [sim_bridge-1]: process has finished cleanly')
-               for line in lines)
+               "exit code 1, cmd '" in line and 'distance:=-1.0' in line for line in lines), output
+    # The simulator is stopped wherever it is: still importing, it ends as any Python program
+    # does at Ctrl-C there (exit code -2, as under ros2 launch); from loading the world on, cleanly.
+    assert any(line.startswith(('[INFO] [sim_bridge-1]: process has finished cleanly',
+                                '[ERROR] [sim_bridge-1]: process has died'))
+               for line in lines), output
     assert lines[-1] == ('[ERROR] [live]: wall_follow-2 ended before the run did (exit code 1): '
-                         'stopped the others')
+                         'stopped the others'), output
 
 
 def test_a_node_that_raises_mid_run_ends_the_run_naming_it():
