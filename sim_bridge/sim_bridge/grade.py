@@ -30,8 +30,8 @@ from typing import Any, TextIO
 from sim_bridge.isolate import (
     BUDGET_BASE_S, BUDGET_PER_SIM_S, Child, DEFAULT_MEMORY_BYTES, DEFAULT_STALL_S, Job, Limits,
     LOG_NAME)
-from sim_bridge.paths import find_world
 from sim_bridge.scenario import CriterionResult, load_scenarios, ScenarioRun
+from sim_bridge.world import World, WorldError
 
 DEFAULT_OUT = Path('out') / 'grade'
 REPORT_NAME = 'report.json'
@@ -222,7 +222,8 @@ def fingerprint(job: GradeJob, options: dict[str, Any], limits: Limits) -> str:
     Return a digest of everything a run's outcome depends on.
 
     The scenario's settings, the runner options and limits, and the contents of the scenario,
-    world and node files: a run is resumed only when none of them changed since it ran.
+    world, model and node files (or, for a world that does not load, why): a run is resumed
+    only when none of them changed since it ran.
     """
     scenario = job.run.scenario
     digest = hashlib.sha256(json.dumps({
@@ -231,11 +232,12 @@ def fingerprint(job: GradeJob, options: dict[str, Any], limits: Limits) -> str:
         'start': scenario.start, 'criteria': [criterion.text for criterion in scenario.criteria],
         'options': options, 'limits': asdict(limits)}, sort_keys=True, default=str).encode())
     try:
-        world = str(find_world(scenario.world))
-    except FileNotFoundError:  # the run fails on it, as it does when run
-        world = ''
-    for reference in (str(scenario.path or ''), world, *scenario.nodes):
-        path = Path(reference.partition(':')[0])
+        world_files = World.load(scenario.world).sources
+    except (OSError, WorldError) as error:  # the run fails on it, as it does when run
+        world_files = ()
+        digest.update(str(error).encode())
+    node_files = [Path(node.partition(':')[0]) for node in scenario.nodes]
+    for path in (Path(scenario.path or ''), *world_files, *node_files):
         if path.is_file():
             digest.update(path.read_bytes())
     return digest.hexdigest()

@@ -144,7 +144,8 @@ class World:
 
     ``robot_start`` is (x m, y m, yaw rad); ``robot`` the parsed robot model (its ``radius`` is
     the robot's footprint, its ``lidar`` the sensor); ``bounds`` (xmin, ymin, xmax, ymax in m)
-    the area used for coverage; ``floor_size`` (x, y in m) or None for an endless floor.
+    the area used for coverage; ``floor_size`` (x, y in m) or None for an endless floor;
+    ``sources`` the files it was read from: the world file (if any), then each model's SDF file.
     """
 
     name: str
@@ -157,6 +158,7 @@ class World:
     bounds: tuple[float, float, float, float]
     floor_size: tuple[float, float] | None = None
     description: str = ''
+    sources: tuple[Path, ...] = ()
 
     @classmethod
     def load(cls, name_or_path: str | os.PathLike) -> 'World':
@@ -269,6 +271,7 @@ class _Parser:
 
     def __init__(self, label: str) -> None:
         self.label = label
+        self.model_files: list[Path] = []
 
     def fail(self, entry: str | None, field_name: str | None, problem: str) -> WorldError:
         return WorldError(self.label, entry, field_name, problem)
@@ -312,7 +315,8 @@ class _Parser:
             bounds = _default_bounds(obstacles, robot_start, robot.radius)
         return World(name=name, path=path, obstacles=tuple(obstacles), robot_start=robot_start,
                      robot_model=robot_model, robot=robot, target=target, bounds=bounds,
-                     floor_size=floor_size, description=description)
+                     floor_size=floor_size, description=description,
+                     sources=tuple(dict.fromkeys([*([path] if path else []), *self.model_files])))
 
     def entries(self, data: Mapping, key: str) -> list:
         value = data.get(key)
@@ -365,11 +369,13 @@ class _Parser:
         if not isinstance(name, str) or not name:
             raise self.fail(where, 'model', f'must be a model name, got {_kind(name)}')
         try:
-            return load_model(paths.find_model(name))
+            model = load_model(paths.find_model(name))
         except FileNotFoundError as error:
             raise self.fail(where, 'model', str(error)) from None
         except SdfError as error:
             raise self.fail(where, 'model', f"model '{name}' is broken: {error}") from None
+        self.model_files.append(model.path)
+        return model
 
     def walls(self, entry: Any, index: int) -> tuple[str, list[Obstacle]]:
         if not isinstance(entry, Mapping):

@@ -12,7 +12,7 @@ from types import SimpleNamespace
 
 import pytest
 
-from sim_bridge import grade
+from sim_bridge import grade, paths
 from sim_bridge.grade import (BatchProgress, format_duration, format_table, GradeJob, main,
                               run_scenario, summary, write_report)
 from sim_bridge.scenario import scenario_from_dict
@@ -236,3 +236,27 @@ def test_main_refuses_bad_options_naming_them(tmp_path, capsys, options, says):
     path = scenario_file(tmp_path)
     assert main([str(path), '--out', str(tmp_path / 'out'), *options]) == 2
     assert capsys.readouterr().err == f'error: {says}\n'
+
+
+def test_a_run_is_resumed_only_while_its_world_and_models_are_unchanged(tmp_path, monkeypatch):
+    models = tmp_path / 'models'
+    post = models / 'my_post'
+    post.mkdir(parents=True)
+    monkeypatch.setenv('GZ_SIM_RESOURCE_PATH', str(models))
+    world = tmp_path / 'world.yaml'
+    world.write_text('obstacles:\n  - {name: p, type: model, model: my_post, pose: [2, 0]}\n')
+    [run] = scenario_from_dict({'world': str(world), 'nodes': ['scan_ahead'], 'duration': 1.0,
+                                'criteria': ['collisions == 0']}, 'post').runs()
+    job = GradeJob(run, tmp_path / 'out')
+
+    def digest():
+        return grade.fingerprint(job, {}, grade.Limits())
+
+    missing_model = digest()
+    shipped_post = paths.models_dir() / 'obstacle_post' / 'model.sdf'
+    (post / 'model.sdf').write_text(shipped_post.read_text())
+    found = digest()
+    assert found != missing_model
+    assert digest() == found
+    (post / 'model.sdf').write_text(shipped_post.read_text().replace('0.1', '0.2'))
+    assert digest() not in (found, missing_model)

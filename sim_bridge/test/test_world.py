@@ -188,6 +188,19 @@ def test_a_world_file_anywhere_loads_by_path(tmp_path):
     assert world.obstacles == () and world.target is None
 
 
+def test_a_world_names_the_files_it_was_read_from_each_once():
+    world = World.load('wall_follow_post')
+    models = paths.models_dir()
+    assert world.sources == (paths.find_world('wall_follow_post'),
+                             models / 'lab_robot' / 'model.sdf',
+                             models / 'obstacle_post' / 'model.sdf')
+    twice = World.from_dict({'obstacles': [
+        {'name': name, 'type': 'model', 'model': 'obstacle_post', 'pose': [2, y]}
+        for name, y in (('one', 0), ('two', 1))]})
+    assert twice.sources == (models / 'lab_robot' / 'model.sdf',
+                             models / 'obstacle_post' / 'model.sdf')
+
+
 def test_unknown_world_name_is_file_not_found():
     with pytest.raises(FileNotFoundError, match='shipped worlds are'):
         World.load('no_such_world')
