@@ -421,7 +421,7 @@ def test_a_node_with_a_bad_parameter_ends_the_run_naming_it():
     assert any(line.startswith('[ERROR] [wall_follow-2]: process has died [pid ') and
                "exit code 1, cmd '" in line and 'distance:=-1.0' in line for line in lines), output
     # The simulator is stopped wherever it is: still importing, it ends as any Python program
-    # does at Ctrl-C there (exit code -2, as under ros2 launch); from loading the world on, cleanly.
+    # does at Ctrl-C there (exit code -2, as under ros2 launch); once loading the world, cleanly.
     assert any(line.startswith(('[INFO] [sim_bridge-1]: process has finished cleanly',
                                 '[ERROR] [sim_bridge-1]: process has died'))
                for line in lines), output
