@@ -313,10 +313,11 @@ class _Parser:
             bounds = self.bounds(data['bounds'])
         else:
             bounds = _default_bounds(obstacles, robot_start, robot.radius)
+        files_read = ([path] if path is not None else []) + self.model_files
         return World(name=name, path=path, obstacles=tuple(obstacles), robot_start=robot_start,
                      robot_model=robot_model, robot=robot, target=target, bounds=bounds,
                      floor_size=floor_size, description=description,
-                     sources=tuple(dict.fromkeys([*([path] if path else []), *self.model_files])))
+                     sources=tuple(dict.fromkeys(files_read)))
 
     def entries(self, data: Mapping, key: str) -> list:
         value = data.get(key)
