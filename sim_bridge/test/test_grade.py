@@ -33,7 +33,7 @@ def fake_simulate(world, targets, **options):
     seed = options['seed']
     if options['progress']:
         options['progress'](15.0, options['duration_s'])
-    return SimpleNamespace(metrics={'laps': 0 if seed == 3 else 1,
+    return SimpleNamespace(metrics={'laps': 0 if seed == 3 else 1, 'sim_time_s': 30.0,
                                     'collisions': 1 if seed == 2 else 0, 'node_errors': []})
 
 
@@ -94,7 +94,8 @@ def test_progress_prints_a_line_per_run_outside_a_terminal(tmp_path, runs):
         progress.finish(report.run.name, report)
     lines = stream.getvalue().splitlines()
     assert [line.split(' (')[0] for line in lines] == [
-        '[1/3] PASS box_ccw/seed_1', '[2/3] FAIL box_ccw/seed_2', '[3/3] FAIL box_ccw/seed_3']
+        '[1/3] PASS box_ccw/seed_1', '[2/3] FAIL box_ccw/seed_2: collisions == 0',
+        '[3/3] FAIL box_ccw/seed_3: laps >= 1']
     assert lines[0].endswith(' s left') and lines[1].endswith(' s left')
     assert not lines[2].endswith('left')
     assert '\r' not in stream.getvalue()
@@ -126,7 +127,7 @@ def test_progress_redraws_one_bar_with_the_time_left_on_a_terminal(tmp_path, run
         '0/3 runs, 17% of the simulated time, about 50 s left (running: box_ccw/seed_1)')
     clock.now = 20.0
     progress.finish(first.run.name, first)              # 30 s in 20 s: 60 s left take 40 s
-    assert '[1/3] PASS box_ccw/seed_1 (30 s sim in ' in stream.getvalue()
+    assert '[1/3] PASS box_ccw/seed_1 (30 of 30 s sim in ' in stream.getvalue()
     assert stream.getvalue().endswith('1/3 runs, 33% of the simulated time, about 40 s left')
     assert '\r\033[K[########................] ' in stream.getvalue()
 
@@ -180,7 +181,7 @@ def test_report_is_json_with_every_run_and_the_verdict(tmp_path, runs):
     write_report(reports, tmp_path / 'report.json', overrides=['ana.py'])
     document = json.loads((tmp_path / 'report.json').read_text())
     assert document['passed'] is False
-    assert document['summary'] == {'runs': 2, 'passed': 1, 'failed': 1}
+    assert document['summary'] == {'runs': 2, 'passed': 1, 'failed': 1, 'reused': 0}
     assert document['node_overrides'] == ['ana.py']
     second = document['runs'][1]
     assert (second['run'], second['seed'], second['passed']) == ('box_ccw/seed_2', 2, False)

@@ -171,8 +171,12 @@ def test_class_index_counts_per_scenario_and_in_total(tmp_path):
     for name in ('bo', 'al'):
         assert_well_formed_and_linked(pages[name])
     assert [row[0][0] for row in page.rows] == ['student', SCRIPT, 'al', 'bo']
-    assert page.row('bo')[1:] == [['2/3', 'some'], ['1/1', 'pass'], ['3/4', 'some']]
-    assert page.row('al')[1:] == [['0/1', 'fail'], ['\u2014', None], ['0/1', 'fail']]
+    # Why runs failed, at a glance: the worst reason of the cell's failed runs.
+    assert page.row('bo')[1:] == [['2/3criteria failed', 'some'], ['1/1', 'pass'],
+                                  ['3/4criteria failed', 'some']]
+    assert page.row('al')[1:] == [['0/1not submitted', 'fail'], ['\u2014', None],
+                                  ['0/1not submitted', 'fail']]
+    assert 'not submitted: ' in ''.join(page.text)  # the legend
     assert page.row(SCRIPT)[1:] == [['\u2014', None]] * 3
     assert sorted(path.name for path in linked_files(index)) == ['report.html'] * 2
     assert '3 students, 5 runs, 3 passed (60 %)' in ''.join(page.text)
