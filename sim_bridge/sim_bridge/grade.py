@@ -466,17 +466,20 @@ def summary(reports: list[RunReport]) -> str:
     return text + (f"; failed: {', '.join(failed)}" if failed else '')
 
 
-def report_names(out: Path, submissions: Path | None = None) -> PathNames:
+def report_names(out: Path, submissions: Path | None = None,
+                 scenarios: Iterable[Path] = ()) -> PathNames:
     """
     Return how reports name the grader's paths: relative to ``out`` and ``submissions``.
 
-    The current folder's paths are relative to it too, the home folder's start with ``~``
-    and the Python installation's with ``<python>``: a report handed to a student carries
-    none of the instructor's absolute paths.
+    The paths in the folders of the ``scenarios`` files and the current folder are relative
+    to them too, the home folder's start with ``~`` and the Python installation's with
+    ``<python>``: a report handed to a student carries none of the instructor's absolute
+    paths.
     """
     folders: dict[str | os.PathLike, str] = {out: ''}
     if submissions is not None:
         folders[submissions] = ''
+    folders.update({path.parent: '' for path in scenarios})
     folders.update({os.getcwd(): '', os.path.expanduser('~'): '~'})
     for key in ('purelib', 'platlib', 'stdlib', 'platstdlib'):
         folders.setdefault(sysconfig.get_path(key), '<python>')
@@ -590,7 +593,8 @@ def main(argv: list[str] | None = None) -> int:
         GradeJob(run, args.out / run.name) for scenario in scenarios for run in scenario.runs()]
     progress = BatchProgress(len(jobs), sum(job.run.scenario.duration_s for job in jobs),
                              enabled=not args.quiet)
-    names = report_names(args.out, args.submissions)
+    names = report_names(args.out, args.submissions,
+                         [scenario.path for scenario in scenarios if scenario.path])
     try:
         reports = grade_runs(jobs, workers=args.jobs, limits=limits, progress=progress,
                              resume=not args.fresh, names=names, quiet=False,

@@ -45,14 +45,15 @@ class ClassBatch:
         self.student_of: dict[str, str] = {}
         self.missing: list[tuple[str, RunReport]] = []
         for student in self.students:
+            source = self.source_folder(submissions / student)
             for scenario in scenarios:
-                files = {target_name(node): (submissions / student / f'{target_name(node)}.py')
+                files = {target_name(node): source / f'{target_name(node)}.py'
                          for node in scenario.nodes}
                 absent = [path.name for path in files.values() if not path.is_file()]
                 graded = scenario
                 for name, path in files.items():
                     # An existing file is taken as a file whatever its path holds (targets).
-                    graded = graded.with_node_override(f'{name}={path.resolve()}')
+                    graded = graded.with_node_override(f'{name}={os.path.abspath(path)}')
                 for run in graded.runs():
                     job = GradeJob(run, self.folder(student) / run.name,
                                    f'{student}/{run.name}')
@@ -63,6 +64,23 @@ class ClassBatch:
                     else:
                         self.jobs.append(job)
                         self.student_of[str(job.out_dir)] = student
+
+    def source_folder(self, folder: Path) -> Path:
+        """
+        Return the folder to run a student's files from: ``folder``, or a link to it.
+
+        rclpy's logging refuses a source file path that is not UTF-8 (a folder unzipped from
+        a Windows export): such a folder is run through a link in ``students/.sources/``,
+        named as the reports show it (hidden: no student's folder).
+        """
+        if printable(folder.name) == folder.name:
+            return folder.resolve()
+        link = self.out / STUDENTS_DIR / '.sources' / printable(folder.name)
+        link.parent.mkdir(parents=True, exist_ok=True)
+        if link.is_symlink():
+            link.unlink()
+        link.symlink_to(folder.resolve(), target_is_directory=True)
+        return Path(os.path.abspath(link))
 
     def folder(self, student: str) -> Path:
         """Return the output folder of ``student``."""
