@@ -336,13 +336,15 @@ def finished_report(job: GradeJob, digest: str,
         note(f'running {job.name} again: {printable(str(path))} does not read as JSON '
              f'({first_line(str(error))})')
         return None
-    if not isinstance(saved, dict) or saved.get('fingerprint') != digest:
-        return None
+    if isinstance(saved, dict) and saved.get('fingerprint') != digest:
+        return None  # a result of other inputs: the run is due again
     try:
+        if not isinstance(saved, dict):
+            raise ValueError(f'expected a mapping, got {type(saved).__name__}')
         report = RunReport.from_dict(job.run, job.out_dir, saved.get('report'))
     except ValueError as error:
         note(f'running {job.name} again: {printable(str(path))} is not a run result '
-             f'(report: {error})')
+             f'({error})')
         return None
     report.reused = True
     return report
