@@ -148,7 +148,8 @@ def entry_problem(entry: Any) -> str | None:
             good = (isinstance(item, str) if fields is None else isinstance(item, dict)
                     and all(isinstance(item.get(name), str) for name in fields))
             if not good:
-                return f"metrics '{key}'[{index}] is not a {'text' if fields is None else 'node error'}"
+                kind = 'text' if fields is None else 'node error'
+                return f"metrics '{key}'[{index}] is not a {kind}"
     return None
 
 

@@ -1,4 +1,4 @@
-"""
+r"""
 Static HTML pages of grading results: a page of runs, and a class index of students.
 
 The pages are opened from the disk in a browser: no network, no JavaScript. Every link and
@@ -8,7 +8,7 @@ moved or zipped. Run entries are the dicts of ``RunReport.as_dict()`` (:mod:`sim
 with an optional ``'log'`` key (path of the run's captured output); paths in a run that are
 not absolute are relative to the ``root`` a page is given (default: the current directory).
 Names, errors and tracebacks are untrusted text: always escaped, and a text that is not valid
-UTF-8 (a lone surrogate) shows its bytes as ``\\xNN``.
+UTF-8 (a lone surrogate) shows its bytes as ``\xNN``.
 """
 
 from html import escape
@@ -20,7 +20,7 @@ from typing import Any
 from urllib.parse import quote, unquote_to_bytes, urlsplit
 
 from sim_bridge.report_text import (
-    count_cell, format_measured, OUTCOME_LEGEND, outcome, printable)
+    count_cell, format_measured, outcome, OUTCOME_LEGEND, printable)
 
 STYLE = """
 body { font-family: sans-serif; margin: 2em; max-width: 70em; }
@@ -165,10 +165,7 @@ def write_runs_page(path: Path, title: str, runs: list[dict], *, up: Path | None
 
 
 def _count_cell(runs: list[dict]) -> str:
-    """
-    Return a cell 'passed/total' and why the others failed: green if all passed, amber if
-    some, red if none.
-    """
+    """Return a cell 'passed/total' and why the others failed; green, amber if some, red."""
     count, why = count_cell(runs)
     if not runs:
         return '<td>&mdash;</td>'

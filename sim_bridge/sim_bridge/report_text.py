@@ -34,11 +34,11 @@ _METRIC = re.compile(r'(?:(?P<function>\w+)\s*\(\s*)?(?P<path>[A-Za-z_][\w.]*)')
 
 
 def printable(text: str) -> str:
-    """
-    Return ``text`` encodable as UTF-8: lone surrogates become ``\\xNN`` escapes.
+    r"""
+    Return ``text`` encodable as UTF-8: lone surrogates become ``\xNN`` escapes.
 
     A surrogate from ``os.fsdecode`` (a file name that is not UTF-8) shows as the byte it
-    stands for: ``os.fsdecode(b'caf\\xe9')`` gives ``'caf\\\\xe9'``.
+    stands for: ``os.fsdecode(b'caf\xe9')`` gives ``'caf\\xe9'``.
     """
     try:
         text.encode('utf-8')
@@ -125,7 +125,7 @@ class PathNames:
         return name or '.'
 
     def path(self, path: str | os.PathLike) -> str:
-        """Return a path (absolute, or relative to the current folder) as the report names it."""
+        """Return how the report names a file (absolute, or relative to the current folder)."""
         return self(os.path.abspath(path))
 
 
