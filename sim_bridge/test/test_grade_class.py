@@ -147,7 +147,9 @@ def test_awkward_folder_names_are_graded_under_their_names(awkward):
     for name in ('Jos\\xe9', 'index.html', 'class.csv', 'col:on'):
         assert rows[name] == ['1/1', '1/1'], name
     assert rows['zoe'] == rows['max'] == ['0/1 node error'] * 2
-    assert (out / INDEX_NAME).is_file() and (out / CSV_NAME).is_file()
+    links = linked_files(out / INDEX_NAME)
+    assert len(links) == 6 and all(link.is_file() for link in links)
+    assert out / STUDENTS_DIR / AWKWARD_NAMES[0] / grade.PAGE_NAME in links
     for status, stdout, stderr in outputs:
         assert status == 1
         assert 'Jos\\xe9' in stdout and 'Traceback' not in stderr
