@@ -143,8 +143,8 @@ class ClassBatch:
             [scenario.name for scenario in self.scenarios],
             {student: page for student, page in pages.items() if page.is_file()})
         unwritten = write_outputs(writers)
-        legend = '; '.join(f'{name}: {text}' for name, text in OUTCOME_LEGEND.items())
-        lines = [format_rows(rows), legend, *(f'note: {note}' for note in notes),
+        legend = [f'  {name}: {text}' for name, text in OUTCOME_LEGEND.items()]
+        lines = [format_rows(rows), *legend, *(f'note: {note}' for note in notes),
                  f'class: {printable(os.fspath(self.out / CSV_NAME))} and '
                  f'{printable(os.fspath(index))}; each student: '
                  f'{printable(os.fspath(self.out / STUDENTS_DIR))}/<student>/{PAGE_NAME}']

@@ -18,7 +18,7 @@ from typing import Any, Callable
 #: The most bytes (UTF-8) of one text in a report: an error, a traceback, a log excerpt.
 TEXT_LIMIT_BYTES = 16 * 1024
 #: The most characters of a reason in a progress line or a table cell.
-REASON_CHARS = 60
+REASON_CHARS = 80
 #: Run outcomes from the best to the worst (see :func:`outcome`), for a class table cell.
 OUTCOMES = ('passed', 'criteria failed', 'node error', 'error', 'not submitted')
 #: What each failed outcome means, for the legend under a class table.
