@@ -234,7 +234,7 @@ class BatchProgress:
         verdict = 'PASS' if report.passed else 'FAIL'
         why = '' if report.passed else f': {reason(report.as_dict())}'
         line = (f'[{self.done:{len(str(self.total))}d}/{self.total}] {verdict} '
-                f'{printable(name)}{why} ({report.sim_time_s:.3g} of '
+                f'{printable(name)}{why} ({round(report.sim_time_s, 1):g} of '
                 f'{report.run.scenario.duration_s:g} s sim in {report.wall_time_s:.1f} s)')
         left = self.time_left_s()
         if left is not None and self.done < self.total:
