@@ -23,6 +23,7 @@ from pathlib import Path
 import select
 import shutil
 import sys
+import sysconfig
 import time
 import traceback
 from typing import Any, TextIO
@@ -30,7 +31,10 @@ from typing import Any, TextIO
 from sim_bridge.isolate import (
     BUDGET_BASE_S, BUDGET_PER_SIM_S, Child, DEFAULT_MEMORY_BYTES, DEFAULT_STALL_S, Job, Limits,
     LOG_NAME)
+from sim_bridge.report_text import (
+    cap_text, first_line, format_measured, json_safe, outcome, PathNames, printable, reason)
 from sim_bridge.scenario import CriterionResult, load_scenarios, ScenarioRun
+from sim_bridge.targets import split_target
 from sim_bridge.world import World, WorldError
 
 DEFAULT_OUT = Path('out') / 'grade'
@@ -39,6 +43,8 @@ PAGE_NAME = 'report.html'
 #: Each run's folder gets its report here when it ends; a later invocation resumes from it.
 RESULT_NAME = 'result.json'
 BAR_WIDTH = 24
+#: The most characters of an error or warning in a row of the printed table.
+TABLE_TEXT_CHARS = 160
 #: Wall seconds between two looks at the running children.
 POLL_S = 0.2
 
@@ -57,33 +63,94 @@ class RunReport:
     error: str | None
     wall_time_s: float
     traceback: str | None = None
+    #: True when the run was finished by an earlier invocation and its result read back.
+    reused: bool = False
 
     @property
     def passed(self) -> bool:
         """Return True when the run completed and every criterion holds."""
         return self.error is None and all(result.passed for result in self.results)
 
+    @property
+    def sim_time_s(self) -> float:
+        """Return the simulated seconds (s) the run reached: 0 for one that never started."""
+        sim_s = (self.metrics or {}).get('sim_time_s')
+        return float(sim_s) if isinstance(sim_s, (int, float)) else 0.0
+
     @classmethod
-    def from_dict(cls, run: ScenarioRun, out_dir: Path, entry: dict[str, Any]) -> 'RunReport':
-        """Return the report of ``run`` from its JSON entry (:meth:`as_dict`)."""
+    def from_dict(cls, run: ScenarioRun, out_dir: Path, entry: Any) -> 'RunReport':
+        """
+        Return the report of ``run`` from its JSON entry (:meth:`as_dict`).
+
+        Its texts are bounded (:func:`json_safe`); ValueError says what in an entry that
+        :meth:`as_dict` did not write is wrong.
+        """
+        problem = entry_problem(entry)
+        if problem is not None:
+            raise ValueError(problem)
+        entry = json_safe(entry)
         return cls(run, out_dir, [CriterionResult(**result) for result in entry['criteria']],
                    entry['metrics'], entry['error'], entry['wall_time_s'], entry['traceback'])
 
-    def as_dict(self) -> dict[str, Any]:
-        """Return the run's entry of the JSON report."""
+    def as_dict(self, names: PathNames | None = None) -> dict[str, Any]:
+        """
+        Return the run's entry of the JSON report, valid strict JSON with bounded texts.
+
+        ``names`` replaces the grader's absolute paths in paths and texts (see
+        :func:`report_names`); without it, paths are as the grader has them.
+        """
         scenario = self.run.scenario
-        return {
+        names = names or PathNames({})
+        log = self.out_dir / LOG_NAME
+
+        def path(value: Path | str) -> str:
+            return names.path(value) if os.path.exists(value) else names(str(value))
+
+        entry = {
             'run': self.run.name, 'scenario': scenario.name,
-            'file': str(scenario.path) if scenario.path else None, 'world': scenario.world,
-            'nodes': list(scenario.nodes), 'seed': self.run.seed,
-            'duration_s': scenario.duration_s, 'params': self.run.params,
-            'start': scenario.start, 'passed': self.passed, 'error': self.error,
-            'traceback': self.traceback,
+            'file': path(scenario.path) if scenario.path else None,
+            'world': path(scenario.world), 'nodes': [path(node) for node in scenario.nodes],
+            'seed': self.run.seed, 'duration_s': scenario.duration_s,
+            'params': self.run.params, 'start': scenario.start, 'passed': self.passed,
+            'error': self.error, 'traceback': self.traceback,
             'criteria': [result.as_dict() for result in self.results],
-            'out_dir': str(self.out_dir), 'wall_time_s': self.wall_time_s,
-            'metrics': self.metrics,
-            'log': str(self.out_dir / LOG_NAME) if (self.out_dir / LOG_NAME).is_file() else None,
+            'out_dir': names.path(self.out_dir), 'wall_time_s': self.wall_time_s,
+            'metrics': self.metrics, 'log': names.path(log) if log.is_file() else None,
+            'reused': self.reused,
         }
+        entry['outcome'] = outcome(entry)
+        return json_safe(entry, lambda text: cap_text(names(text)))
+
+
+def entry_problem(entry: Any) -> str | None:
+    """Return what makes ``entry`` not a run entry :meth:`RunReport.as_dict` writes, or None."""
+    if not isinstance(entry, dict):
+        return f'expected a mapping, got {type(entry).__name__}'
+    kinds = {'criteria': list, 'metrics': (dict, type(None)), 'error': (str, type(None)),
+             'traceback': (str, type(None)), 'wall_time_s': (int, float)}
+    for key, kind in kinds.items():
+        if key not in entry:
+            return f"no '{key}'"
+        if not isinstance(entry[key], kind) or isinstance(entry[key], bool):
+            return f"'{key}' is {type(entry[key]).__name__}"
+    for index, result in enumerate(entry['criteria']):
+        if not (isinstance(result, dict) and set(result) == {'criterion', 'passed', 'value',
+                                                             'shown'}
+                and isinstance(result['criterion'], str) and isinstance(result['shown'], str)
+                and isinstance(result['passed'], bool)):
+            return f'criteria[{index}] is not a judged criterion'
+    metrics = entry['metrics'] or {}
+    for key, fields in (('node_errors', ('node', 'error')), ('warnings', None)):
+        items = metrics.get(key, [])
+        if not isinstance(items, list):
+            return f"metrics '{key}' is {type(items).__name__}"
+        for index, item in enumerate(items):
+            good = (isinstance(item, str) if fields is None else isinstance(item, dict)
+                    and all(isinstance(item.get(name), str) for name in fields))
+            if not good:
+                kind = 'text' if fields is None else 'node error'
+                return f"metrics '{key}'[{index}] is not a {kind}"
+    return None
 
 
 def run_scenario(run: ScenarioRun, out_dir: Path, *, simulate: Simulate | None = None,
@@ -153,20 +220,30 @@ class BatchProgress:
         self._draw()
 
     def finish(self, name: str, report: 'RunReport') -> None:
-        """Note that the run called ``name`` ended and print its one-line outcome."""
+        """
+        Note that the run called ``name`` ended and print its one-line outcome.
+
+        The line gives the simulated time the run reached and, for a failed run, why in a
+        few words: ``FAIL ana/box/seed_1: SyntaxError: ... (0 of 76.2 s sim in 0.4 s)``.
+        """
         self.running.pop(name, None)
         self.done += 1
         self.done_sim_s += report.run.scenario.duration_s
         if not self.enabled:
             return
         verdict = 'PASS' if report.passed else 'FAIL'
+        why = '' if report.passed else f': {reason(report.as_dict())}'
         line = (f'[{self.done:{len(str(self.total))}d}/{self.total}] {verdict} '
-                f'{name} ({report.run.scenario.duration_s:g} s sim in '
-                f'{report.wall_time_s:.1f} s)')
+                f'{printable(name)}{why} ({round(report.sim_time_s, 1):g} of '
+                f'{report.run.scenario.duration_s:g} s sim in {report.wall_time_s:.1f} s)')
         left = self.time_left_s()
         if left is not None and self.done < self.total:
             line += f', about {format_duration(left)} left'
-        self.stream.write(('\r\033[K' if self.live else '') + line + '\n')
+        self.note(line)
+
+    def note(self, line: str) -> None:
+        """Print a line above the bar (also when the progress is not shown: a warning)."""
+        self.stream.write(('\r\033[K' if self.live else '') + printable(line) + '\n')
         self.stream.flush()
         self._draw()
 
@@ -236,42 +313,64 @@ def fingerprint(job: GradeJob, options: dict[str, Any], limits: Limits) -> str:
     except (OSError, WorldError) as error:  # the run fails on it, as it does when run
         world_files = ()
         digest.update(str(error).encode())
-    node_files = [Path(node.partition(':')[0]) for node in scenario.nodes]
+    node_files = [Path(split_target(node)[0]) for node in scenario.nodes]
     for path in (Path(scenario.path or ''), *world_files, *node_files):
         if path.is_file():
             digest.update(path.read_bytes())
     return digest.hexdigest()
 
 
-def finished_report(job: GradeJob, digest: str) -> 'RunReport | None':
-    """Return the report of ``job`` from an earlier invocation, if it ran with ``digest``."""
+def finished_report(job: GradeJob, digest: str,
+                    note: Callable[[str], None] = print) -> 'RunReport | None':
+    """
+    Return the report of ``job`` from an earlier invocation, if it ran with ``digest``.
+
+    A result file that is there but is not one the grader wrote is named with ``note`` and
+    its run is run again.
+    """
+    path = job.out_dir / RESULT_NAME
     try:
-        saved = json.loads((job.out_dir / RESULT_NAME).read_text(encoding='utf-8'))
-    except (OSError, ValueError):
+        saved = json.loads(path.read_text(encoding='utf-8'))
+    except FileNotFoundError:
         return None
-    if saved.get('fingerprint') != digest:
+    except (OSError, ValueError) as error:
+        note(f'running {job.name} again: {printable(str(path))} does not read as JSON '
+             f'({first_line(str(error))})')
         return None
-    return RunReport.from_dict(job.run, job.out_dir, saved['report'])
+    if isinstance(saved, dict) and saved.get('fingerprint') != digest:
+        return None  # a result of other inputs: the run is due again
+    try:
+        if not isinstance(saved, dict):
+            raise ValueError(f'expected a mapping, got {type(saved).__name__}')
+        report = RunReport.from_dict(job.run, job.out_dir, saved.get('report'))
+    except ValueError as error:
+        note(f'running {job.name} again: {printable(str(path))} is not a run result '
+             f'({error})')
+        return None
+    report.reused = True
+    return report
 
 
-def save_result(report: 'RunReport', digest: str) -> None:
+def save_result(report: 'RunReport', digest: str, names: PathNames | None = None) -> None:
     """Write a finished run's report to its folder, whole or not at all (a Ctrl-C)."""
     path = report.out_dir / RESULT_NAME
     partial = path.with_suffix('.partial')
-    partial.write_text(json.dumps({'fingerprint': digest, 'report': report.as_dict()},
+    partial.write_text(json.dumps({'fingerprint': digest, 'report': report.as_dict(names)},
                                   indent=2, allow_nan=False) + '\n', encoding='utf-8')
     partial.replace(path)
 
 
 def grade_runs(jobs: list[GradeJob], *, workers: int = 1, limits: Limits = Limits(),
                progress: BatchProgress | None = None, resume: bool = True,
-               **options: Any) -> list[RunReport]:
+               names: PathNames | None = None, **options: Any) -> list[RunReport]:
     """
     Run and judge every job, each in a child process of its own (see sim_bridge.isolate).
 
     ``workers`` children run at once; ``limits`` bound each in wall-clock time and memory;
     ``options`` go to :func:`run_scenario` in the child. With ``resume``, a job whose folder
-    holds the result of a run with the same inputs is not run again. The longest runs start
+    holds the result of a run with the same inputs is not run again (its report's
+    :attr:`RunReport.reused` is True); ``names`` names paths in the saved results (see
+    :func:`report_names`). The longest runs start
     first; the reports come back in the order of ``jobs``. A KeyboardInterrupt kills the
     running children and propagates; finished runs keep their results.
     """
@@ -280,7 +379,7 @@ def grade_runs(jobs: list[GradeJob], *, workers: int = 1, limits: Limits = Limit
     digests = [fingerprint(job, options, limits) for job in jobs]
     pending = []
     for index, job in enumerate(jobs):
-        report = finished_report(job, digests[index]) if resume else None
+        report = finished_report(job, digests[index], progress.note) if resume else None
         if report is None:
             pending.append(index)
         else:
@@ -307,8 +406,17 @@ def grade_runs(jobs: list[GradeJob], *, workers: int = 1, limits: Limits = Limit
                     progress.advance(job.name, child.sim_s or 0.0)
                     continue
                 del running[index]
-                reports[index] = RunReport.from_dict(job.run, job.out_dir, result)
-                save_result(reports[index], digests[index])
+                try:
+                    reports[index] = RunReport.from_dict(job.run, job.out_dir, result)
+                except ValueError as error:  # a child cut off mid-report: the run fails alone
+                    reports[index] = RunReport(job.run, job.out_dir, [], None,
+                                               f'the run sent no usable report: {error}',
+                                               time.monotonic() - child.started)
+                try:
+                    save_result(reports[index], digests[index], names)
+                except OSError as error:  # the run's report is still in the batch's
+                    progress.note(f'cannot save {printable(str(job.out_dir / RESULT_NAME))}: '
+                                  f'{error.strerror or error}')
                 progress.finish(job.name, reports[index])
     finally:
         for child in running.values():
@@ -317,22 +425,35 @@ def grade_runs(jobs: list[GradeJob], *, workers: int = 1, limits: Limits = Limit
 
 
 def format_table(reports: Iterable[RunReport], *, failures_only: bool = False) -> str:
-    """Return the pass/fail table: one row per criterion of each run, with the measured value."""
+    """
+    Return the pass/fail table: one row per criterion of each run, with the measured value.
+
+    A run's error, node errors and warnings (``metrics['warnings']``, which fail nothing) come
+    first, each on one line.
+    """
     rows = [('run', 'criterion', 'measured', 'result')]
     for report in reports:
         if failures_only and report.passed:
             continue
-        name = report.run.name
+        name = printable(report.run.name)
+        metrics = report.metrics or {}
         if report.error is not None:
-            rows.append((name, f'error: {report.error}', '', 'FAIL'))
-        for node_error in (report.metrics or {}).get('node_errors', []):
-            rows.append((name, f"node error: {node_error['error']}", '', 'FAIL'))
+            rows.append((name, f'error: {first_line(report.error, TABLE_TEXT_CHARS)}', '',
+                         'FAIL'))
+            name = ''
+        for node_error in metrics.get('node_errors', []):
+            text = first_line(node_error['error'], TABLE_TEXT_CHARS)
+            rows.append((name, f'node error: {text}', '', 'FAIL'))
+            name = ''
+        for warning in metrics.get('warnings') or []:
+            rows.append((name, f'warning: {first_line(warning, TABLE_TEXT_CHARS)}', '', 'warn'))
             name = ''
         for result in report.results:
             if failures_only and result.passed:
                 continue
             verdict = 'pass' if result.passed else 'FAIL'
-            rows.append((name, result.criterion, result.shown, verdict))
+            rows.append((name, result.criterion, format_measured(result.criterion, result.value),
+                         verdict))
             name = ''
     widths = [max(len(row[column]) for row in rows) for column in range(3)]
     lines = [f'{row[0]:<{widths[0]}}  {row[1]:<{widths[1]}}  {row[2]:>{widths[2]}}  {row[3]}'
@@ -348,14 +469,61 @@ def summary(reports: list[RunReport]) -> str:
     return text + (f"; failed: {', '.join(failed)}" if failed else '')
 
 
-def write_report(reports: list[RunReport], path: Path, *, overrides: Iterable[str] = ()) -> None:
-    """Write the JSON report of a batch."""
+def report_names(out: Path, submissions: Path | None = None,
+                 scenarios: Iterable[Path] = ()) -> PathNames:
+    """
+    Return how reports name the grader's paths: relative to ``out`` and ``submissions``.
+
+    The paths in the folders of the ``scenarios`` files and the current folder are relative
+    to them too, the home folder's start with ``~`` and the Python installation's with
+    ``<python>``: a report handed to a student carries none of the instructor's absolute
+    paths.
+    """
+    folders: dict[str | os.PathLike, str] = {out: ''}
+    if submissions is not None:
+        folders[submissions] = ''
+    folders.update({path.parent: '' for path in scenarios})
+    folders.update({os.getcwd(): '', os.path.expanduser('~'): '~'})
+    for key in ('purelib', 'platlib', 'stdlib', 'platstdlib'):
+        folders.setdefault(sysconfig.get_path(key), '<python>')
+    folders.setdefault(sys.prefix, '<python>')
+    return PathNames(folders)
+
+
+def reuse_notes(reports: list[RunReport], out: Path) -> list[str]:
+    """
+    Say which outputs below ``out`` are not from this invocation's runs.
+
+    Runs reused from an earlier invocation (their inputs unchanged), and results of runs
+    that are not in this batch (a batch of other scenarios graded into the same ``out``).
+    """
+    notes = []
+    reused = sum(report.reused for report in reports)
+    if reused:
+        notes.append(f'{reused} of {len(reports)} runs reused from an earlier invocation into '
+                     'this folder (their inputs did not change; --fresh runs them again)')
+    ours = {os.path.abspath(report.out_dir) for report in reports}
+    others = sorted(os.path.relpath(path.parent, out) for path in out.rglob(RESULT_NAME)
+                    if os.path.abspath(path.parent) not in ours)
+    if others:
+        shown = ', '.join(printable(name) for name in others[:3])
+        notes.append(f'this folder also holds the results of {len(others)} runs not in this '
+                     f"batch ({shown}{', ...' if len(others) > 3 else ''}); they are not in "
+                     'this report')
+    return notes
+
+
+def write_report(reports: list[RunReport], path: Path, *, overrides: Iterable[str] = (),
+                 names: PathNames | None = None, notes: Iterable[str] = ()) -> None:
+    """Write the JSON report of a batch; ``names`` names its paths (see report_names)."""
     document = {
         'passed': all(report.passed for report in reports),
         'summary': {'runs': len(reports), 'passed': sum(report.passed for report in reports),
-                    'failed': sum(not report.passed for report in reports)},
-        'node_overrides': list(overrides),
-        'runs': [report.as_dict() for report in reports],
+                    'failed': sum(not report.passed for report in reports),
+                    'reused': sum(report.reused for report in reports)},
+        'notes': [printable(note) for note in notes],
+        'node_overrides': [printable(override) for override in overrides],
+        'runs': [report.as_dict(names) for report in reports],
     }
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps(document, indent=2, allow_nan=False) + '\n', encoding='utf-8')
@@ -428,26 +596,59 @@ def main(argv: list[str] | None = None) -> int:
         GradeJob(run, args.out / run.name) for scenario in scenarios for run in scenario.runs()]
     progress = BatchProgress(len(jobs), sum(job.run.scenario.duration_s for job in jobs),
                              enabled=not args.quiet)
+    names = report_names(args.out, args.submissions,
+                         [scenario.path for scenario in scenarios if scenario.path])
     try:
         reports = grade_runs(jobs, workers=args.jobs, limits=limits, progress=progress,
-                             resume=not args.fresh, quiet=False,
+                             resume=not args.fresh, names=names, quiet=False,
                              record=not args.no_record, plot=not args.no_plot)
     except KeyboardInterrupt:
         print(f'\ninterrupted: {progress.done} of {len(jobs)} runs finished; the same command '
               'again resumes from there', file=sys.stderr)
         return 130
+    status = 0 if all(report.passed for report in reports) else 1
     if batch is not None:
-        print(batch.write_outputs(reports))
-        return 0 if all(report.passed for report in reports) else 1
-    write_report(reports, args.out / REPORT_NAME, overrides=args.node_override)
-    html_report.write_runs_page(args.out / PAGE_NAME, 'Grading report',
-                                [report.as_dict() for report in reports])
+        text, unwritten = batch.write_outputs(reports, names)
+        print(text)
+        return status if not unwritten else max(status, 1)
+    notes = reuse_notes(reports, args.out)
     table = format_table(reports, failures_only=args.quiet)
-    if not args.quiet or not all(report.passed for report in reports):
+    if not args.quiet or status:
         print(table)
     print(summary(reports))
-    print(f'report: {os.fspath(args.out / REPORT_NAME)} and {os.fspath(args.out / PAGE_NAME)}')
-    return 0 if all(report.passed for report in reports) else 1
+    for note in notes:
+        print(f'note: {note}')
+    unwritten = write_outputs({
+        args.out / REPORT_NAME: lambda path: write_report(
+            reports, path, overrides=args.node_override, names=names, notes=notes),
+        args.out / PAGE_NAME: lambda path: html_report.write_runs_page(
+            path, 'Grading report', [report.as_dict(names) for report in reports],
+            root=args.out, notes=notes)})
+    written = [printable(os.fspath(path)) for path in (args.out / REPORT_NAME,
+                                                       args.out / PAGE_NAME)
+               if path not in unwritten]
+    if written:
+        print(f"report: {' and '.join(written)}")
+    return max(status, 1) if unwritten else status
+
+
+def write_outputs(writers: dict[Path, Callable[[Path], Any]]) -> list[Path]:
+    """
+    Write each file with its writer, on to the next when one fails; return the unwritten.
+
+    Each failure is printed on stderr in one line naming the file: a batch's other outputs
+    never depend on one of them.
+    """
+    unwritten = []
+    for path, write in writers.items():
+        try:
+            write(path)
+        except Exception as error:  # noqa: B902 whatever it was, the other files are written
+            unwritten.append(path)
+            why = error.strerror if isinstance(error, OSError) and error.strerror else error
+            print(f'error: cannot write {printable(os.fspath(path))}: {printable(str(why))}',
+                  file=sys.stderr)
+    return unwritten
 
 
 if __name__ == '__main__':

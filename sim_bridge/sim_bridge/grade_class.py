@@ -4,20 +4,28 @@ Grade a whole class: every student's node files on every scenario, one table for
 ``python -m sim_bridge.grade SCENARIO... --submissions DIR`` grades each folder of DIR as a
 student's submission. A scenario's node (``wall_follow``) is replaced by the student's file of
 the same name (``DIR/<student>/wall_follow.py``); a student without that file fails the
-scenario's runs as "not submitted". Outputs below ``--out``: ``<student>/`` with each run's
-outputs, ``report.json`` and ``report.html``; ``class.csv`` (a row per student, a column per
-scenario: passed runs of total, then the total) and ``index.html``, the class's page.
+scenario's runs as "not submitted". Any folder name the file system allows is a student's
+name (``col:on``, ``index.html``, bytes that are not UTF-8). Outputs below ``--out``:
+``class.csv`` (a row per student, a column per scenario: passed runs of total and why the
+others failed, then the total) and ``index.html``, the class's page; ``students/<student>/``
+with each run's outputs, ``report.json`` and ``report.html``.
 """
 
 import csv
+import os
 from pathlib import Path
 
 from sim_bridge import html_report
-from sim_bridge.grade import GradeJob, PAGE_NAME, REPORT_NAME, RunReport, write_report
+from sim_bridge.grade import (
+    GradeJob, PAGE_NAME, REPORT_NAME, reuse_notes, RunReport, write_outputs, write_report)
+from sim_bridge.report_text import count_cell, OUTCOME_LEGEND, PathNames, printable
 from sim_bridge.scenario import Scenario, target_name
 
 CSV_NAME = 'class.csv'
 INDEX_NAME = 'index.html'
+#: The folder of ``--out`` holding a folder per student: no student's name can collide with
+#: the class's own outputs.
+STUDENTS_DIR = 'students'
 
 
 class ClassBatch:
@@ -37,15 +45,18 @@ class ClassBatch:
         self.student_of: dict[str, str] = {}
         self.missing: list[tuple[str, RunReport]] = []
         for student in self.students:
+            source = self.source_folder(submissions / student)
             for scenario in scenarios:
-                files = {target_name(node): (submissions / student / f'{target_name(node)}.py')
+                files = {target_name(node): source / f'{target_name(node)}.py'
                          for node in scenario.nodes}
                 absent = [path.name for path in files.values() if not path.is_file()]
                 graded = scenario
                 for name, path in files.items():
-                    graded = graded.with_node_override(f'{name}={path.resolve()}')
+                    # An existing file is taken as a file whatever its path holds (targets).
+                    graded = graded.with_node_override(f'{name}={os.path.abspath(path)}')
                 for run in graded.runs():
-                    job = GradeJob(run, out / student / run.name, f'{student}/{run.name}')
+                    job = GradeJob(run, self.folder(student) / run.name,
+                                   f'{student}/{run.name}')
                     if absent:
                         self.missing.append((student, RunReport(
                             run, job.out_dir, [], None,
@@ -53,6 +64,27 @@ class ClassBatch:
                     else:
                         self.jobs.append(job)
                         self.student_of[str(job.out_dir)] = student
+
+    def source_folder(self, folder: Path) -> Path:
+        """
+        Return the folder to run a student's files from: ``folder``, or a link to it.
+
+        rclpy's logging refuses a source file path that is not UTF-8 (a folder unzipped from
+        a Windows export): such a folder is run through a link in ``students/.sources/``,
+        named as the reports show it (hidden: no student's folder).
+        """
+        if printable(folder.name) == folder.name:
+            return folder.resolve()
+        link = self.out / STUDENTS_DIR / '.sources' / printable(folder.name)
+        link.parent.mkdir(parents=True, exist_ok=True)
+        if link.is_symlink():
+            link.unlink()
+        link.symlink_to(folder.resolve(), target_is_directory=True)
+        return Path(os.path.abspath(link))
+
+    def folder(self, student: str) -> Path:
+        """Return the output folder of ``student``."""
+        return self.out / STUDENTS_DIR / student
 
     def by_student(self, reports: list[RunReport]) -> dict[str, list[RunReport]]:
         """Return each student's reports (of :attr:`jobs`, plus the missing), scenario order."""
@@ -66,37 +98,67 @@ class ClassBatch:
             runs.sort(key=lambda report: (order[report.run.scenario.name], report.run.seed))
         return students
 
-    def table(self, reports: list[RunReport]) -> list[list[str]]:
-        """Return the class table: a header, then per student 'passed/total' per scenario."""
+    def table(self, entries: dict[str, list[dict]]) -> list[list[str]]:
+        """
+        Return the class table: a header, then per student a cell per scenario and a total.
+
+        ``entries`` are each student's run entries (``RunReport.as_dict``). A cell is
+        'passed/total' runs, followed by the worst reason of a failed one: ``0/3 not
+        submitted`` (see :data:`OUTCOME_LEGEND`).
+        """
         rows = [['student', *(scenario.name for scenario in self.scenarios), 'total']]
-        for student, runs in self.by_student(reports).items():
-            cells = []
-            for scenario in self.scenarios:
-                mine = [report for report in runs if report.run.scenario.name == scenario.name]
-                cells.append(f'{sum(report.passed for report in mine)}/{len(mine)}')
-            rows.append([student, *cells, f'{sum(r.passed for r in runs)}/{len(runs)}'])
+        for student, runs in entries.items():
+            cells = [' '.join(filter(None, count_cell(
+                [run for run in runs if run['scenario'] == scenario.name])))
+                for scenario in self.scenarios]
+            rows.append([printable(student), *cells, ' '.join(filter(None, count_cell(runs)))])
         return rows
 
-    def write_outputs(self, reports: list[RunReport]) -> str:
-        """Write every student's report and page, class.csv and index.html; return the table."""
+    def write_outputs(self, reports: list[RunReport],
+                      names: PathNames | None = None) -> tuple[str, list[Path]]:
+        """
+        Write every student's report and page, class.csv and index.html.
+
+        Each file is written on its own: one that cannot be written (named on stderr) stops
+        no other. Return the table with where the outputs are, and the files not written.
+        """
         students = self.by_student(reports)
+        entries = {student: [report.as_dict(names) for report in runs]
+                   for student, runs in students.items()}
         index = self.out / INDEX_NAME
-        pages = {}
+        pages = {student: self.folder(student) / PAGE_NAME for student in students}
+        notes = reuse_notes(reports, self.out / STUDENTS_DIR)
+        writers = {}
         for student, runs in students.items():
-            folder = self.out / student
-            write_report(runs, folder / REPORT_NAME)
-            pages[student] = html_report.write_runs_page(
-                folder / PAGE_NAME, f'Grading report: {student}',
-                [report.as_dict() for report in runs], up=index)
-        rows = self.table(reports)
-        with open(self.out / CSV_NAME, 'w', newline='', encoding='utf-8') as file:
-            csv.writer(file).writerows(rows)
-        html_report.write_class_index(
-            index, 'Class grading report',
-            {student: [report.as_dict() for report in runs] for student, runs in students.items()},
-            [scenario.name for scenario in self.scenarios], pages)
-        return format_rows(rows) + (f'\nclass: {self.out / CSV_NAME} and {index}; '
-                                    f'each student: {self.out}/<student>/{PAGE_NAME}')
+            writers[self.folder(student) / REPORT_NAME] = (
+                lambda path, runs=runs: write_report(runs, path, names=names, notes=notes))
+            writers[pages[student]] = (
+                lambda path, student=student: html_report.write_runs_page(
+                    path, f'Grading report: {student}', entries[student], up=index,
+                    root=self.out, notes=notes))
+        rows = self.table(entries)
+        writers[self.out / CSV_NAME] = lambda path: write_csv(path, rows)
+        writers[index] = lambda path: html_report.write_class_index(
+            path, 'Class grading report', entries,
+            [scenario.name for scenario in self.scenarios],
+            {student: page for student, page in pages.items() if page.is_file()})
+        unwritten = write_outputs(writers)
+        legend = [f'  {name}: {text}' for name, text in OUTCOME_LEGEND.items()]
+        lines = [format_rows(rows), *legend, *(f'note: {note}' for note in notes),
+                 f'class: {printable(os.fspath(self.out / CSV_NAME))} and '
+                 f'{printable(os.fspath(index))}; each student: '
+                 f'{printable(os.fspath(self.out / STUDENTS_DIR))}/<student>/{PAGE_NAME}']
+        if unwritten:
+            lines.append(f'{len(unwritten)} files not written (see above): '
+                         + ', '.join(printable(os.fspath(path)) for path in unwritten))
+        return '\n'.join(lines), unwritten
+
+
+def write_csv(path: Path, rows: list[list[str]]) -> None:
+    """Write ``rows`` as a CSV file (UTF-8)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, 'w', newline='', encoding='utf-8') as file:
+        csv.writer(file).writerows(rows)
 
 
 def format_rows(rows: list[list[str]]) -> str:

@@ -1,4 +1,4 @@
-"""
+r"""
 Static HTML pages of grading results: a page of runs, and a class index of students.
 
 The pages are opened from the disk in a browser: no network, no JavaScript. Every link and
@@ -6,8 +6,9 @@ image is relative to the page's folder and names a file that exists when the pag
 (except ``up``, the index a caller writes after its pages), so the whole output folder can be
 moved or zipped. Run entries are the dicts of ``RunReport.as_dict()`` (:mod:`sim_bridge.grade`)
 with an optional ``'log'`` key (path of the run's captured output); paths in a run that are
-not absolute are relative to the current directory, as the grader writes them. Names, errors and
-tracebacks are untrusted text and are always escaped.
+not absolute are relative to the ``root`` a page is given (default: the current directory).
+Names, errors and tracebacks are untrusted text: always escaped, and a text that is not valid
+UTF-8 (a lone surrogate) shows its bytes as ``\xNN``.
 """
 
 from html import escape
@@ -16,7 +17,10 @@ import json
 import os
 from pathlib import Path
 from typing import Any
-from urllib.parse import quote, unquote, urlsplit
+from urllib.parse import quote, unquote_to_bytes, urlsplit
+
+from sim_bridge.report_text import (
+    count_cell, format_measured, outcome, OUTCOME_LEGEND, printable)
 
 STYLE = """
 body { font-family: sans-serif; margin: 2em; max-width: 70em; }
@@ -25,8 +29,10 @@ th, td { border: 1px solid #bbb; padding: 0.25em 0.6em; text-align: left; }
 th { background: #eee; }
 .pass { background: #d7f5d7; color: #145214; }
 .fail { background: #f9d6d5; color: #8a1212; }
-.some { background: #fde9c4; color: #7a4a00; }
-pre { background: #f4f4f4; padding: 0.6em; overflow-x: auto; }
+.some, .warn { background: #fde9c4; color: #7a4a00; }
+td, p, li { overflow-wrap: anywhere; }
+pre { background: #f4f4f4; padding: 0.6em; white-space: pre-wrap; overflow-wrap: anywhere; }
+.why { display: block; font-size: 85%; }
 img { max-width: min(100%, 48em); border: 1px solid #ccc; }
 """
 
@@ -40,7 +46,8 @@ def _link(target: str | os.PathLike | None, folder: Path, text: str) -> str:
 
 def _href(target: str | os.PathLike, folder: Path) -> str:
     """Return the URL of ``target`` relative to ``folder`` (a folder's ends in /), escaped."""
-    url = quote(Path(os.path.relpath(target, folder)).as_posix())
+    # Bytes: a file name that is not UTF-8 is linked by its bytes, as the file system has it.
+    url = quote(os.fsencode(Path(os.path.relpath(target, folder)).as_posix()))
     return escape(url + '/' if os.path.isdir(target) else url)
 
 
@@ -59,10 +66,11 @@ def _page(path: Path, title: str, body: list[str], up: Path | None = None) -> Pa
     """Write an HTML page at ``path`` (making its folder) and return ``path``."""
     path.parent.mkdir(parents=True, exist_ok=True)
     back = [f'<p><a href="{_href(up, path.parent)}">&larr; index</a></p>'] if up else []
-    path.write_text('\n'.join([
+    path.write_text(printable('\n'.join([
         '<!DOCTYPE html>', '<html lang="en">', '<head>', '<meta charset="utf-8">',
         f'<title>{escape(title)}</title>', f'<style>{STYLE}</style>', '</head>', '<body>',
-        *back, f'<h1>{escape(title)}</h1>', *body, '</body>', '</html>', '']), encoding='utf-8')
+        *back, f'<h1>{escape(title)}</h1>', *body, '</body>', '</html>', ''])),
+        encoding='utf-8')
     return path
 
 
@@ -72,33 +80,43 @@ def _table(header: list[str], rows: list[str]) -> str:
 
 
 def _run_rows(index: int, run: dict[str, Any]) -> list[str]:
-    """Return the table rows of one run: its error, node errors and criteria, as grade prints."""
+    """
+    Return the table rows of one run, as grade prints them.
+
+    Its error, node errors, warnings (which fail nothing) and criteria with measured values.
+    """
+    metrics = run['metrics'] or {}
     cells = []
     if run['error'] is not None:
-        cells.append((f"error: {run['error']}", '', False))
-    for node_error in (run['metrics'] or {}).get('node_errors', []):
-        cells.append((f"node error: {node_error['node']}: {node_error['error']}", '', False))
-    cells += [(result['criterion'], result['shown'], result['passed'])
-              for result in run['criteria']]
+        cells.append((f"error: {run['error']}", '', 'fail'))
+    for node_error in metrics.get('node_errors', []):
+        cells.append((f"node error: {node_error['node']}: {node_error['error']}", '', 'fail'))
+    cells += [(f'warning: {warning}', '', 'warn') for warning in metrics.get('warnings') or []]
+    cells += [(result['criterion'], format_measured(result['criterion'], result['value']),
+               'pass' if result['passed'] else 'fail') for result in run['criteria']]
     if not cells:
-        cells.append(('(no criteria)', '', run['passed']))
+        cells.append(('(no criteria)', '', 'pass' if run['passed'] else 'fail'))
     name = f'<a href="#run-{index}">{escape(run["run"])}</a>'
     rows = []
-    for criterion, shown, passed in cells:
+    for criterion, shown, verdict in cells:
         rows.append(f'<tr><td>{name}</td><td>{escape(criterion)}</td><td>{escape(shown)}</td>'
-                    f'<td class="{"pass" if passed else "fail"}">'
-                    f'{"pass" if passed else "FAIL"}</td></tr>')
+                    f'<td class="{verdict}">{"FAIL" if verdict == "fail" else verdict}</td></tr>')
         name = ''
     return rows
 
 
-def _run_section(index: int, run: dict[str, Any], folder: Path) -> str:
+def _run_section(index: int, run: dict[str, Any], folder: Path, root: Path) -> str:
     """Return one run's section: verdict, setup, plot, output links, errors and tracebacks."""
-    out_dir = Path(run['out_dir'])
+    out_dir = root / run['out_dir']
+    metrics = run['metrics'] or {}
+    sim_time = metrics.get('sim_time_s')
     facts = [('scenario', run['scenario']), ('file', run['file']), ('world', run['world']),
              ('nodes', ', '.join(run['nodes'])), ('seed', run['seed']),
-             ('duration', f"{run['duration_s']:g} s"), ('params', run['params']),
-             ('start', run['start']), ('wall time', f"{run['wall_time_s']:.1f} s")]
+             ('duration', f"{run['duration_s']:g} s"
+              + (f' ({sim_time:.3g} s simulated)' if isinstance(sim_time, (int, float)) else '')),
+             ('params', run['params']), ('start', run['start']),
+             ('wall time', f"{run['wall_time_s']:.1f} s"
+              + (' (reused from an earlier invocation)' if run.get('reused') else ''))]
     parts = [f'<section id="run-{index}">',
              f'<h2>{escape(run["run"])}: {_verdict(run["passed"])}</h2>',
              _table([], [f'<tr><th>{escape(key)}</th><td>{_text(value)}</td></tr>'
@@ -110,9 +128,12 @@ def _run_section(index: int, run: dict[str, Any], folder: Path) -> str:
                  '</p>' if plot.is_file() else '<p>no plot</p>')
     links = [_link(out_dir / 'metrics.json', folder, 'metrics.json'),
              _link(out_dir / 'run', folder, 'recording run/'),
-             _link(run.get('log'), folder, 'log')]
+             _link(root / run['log'] if run.get('log') else None, folder, 'log')]
     parts.append(f"<p>outputs: {' | '.join(link for link in links if link) or 'none'}</p>")
-    for node_error in (run['metrics'] or {}).get('node_errors', []):
+    if metrics.get('warnings'):
+        parts.append('<h3>warnings</h3>\n<ul class="warn">' + ''.join(
+            f'<li>{escape(warning)}</li>' for warning in metrics['warnings']) + '</ul>')
+    for node_error in metrics.get('node_errors', []):
         parts.append(f'<h3>node error in {escape(node_error["node"])}</h3>'
                      f'<pre>{escape(node_error["error"])}</pre>')
         if node_error.get('traceback'):
@@ -122,30 +143,36 @@ def _run_section(index: int, run: dict[str, Any], folder: Path) -> str:
     return '\n'.join([*parts, '</section>'])
 
 
-def write_runs_page(path: Path, title: str, runs: list[dict], *, up: Path | None = None) -> Path:
+def write_runs_page(path: Path, title: str, runs: list[dict], *, up: Path | None = None,
+                    root: Path | None = None, notes: list[str] = ()) -> Path:
     """
     Write one page of runs (a student's report, or one grading batch) and return its path.
 
-    The page holds a summary line, the pass/fail table (a row per criterion of each run, the
-    error of a run that did not complete) and a section per run with its plot and outputs.
-    ``up`` is the index page to link back to; it is linked even if not written yet.
+    The page holds a summary line, ``notes`` (e.g. runs reused from an earlier invocation), the
+    pass/fail table (a row per criterion of each run, the error of a run that did not complete)
+    and a section per run with its plot and outputs. ``up`` is the index page to link back to;
+    it is linked even if not written yet. Relative paths in ``runs`` are relative to ``root``.
     """
     folder = path.parent
+    root = Path(root) if root is not None else Path()
     passed = sum(bool(run['passed']) for run in runs)
     rows = [row for index, run in enumerate(runs) for row in _run_rows(index, run)]
     body = [f'<p>{passed} of {len(runs)} runs passed</p>',
+            *(f'<p class="warn">{escape(note)}</p>' for note in notes),
             _table(['run', 'criterion', 'measured', 'result'], rows),
-            *(_run_section(index, run, folder) for index, run in enumerate(runs))]
+            *(_run_section(index, run, folder, root) for index, run in enumerate(runs))]
     return _page(path, title, body, up)
 
 
 def _count_cell(runs: list[dict]) -> str:
-    """Return a cell 'passed/total': green if all passed, amber if some, red if none."""
+    """Return a cell 'passed/total' and why the others failed; green, amber if some, red."""
+    count, why = count_cell(runs)
     if not runs:
         return '<td>&mdash;</td>'
-    passed = sum(bool(run['passed']) for run in runs)
+    passed = sum(outcome(run) == 'passed' for run in runs)
     colour = 'pass' if passed == len(runs) else 'some' if passed else 'fail'
-    return f'<td class="{colour}">{passed}/{len(runs)}</td>'
+    reason = f'<span class="why">{escape(why)}</span>' if why else ''
+    return f'<td class="{colour}">{count}{reason}</td>'
 
 
 def write_class_index(path: Path, title: str, students: dict[str, list[dict]],
@@ -153,8 +180,9 @@ def write_class_index(path: Path, title: str, students: dict[str, list[dict]],
     """
     Write the class index and return its path.
 
-    One row per student (sorted by name) with 'passed/total' runs per scenario and in all;
-    a student's name links to ``pages[student]`` when that page exists.
+    One row per student (sorted by name) with 'passed/total' runs per scenario and in all,
+    and the worst reason a run failed (see :data:`OUTCOME_LEGEND`, under the table); a
+    student's name links to ``pages[student]`` when that page exists.
     """
     rows = []
     for student in sorted(students, key=lambda name: (name.casefold(), name)):
@@ -167,7 +195,9 @@ def write_class_index(path: Path, title: str, students: dict[str, list[dict]],
     passed = sum(bool(run['passed']) for runs in students.values() for run in runs)
     rate = f', {passed} passed ({100.0 * passed / total:.0f} %)' if total else ''
     body = [f'<p>{len(students)} students, {total} runs{rate}</p>',
-            _table(['student', *scenarios, 'total'], rows)]
+            _table(['student', *scenarios, 'total'], rows),
+            '<p>' + '<br>\n'.join(f'<b>{escape(name)}</b>: {escape(text)}'
+                                  for name, text in OUTCOME_LEGEND.items()) + '</p>']
     return _page(path, title, body)
 
 
@@ -198,5 +228,5 @@ def linked_files(page: Path) -> list[Path]:
         if parts.scheme or parts.netloc or parts.path.startswith('/'):
             raise ValueError(f'{page}: link {url!r} is not relative to the page')
         if parts.path:
-            files.append(page.parent / unquote(parts.path))
+            files.append(page.parent / os.fsdecode(unquote_to_bytes(parts.path)))
     return files

@@ -31,6 +31,7 @@ from sim_bridge.metrics import compute_metrics
 from sim_bridge.paths import find_world
 from sim_bridge.plot import plot_trajectory, SCANS_DRAWN
 from sim_bridge.record import BagRecorder, DEFAULT_TOPICS, message_type_name
+from sim_bridge.report_text import json_safe
 from sim_bridge.run_environment import (
     FIELD_CHECK_HINT, is_field_check_failure, run_environment)
 from sim_bridge.run_trace import CollisionEvent, ScanSnapshot, Trace
@@ -522,9 +523,10 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
             # Ctrl-C outside the nodes' code: the outputs are written, then it goes on.
         except NodeError as error:
             if not interrupt.pressed:  # a Ctrl-C while a callback ran is the user's
-                node_errors.append({'node': error.node_name, 'error': node_failure(error),
-                                    'traceback': ''.join(traceback.format_exception(
-                                        error.original))})
+                node_errors.append(json_safe({'node': error.node_name,
+                                              'error': node_failure(error),
+                                              'traceback': ''.join(traceback.format_exception(
+                                                  error.original))}))
             if not quiet and not interrupt.pressed:
                 # What the node's own process would print before dying.
                 traceback.print_exception(error.original, file=sys.stderr)

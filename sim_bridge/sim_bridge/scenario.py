@@ -48,6 +48,7 @@ import re
 from typing import Any, Callable
 
 from sim_bridge.metrics import METRIC_KINDS
+from sim_bridge.targets import split_target
 import yaml
 
 SCENARIO_SUFFIX = '.yaml'
@@ -261,7 +262,7 @@ class Scenario:
 
 def target_name(target: str) -> str:
     """Return the name a TARGET goes by: its console script, last module part or file stem."""
-    where = target.partition(':')[0]
+    where = split_target(target)[0]
     if where.endswith('.py') or '/' in where:
         return Path(where).stem
     return where.rpartition('.')[2]

@@ -22,7 +22,17 @@ class TargetError(LookupError):
     """A TARGET that names no loadable module or no rclpy Node subclass in it."""
 
 
-def _split(target: str) -> tuple[str, str | None]:
+def split_target(target: str) -> tuple[str, str | None]:
+    """
+    Return a TARGET's module or file and its ``:ClassName`` (or None).
+
+    A file that exists is a file, whatever its path holds: ``class/col:on/wall_follow.py``.
+    """
+    if Path(target).is_file():
+        return target, None
+    where, colon, class_name = target.rpartition(':')
+    if colon and Path(where).is_file():
+        return where, class_name or None
     where, _, class_name = target.partition(':')
     return where, class_name or None
 
@@ -82,7 +92,7 @@ def node_classes(module: ModuleType, node_base: type) -> dict[str, type]:
 
 def load_node_class(target: str, node_base: type) -> type:
     """Return the Node subclass TARGET names; ``node_base`` is the runtime's rclpy Node."""
-    where, class_name = _split(target)
+    where, class_name = split_target(target)
     try:
         module = load_module(where)
     except TargetError:

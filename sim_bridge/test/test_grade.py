@@ -15,6 +15,7 @@ import pytest
 from sim_bridge import grade, paths
 from sim_bridge.grade import (BatchProgress, format_duration, format_table, GradeJob, main,
                               run_scenario, summary, write_report)
+from sim_bridge.report_text import TEXT_LIMIT_BYTES
 from sim_bridge.scenario import scenario_from_dict
 
 SCENARIO = {
@@ -33,7 +34,7 @@ def fake_simulate(world, targets, **options):
     seed = options['seed']
     if options['progress']:
         options['progress'](15.0, options['duration_s'])
-    return SimpleNamespace(metrics={'laps': 0 if seed == 3 else 1,
+    return SimpleNamespace(metrics={'laps': 0 if seed == 3 else 1, 'sim_time_s': 30.0,
                                     'collisions': 1 if seed == 2 else 0, 'node_errors': []})
 
 
@@ -94,7 +95,8 @@ def test_progress_prints_a_line_per_run_outside_a_terminal(tmp_path, runs):
         progress.finish(report.run.name, report)
     lines = stream.getvalue().splitlines()
     assert [line.split(' (')[0] for line in lines] == [
-        '[1/3] PASS box_ccw/seed_1', '[2/3] FAIL box_ccw/seed_2', '[3/3] FAIL box_ccw/seed_3']
+        '[1/3] PASS box_ccw/seed_1', '[2/3] FAIL box_ccw/seed_2: collisions == 0',
+        '[3/3] FAIL box_ccw/seed_3: laps >= 1']
     assert lines[0].endswith(' s left') and lines[1].endswith(' s left')
     assert not lines[2].endswith('left')
     assert '\r' not in stream.getvalue()
@@ -126,7 +128,7 @@ def test_progress_redraws_one_bar_with_the_time_left_on_a_terminal(tmp_path, run
         '0/3 runs, 17% of the simulated time, about 50 s left (running: box_ccw/seed_1)')
     clock.now = 20.0
     progress.finish(first.run.name, first)              # 30 s in 20 s: 60 s left take 40 s
-    assert '[1/3] PASS box_ccw/seed_1 (30 s sim in ' in stream.getvalue()
+    assert '[1/3] PASS box_ccw/seed_1 (30 of 30 s sim in ' in stream.getvalue()
     assert stream.getvalue().endswith('1/3 runs, 33% of the simulated time, about 40 s left')
     assert '\r\033[K[########................] ' in stream.getvalue()
 
@@ -180,7 +182,7 @@ def test_report_is_json_with_every_run_and_the_verdict(tmp_path, runs):
     write_report(reports, tmp_path / 'report.json', overrides=['ana.py'])
     document = json.loads((tmp_path / 'report.json').read_text())
     assert document['passed'] is False
-    assert document['summary'] == {'runs': 2, 'passed': 1, 'failed': 1}
+    assert document['summary'] == {'runs': 2, 'passed': 1, 'failed': 1, 'reused': 0}
     assert document['node_overrides'] == ['ana.py']
     second = document['runs'][1]
     assert (second['run'], second['seed'], second['passed']) == ('box_ccw/seed_2', 2, False)
@@ -260,3 +262,133 @@ def test_a_run_is_resumed_only_while_its_world_and_models_are_unchanged(tmp_path
     assert digest() == found
     (post / 'model.sdf').write_text(shipped_post.read_text().replace('0.1', '0.2'))
     assert digest() not in (found, missing_model)
+
+
+def test_a_run_that_never_started_says_why_and_that_it_simulated_nothing(tmp_path, runs):
+    stream = io.StringIO()
+    progress = BatchProgress(1, 30.0, stream)
+    report = run_scenario(runs[0], tmp_path, simulate=broken_simulate)
+    progress.finish('ana/box_ccw/seed_1', report)
+    assert stream.getvalue().startswith(
+        "[1/1] FAIL ana/box_ccw/seed_1: LookupError: unknown world 'nowhere' "
+        '(0 of 30 s sim in ')
+
+
+def test_measured_values_read_with_their_units(tmp_path, runs):
+    def simulate_close_call(world, targets, **options):
+        return SimpleNamespace(metrics={'laps': 1, 'collisions': 0, 'node_errors': [],
+                                        'min_clearance_m': 2.873e-09})
+
+    scenario = scenario_from_dict({**SCENARIO, 'criteria': ['min_clearance_m >= 0.05']}, 'c')
+    report = run_scenario(scenario.runs()[0], tmp_path, simulate=simulate_close_call)
+    assert format_table([report]).splitlines()[2].split() == [
+        'c/seed_1', 'min_clearance_m', '>=', '0.05', '0.000', 'm', 'FAIL']
+
+
+def test_warnings_are_shown_and_fail_nothing(tmp_path, runs):
+    warning = "node 'wall_follow' was given parameters it does not declare: speed"
+
+    def simulate_with_a_warning(world, targets, **options):
+        return SimpleNamespace(metrics={'laps': 1, 'collisions': 0, 'node_errors': [],
+                                        'warnings': [warning]})
+
+    report = run_scenario(runs[0], tmp_path, simulate=simulate_with_a_warning)
+    assert report.passed
+    lines = format_table([report]).splitlines()
+    assert lines[2].split() == ['box_ccw/seed_1', 'warning:', *warning.split(), 'warn']
+    write_report([report], tmp_path / 'report.json')
+    [run] = json.loads((tmp_path / 'report.json').read_text())['runs']
+    assert run['metrics']['warnings'] == [warning]
+
+
+@pytest.mark.parametrize('params, start, shown', [
+    ({'wall_follow': {'gain': float('inf')}}, None, [{'wall_follow': {'gain': 'inf'}}, None]),
+    ({'wall_follow': {'gain': float('nan')}}, None, [{'wall_follow': {'gain': 'nan'}}, None]),
+    ({}, [0.0, float('-inf'), 0.0], [{}, [0.0, '-inf', 0.0]]),
+])
+def test_a_scenario_with_inf_or_nan_is_saved_and_reported(tmp_path, params, start, shown):
+    scenario = scenario_from_dict({**SCENARIO, 'params': params, 'start': start}, 'odd')
+    job = GradeJob(scenario.runs()[0], tmp_path / 'run')
+    job.out_dir.mkdir()
+    report = run_scenario(job.run, job.out_dir, simulate=fake_simulate)
+    grade.save_result(report, 'digest')
+    assert grade.finished_report(job, 'digest').passed
+    write_report([report], tmp_path / 'report.json')
+    entry = json.loads((tmp_path / 'report.json').read_text())['runs'][0]
+    assert [entry['params'], entry['start']] == shown
+
+
+@pytest.mark.parametrize('saved, says', [
+    ('[1, 2]', 'not a run result (expected a mapping, got list)'),
+    ('{"fingerprint": "digest", "report": []}',
+     'not a run result (expected a mapping, got list)'),
+    ('{"fingerprint": "digest"}', 'not a run result (expected a mapping, got NoneType)'),
+    ('{"fingerprint": "digest", "report": {"criteria": {}, "metrics": null, "error": null, '
+     '"traceback": null, "wall_time_s": 1}}', "not a run result ('criteria' is dict)"),
+    ('{"fingerprint": "digest", "report": {"criteria": [{"criterion": 1}], "metrics": null, '
+     '"error": null, "traceback": null, "wall_time_s": 1}}',
+     'criteria[0] is not a judged criterion'),
+    ('{"fingerprint": "digest", "report": {"criteria": [], "metrics": {"node_errors": [1]}, '
+     '"error": null, "traceback": null, "wall_time_s": 1}}',
+     "metrics 'node_errors'[0] is not a node error"),
+    ('{"fingerprint": "dig', 'does not read as JSON'),
+])
+def test_a_result_file_of_the_wrong_shape_is_run_again_naming_the_file(
+        tmp_path, runs, saved, says):
+    job = GradeJob(runs[0], tmp_path / 'run')
+    job.out_dir.mkdir()
+    (job.out_dir / grade.RESULT_NAME).write_text(saved)
+    notes = []
+    assert grade.finished_report(job, 'digest', notes.append) is None
+    [note] = notes
+    assert note.startswith(f'running box_ccw/seed_1 again: {job.out_dir / grade.RESULT_NAME} ')
+    assert says in note
+
+
+def test_texts_in_a_report_are_cut_to_a_stated_size(tmp_path, runs):
+    huge = 'x' * 50_000_000
+
+    def simulate_huge_node_error(world, targets, **options):
+        return SimpleNamespace(metrics={'laps': 1, 'collisions': 0, 'node_errors': [
+            {'node': 'n', 'error': huge, 'traceback': huge}]})
+
+    report = run_scenario(runs[0], tmp_path, simulate=simulate_huge_node_error)
+    report.traceback = huge
+    entry = report.as_dict()
+    assert len(json.dumps(entry)) < 4 * TEXT_LIMIT_BYTES
+    cut = f'\n... {50_000_000 - TEXT_LIMIT_BYTES} bytes cut ...\n'
+    assert cut in entry['traceback'] and cut in entry['metrics']['node_errors'][0]['error']
+    assert cut in entry['metrics']['node_errors'][0]['traceback']
+
+
+def test_main_says_which_runs_were_reused_and_which_results_are_not_in_the_batch(
+        tmp_path, monkeypatch, capsys):
+    def grade_reusing(jobs, **options):
+        reports = grade_in_process(jobs)
+        reports[0].reused = True
+        return reports
+
+    monkeypatch.setattr(grade, 'grade_runs', grade_reusing)
+    out = tmp_path / 'out'
+    (out / 'other' / 'seed_1').mkdir(parents=True)
+    (out / 'other' / 'seed_1' / grade.RESULT_NAME).write_text('{}')
+    main([str(scenario_file(tmp_path)), '--out', str(out), '--quiet'])
+    stdout = capsys.readouterr().out
+    reused = '1 of 3 runs reused from an earlier invocation'
+    stray = 'this folder also holds the results of 1 runs not in this batch (other/seed_1)'
+    assert reused in stdout and stray in stdout
+    page = (out / grade.PAGE_NAME).read_text()
+    assert reused in page and stray in page
+    assert json.loads((out / grade.REPORT_NAME).read_text())['summary']['reused'] == 1
+
+
+def test_main_writes_the_page_when_the_json_report_cannot_be_written(
+        tmp_path, monkeypatch, capsys):
+    monkeypatch.setattr(grade, 'grade_runs', grade_in_process)
+    out = tmp_path / 'out'
+    (out / grade.REPORT_NAME).mkdir(parents=True)  # in the way of the report
+    assert main([str(scenario_file(tmp_path)), '--out', str(out), '--quiet']) == 1
+    captured = capsys.readouterr()
+    assert f'error: cannot write {out / grade.REPORT_NAME}: Is a directory' in captured.err
+    assert (out / grade.PAGE_NAME).stat().st_size > 0
+    assert f'report: {out / grade.PAGE_NAME}' in captured.out

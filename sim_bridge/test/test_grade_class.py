@@ -12,14 +12,18 @@ import contextlib
 import csv
 import io
 import json
+import os
 from pathlib import Path
+import re
+import shutil
 
 import pytest
 
 from sim_bridge import grade
 from sim_bridge.demo import CLASS, CLASS_SCENARIOS, make_class
-from sim_bridge.grade_class import ClassBatch, CSV_NAME, INDEX_NAME
+from sim_bridge.grade_class import ClassBatch, CSV_NAME, INDEX_NAME, STUDENTS_DIR
 from sim_bridge.html_report import linked_files
+from sim_bridge.report_text import TEXT_LIMIT_BYTES
 from sim_bridge.scenario import load_scenarios
 
 WORKSPACE = Path(__file__).resolve().parents[2]
@@ -27,9 +31,9 @@ SCENARIOS = [WORKSPACE / 'test' / 'scenarios' / name for name in CLASS_SCENARIOS
 EXPECTED_TABLE = [
     ['student', 'scan_ahead', 'wall_follow_box_cw', 'total'],
     ['ana', '1/1', '3/3', '4/4'],
-    ['ben', '1/1', '0/3', '1/4'],
-    ['cleo', '0/1', '0/3', '0/4'],
-    ['dev', '0/1', '0/3', '0/4'],
+    ['ben', '1/1', '0/3 criteria failed', '1/4 criteria failed'],
+    ['cleo', '0/1 node error', '0/3 not submitted', '0/4 not submitted'],
+    ['dev', '0/1 node error', '0/3 error', '0/4 error'],
 ]
 
 
@@ -58,7 +62,7 @@ def test_the_class_table_is_printed_and_written_as_csv(graded):
 
 def test_each_student_has_a_report_with_the_reasons(graded):
     out, _, _ = graded
-    reports = {student: json.loads((out / student / grade.REPORT_NAME).read_text())
+    reports = {student: json.loads((out / STUDENTS_DIR / student / grade.REPORT_NAME).read_text())
                for student in CLASS}
     assert [run['run'] for run in reports['ana']['runs']] == [
         'scan_ahead/seed_1', *(f'wall_follow_box_cw/seed_{seed}' for seed in (1, 2, 3))]
@@ -77,11 +81,12 @@ def test_each_student_has_a_report_with_the_reasons(graded):
 
 def test_the_pages_link_only_files_that_exist(graded):
     out, _, _ = graded
-    pages = [out / INDEX_NAME, *(out / student / grade.PAGE_NAME for student in CLASS)]
+    pages = [out / INDEX_NAME, *(out / STUDENTS_DIR / student / grade.PAGE_NAME
+                                 for student in CLASS)]
     links = [link for page in pages for link in linked_files(page)]
     assert [link for link in links if not link.exists()] == []
     assert sum(link.name == 'trajectory.png' for link in links) >= 6
-    assert {out / student / grade.PAGE_NAME for student in CLASS} <= set(links)
+    assert {out / STUDENTS_DIR / student / grade.PAGE_NAME for student in CLASS} <= set(links)
 
 
 def test_each_job_is_named_after_its_student_and_a_missing_file_is_not_run(tmp_path):
@@ -93,6 +98,102 @@ def test_each_job_is_named_after_its_student_and_a_missing_file_is_not_run(tmp_p
         f'wall_follow_box_cw/seed_{seed}' for seed in (1, 2, 3)]
     assert {student for student, _ in batch.missing} == {'cleo'}
     ana = [job for job in batch.jobs if job.name.startswith('ana/')]
-    assert [job.out_dir for job in ana] == [tmp_path / 'out' / 'ana' / job.run.name for job in ana]
+    assert [job.out_dir for job in ana] == [
+        tmp_path / 'out' / STUDENTS_DIR / 'ana' / job.run.name for job in ana]
     assert all(node.endswith('/ana/wall_follow.py') or node.endswith('/ana/scan_ahead.py')
                for job in ana for node in job.run.scenario.nodes)
+
+
+FIXTURES = Path(__file__).resolve().parent / 'fixtures'
+SCAN_AHEAD = WORKSPACE / 'scan_pkg' / 'scan_pkg' / 'scan_ahead.py'
+#: Folder names the file system allows: not UTF-8 (a Windows zip), the class's own outputs'
+#: names, the TARGET syntax's ':'.
+AWKWARD_NAMES = [os.fsdecode(b'Jos\xe9'), 'index.html', 'class.csv', 'col:on']
+
+
+@pytest.fixture(scope='module')
+def awkward(tmp_path_factory):
+    """
+    Grade a class of awkward folders and errors twice (the second resumes).
+
+    Return (class root, out folder, [(status, stdout, stderr) of each invocation]).
+    """
+    root = tmp_path_factory.mktemp('awkward')
+    submissions = root / 'submissions'
+    for name in AWKWARD_NAMES:
+        (submissions / name).mkdir(parents=True)
+        shutil.copyfile(SCAN_AHEAD, submissions / name / 'scan_ahead.py')
+    for name, node in (('zoe', 'surrogate_error_node.py'), ('max', 'huge_error_node.py')):
+        (submissions / name).mkdir()
+        shutil.copyfile(FIXTURES / node, submissions / name / 'scan_ahead.py')
+    scenario = root / 'scan_ahead.yaml'
+    scenario.write_text('world: obstacles\nnodes: [scan_ahead]\nduration: 1.0\nseed: 1\n'
+                        'criteria: [len(node_errors) == 0]\n')
+    out = root / 'out'
+    outputs = []
+    for _ in range(2):
+        stdout, stderr = io.StringIO(), io.StringIO()
+        with contextlib.redirect_stdout(stdout), contextlib.redirect_stderr(stderr):
+            status = grade.main([str(scenario), '--submissions', str(submissions),
+                                 '--out', str(out), '--jobs', '2', '--no-record', '--no-plot'])
+        outputs.append((status, stdout.getvalue(), stderr.getvalue()))
+    return root, out, outputs
+
+
+def test_awkward_folder_names_are_graded_under_their_names(awkward):
+    root, out, outputs = awkward
+    with open(out / CSV_NAME, newline='', encoding='utf-8') as file:
+        rows = {row[0]: row[1:] for row in csv.reader(file)}
+    for name in ('Jos\\xe9', 'index.html', 'class.csv', 'col:on'):
+        assert rows[name] == ['1/1', '1/1'], name
+    assert rows['zoe'] == rows['max'] == ['0/1 node error'] * 2
+    links = linked_files(out / INDEX_NAME)
+    assert len(links) == 6 and all(link.is_file() for link in links)
+    assert out / STUDENTS_DIR / AWKWARD_NAMES[0] / grade.PAGE_NAME in links
+    for status, stdout, stderr in outputs:
+        assert status == 1
+        assert 'Jos\\xe9' in stdout and 'Traceback' not in stderr
+
+
+def test_error_texts_that_are_not_utf8_reach_every_report(awkward):
+    _, out, _ = awkward
+    zoe = out / STUDENTS_DIR / 'zoe'
+    [run] = json.loads((zoe / grade.REPORT_NAME).read_text(encoding='utf-8'))['runs']
+    assert 'cannot open map caf\\xe9.yaml' in run['metrics']['node_errors'][0]['error']
+    assert 'cannot open map caf\\xe9.yaml' in (zoe / grade.PAGE_NAME).read_text(encoding='utf-8')
+    result = json.loads((zoe / 'scan_ahead' / 'seed_1' / grade.RESULT_NAME).read_text())
+    assert 'caf\\xe9' in result['report']['metrics']['node_errors'][0]['error']
+
+
+def test_a_huge_error_is_cut_in_every_output(awkward):
+    _, out, _ = awkward
+    folder = out / STUDENTS_DIR / 'max'
+    files = [folder / grade.REPORT_NAME, folder / grade.PAGE_NAME,
+             folder / 'scan_ahead' / 'seed_1' / grade.RESULT_NAME,
+             folder / 'scan_ahead' / 'seed_1' / 'metrics.json']
+    for path in files:
+        text = path.read_text(encoding='utf-8')
+        assert path.stat().st_size < 8 * TEXT_LIMIT_BYTES, path
+        assert re.search(r'\.\.\. \d+ bytes cut \.\.\.', text), path
+
+
+def test_reports_carry_no_absolute_path_of_the_grader(awkward):
+    root, out, _ = awkward
+    files = [out / INDEX_NAME, out / CSV_NAME, *out.rglob(grade.REPORT_NAME),
+             *out.rglob(grade.PAGE_NAME), *out.rglob(grade.RESULT_NAME)]
+    for path in files:
+        text = path.read_text(encoding='utf-8')
+        for folder in (str(root), os.getcwd(), os.path.expanduser('~')):
+            assert folder not in text, (path, folder)
+    [run] = json.loads((out / STUDENTS_DIR / 'zoe' / grade.REPORT_NAME).read_text())['runs']
+    assert run['nodes'] == ['zoe/scan_ahead.py']
+    assert run['out_dir'] == f'{STUDENTS_DIR}/zoe/scan_ahead/seed_1'
+    assert 'File "zoe/scan_ahead.py", line ' in run['metrics']['node_errors'][0]['traceback']
+
+
+def test_a_second_invocation_says_it_reused_the_runs(awkward):
+    _, out, outputs = awkward
+    assert 'reused' not in outputs[0][1]
+    assert 'note: 6 of 6 runs reused from an earlier invocation' in outputs[1][1]
+    page = (out / STUDENTS_DIR / 'zoe' / grade.PAGE_NAME).read_text(encoding='utf-8')
+    assert '6 of 6 runs reused from an earlier invocation' in page

@@ -1,6 +1,7 @@
 """The HTML pages of a grading: links that resolve, counts, escaping, well-formed tags."""
 
 from html.parser import HTMLParser
+import os
 from pathlib import Path
 
 import pytest
@@ -171,8 +172,12 @@ def test_class_index_counts_per_scenario_and_in_total(tmp_path):
     for name in ('bo', 'al'):
         assert_well_formed_and_linked(pages[name])
     assert [row[0][0] for row in page.rows] == ['student', SCRIPT, 'al', 'bo']
-    assert page.row('bo')[1:] == [['2/3', 'some'], ['1/1', 'pass'], ['3/4', 'some']]
-    assert page.row('al')[1:] == [['0/1', 'fail'], ['\u2014', None], ['0/1', 'fail']]
+    # Why runs failed, at a glance: the worst reason of the cell's failed runs.
+    assert page.row('bo')[1:] == [['2/3criteria failed', 'some'], ['1/1', 'pass'],
+                                  ['3/4criteria failed', 'some']]
+    assert page.row('al')[1:] == [['0/1not submitted', 'fail'], ['\u2014', None],
+                                  ['0/1not submitted', 'fail']]
+    assert 'not submitted: ' in ''.join(page.text)  # the legend
     assert page.row(SCRIPT)[1:] == [['\u2014', None]] * 3
     assert sorted(path.name for path in linked_files(index)) == ['report.html'] * 2
     assert '3 students, 5 runs, 3 passed (60 %)' in ''.join(page.text)
@@ -186,3 +191,36 @@ def test_linked_files_rejects_links_that_leave_the_folder(tmp_path):
         linked_files(page)
     page.write_text('<a href="#top">top</a><img src="a%20b.png">')
     assert linked_files(page) == [tmp_path / 'a b.png']
+
+
+def test_texts_that_are_not_utf8_and_files_named_in_bytes_are_shown_and_linked(tmp_path):
+    name, map_name = os.fsdecode(b'Jos\xe9'), os.fsdecode(b'caf\xe9.yaml')
+    run = make_run(tmp_path / name / 'wall' / 'seed_1', passed=False, files=['trajectory.png'],
+                   error=f'cannot open map {map_name}')
+    page = write_runs_page(tmp_path / name / 'report.html', f'Grading report: {name}', [run])
+    text = page.read_text(encoding='utf-8')
+    assert 'cannot open map caf\\xe9.yaml' in text and 'Grading report: Jos\\xe9' in text
+    assert linked_files(page) == [tmp_path / name / 'wall' / 'seed_1' / 'trajectory.png']
+    assert_well_formed_and_linked(page)
+
+
+def test_run_paths_are_relative_to_the_root_given(tmp_path):
+    out = tmp_path / 'out'
+    make_run(out / 'ana' / 'wall' / 'seed_1', files=['trajectory.png'])
+    run = make_run('ana/wall/seed_1')
+    page = write_runs_page(out / 'ana' / 'report.html', 'ana', [run], root=out)
+    assert linked_files(page) == [out / 'ana' / 'wall' / 'seed_1' / 'trajectory.png']
+
+
+def test_warnings_long_lines_and_measured_values_read_well(tmp_path):
+    criteria = [{'criterion': 'min_clearance_m >= 0', 'passed': True, 'value': 2.873e-09,
+                 'shown': '2.873e-09'}]
+    run = make_run(tmp_path / 'seed_1', criteria=criteria)
+    run['metrics']['warnings'] = ['a thread kept the run alive: Thread-1 (spin)']
+    page = Page(write_runs_page(tmp_path / 'report.html', 'batch', [run]))
+    assert [[cell[0] for cell in row] for row in page.rows[1:3]] == [
+        ['wall/seed_1', 'warning: a thread kept the run alive: Thread-1 (spin)', '', 'warn'],
+        ['', 'min_clearance_m >= 0', '0.000 m', 'pass']]
+    text = (tmp_path / 'report.html').read_text()
+    assert '<li>a thread kept the run alive: Thread-1 (spin)</li>' in text
+    assert 'white-space: pre-wrap' in text and 'overflow-wrap: anywhere' in text
