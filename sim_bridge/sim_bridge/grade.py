@@ -30,7 +30,8 @@ from typing import Any, TextIO
 from sim_bridge.isolate import (
     BUDGET_BASE_S, BUDGET_PER_SIM_S, Child, DEFAULT_MEMORY_BYTES, DEFAULT_STALL_S, Job, Limits,
     LOG_NAME)
-from sim_bridge.scenario import CriterionResult, load_scenarios, ScenarioRun
+from sim_bridge.scenario import (
+    CriterionResult, load_scenarios, ScenarioRun, with_node_overrides)
 from sim_bridge.world import World, WorldError
 
 DEFAULT_OUT = Path('out') / 'grade'
@@ -417,8 +418,7 @@ def main(argv: list[str] | None = None) -> int:
             raise ValueError('--jobs must be at least 1')
         limits = limits_from(args)
         scenarios = load_scenarios(args.scenarios)
-        for override in args.node_override:
-            scenarios = [scenario.with_node_override(override) for scenario in scenarios]
+        scenarios = with_node_overrides(scenarios, args.node_override)
         batch = (grade_class.ClassBatch(scenarios, args.submissions, args.out)
                  if args.submissions is not None else None)
     except (ValueError, OSError) as error:

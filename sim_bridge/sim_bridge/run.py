@@ -34,7 +34,7 @@ from sim_bridge.record import BagRecorder, DEFAULT_TOPICS, message_type_name
 from sim_bridge.run_environment import (
     FIELD_CHECK_HINT, is_field_check_failure, run_environment)
 from sim_bridge.run_trace import CollisionEvent, ScanSnapshot, Trace
-from sim_bridge.scenario import target_name
+from sim_bridge.scenario import is_seed, MAX_SEED, target_name
 from sim_bridge.stepping import (
     describe, next_timer_ns, NodeError, origin, spin_until_idle)
 from sim_bridge.targets import load_node_class, TargetError
@@ -124,7 +124,10 @@ def node_parameters(world: World, params: Params | None, *, seed: int, gui: bool
 
     RunError when ``params`` sets one of the RUNNER_BRIDGE_PARAMETERS.
     """
-    bridge_params = {'world': str(world.path), 'seed': int(seed), 'gui': bool(gui)}
+    if not is_seed(seed):
+        raise RunError(f'seed must be a non-negative integer up to {MAX_SEED} (a ROS integer '
+                       f'parameter is int64), got {seed!r}')
+    bridge_params = {'world': str(world.path), 'seed': seed, 'gui': bool(gui)}
     pose = start_pose(world, start)
     if pose is not None:
         bridge_params['start_pose'] = pose

@@ -4,8 +4,9 @@ Find the rclpy Node class a runner TARGET names: a console script, a module or a
 TARGET forms: ``wall_follow`` (a console script, as ``ros2 run`` knows it),
 ``scan_pkg.wall_follow`` (a module), ``path/to/node.py`` (any file, run as written); each
 optionally followed by
-``:ClassName`` when the module defines several Node subclasses. Modules are imported as they
-are, with the rclpy of this Python (a sourced ROS 2 Jazzy, or the PyPI wheels).
+``:ClassName`` when the module defines several Node subclasses. A path that exists is a path,
+whatever it holds (``col:on/node.py``). Modules are imported as they are, with the rclpy of
+this Python (a sourced ROS 2 Jazzy, or the PyPI wheels).
 """
 
 from importlib import import_module
@@ -22,9 +23,17 @@ class TargetError(LookupError):
     """A TARGET that names no loadable module or no rclpy Node subclass in it."""
 
 
-def _split(target: str) -> tuple[str, str | None]:
-    where, _, class_name = target.partition(':')
-    return where, class_name or None
+def split_target(target: str, base: Path | None = None) -> tuple[str, str | None]:
+    """
+    Split ``TARGET`` into what it names and the ``:ClassName`` that follows, if any.
+
+    A TARGET naming an existing file (relative to ``base`` if given) is a path even when it
+    holds ':'; otherwise the text after its last ':' is a class name when it is an identifier.
+    """
+    where, colon, class_name = target.rpartition(':')
+    if not colon or not class_name.isidentifier() or ((base or Path()) / target).is_file():
+        return target, None
+    return where, class_name
 
 
 def _console_script_module(name: str) -> str | None:
@@ -82,7 +91,7 @@ def node_classes(module: ModuleType, node_base: type) -> dict[str, type]:
 
 def load_node_class(target: str, node_base: type) -> type:
     """Return the Node subclass TARGET names; ``node_base`` is the runtime's rclpy Node."""
-    where, class_name = _split(target)
+    where, class_name = split_target(target)
     try:
         module = load_module(where)
     except TargetError:

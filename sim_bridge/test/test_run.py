@@ -249,6 +249,17 @@ def test_target_can_be_a_copy_of_a_node_file_anywhere(tmp_path, capfd):
     assert len(log_lines(capfd.readouterr().err, 'scan_ahead')) == 3
 
 
+@pytest.mark.parametrize('suffix', ['', ':ScanAhead'])
+def test_a_node_file_in_a_folder_with_a_colon_is_a_path(suffix, tmp_path, capfd):
+    student_file = tmp_path / 'col:on' / 'my_scan_ahead.py'
+    student_file.parent.mkdir()
+    shutil.copy(SCAN_AHEAD_SOURCE, student_file)
+    result = run_simulation('obstacles', [f'{student_file}{suffix}'], duration_s=0.3,
+                            out_dir=tmp_path / 'out', record=False, plot=False)
+    assert result.ok
+    assert len(log_lines(capfd.readouterr().err, 'scan_ahead')) == 3
+
+
 def test_file_target_with_class_name_picks_that_class(tmp_path):
     result = run_simulation('obstacles', [f"{FIXTURES / 'two_nodes.py'}:Driver"],
                             duration_s=1.0, out_dir=tmp_path, record=False, plot=False)
@@ -278,10 +289,14 @@ def test_file_target_with_class_name_picks_that_class(tmp_path):
     (['--node', 'scan_ahead', '--duration', '0'], 'duration must be a positive number'),
     (['--node', 'scan_ahead', '--duration', 'inf'], 'duration must be a positive number'),
     (['--node', 'scan_ahead', '--seed', '-1'], 'seed must be a non-negative integer'),
+    (['--node', 'scan_ahead', '--seed', str(2 ** 63)],
+     'seed must be a non-negative integer up to 9223372036854775807 (a ROS integer parameter '
+     'is int64), got 9223372036854775808'),
 ], ids=['unknown target', 'missing file', 'no Node subclass', 'two Node subclasses',
         'unknown class', 'unknown world', 'param type', 'param for absent node',
         'malformed param', 'param the runner sets', 'bad simulator param',
-        'bad lidar param', 'zero duration', 'infinite duration', 'negative seed'])
+        'bad lidar param', 'zero duration', 'infinite duration', 'negative seed',
+        'seed beyond int64'])
 def test_start_error_is_one_line_exit_2_and_writes_nothing(args, mentions, tmp_path, run_main):
     out_dir = tmp_path / 'out'
     argv = ['--world', 'wall_follow_box', '--duration', '1', *args, '--out', str(out_dir)]
