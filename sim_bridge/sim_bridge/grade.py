@@ -107,8 +107,12 @@ def run_scenario(run: ScenarioRun, out_dir: Path, *, simulate: Simulate | None =
                           start=scenario.start, quiet=quiet, record=record, plot=plot,
                           progress=progress)
     except Exception as error:  # one broken run must not stop the batch
+        from sim_bridge.run import RunError
+        # A run that cannot start keeps the node's part of the traceback (its import failed),
+        # or none (bad input); a crash of the runner keeps all of it.
+        kept = error.traceback if isinstance(error, RunError) else traceback.format_exc()
         return RunReport(run, out_dir, [], None, f'{type(error).__name__}: {error}',
-                         time.perf_counter() - wall_start, traceback.format_exc())
+                         time.perf_counter() - wall_start, kept)
     return RunReport(run, out_dir, scenario.judge(result.metrics), result.metrics, None,
                      time.perf_counter() - wall_start)
 
