@@ -140,7 +140,7 @@ def _load_file(path: Path) -> ModuleType:
     sys.path.insert(0, str(path.parent))
     try:
         spec.loader.exec_module(module)
-    except Exception:
+    except BaseException:  # noqa: B902 the half-run module must not stay importable
         del sys.modules[module_name]
         raise
     finally:
@@ -196,7 +196,7 @@ def load_node_class(target: str, node_base: type) -> type:
         module = load_module(where)
     except TargetError:
         raise
-    except Exception as error:
+    except (Exception, SystemExit) as error:  # a file that exits as it is imported
         raise TargetError(f"'{where}' fails to import: {describe(error)}",
                           module_file(where)) from error
     classes = node_classes(module, node_base)

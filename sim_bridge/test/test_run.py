@@ -637,7 +637,9 @@ def test_no_record_and_no_plot_leave_only_the_metrics(tmp_path, run_main):
     ('import rclpy\n\nraise ImportError("no module named scan_utils")\n',
      'ImportError: no module named scan_utils at {path}:3: raise ImportError('),
     ('x = 1\ndef broken(:\n', 'SyntaxError: invalid syntax at {path}:2: def broken(:'),
-], ids=['import error', 'syntax error'])
+    ('import sys\n\nsys.exit("run me with ros2 run")\n',
+     "SystemExit (sys.exit('run me with ros2 run')) at {path}:3: sys.exit("),
+], ids=['import error', 'syntax error', 'exit at import'])
 def test_a_target_that_fails_to_import_is_a_one_line_start_error(
         source, mentions, tmp_path, run_main):
     path = tmp_path / 'broken.py'
