@@ -33,7 +33,8 @@ from sim_bridge.isolate import (
     LOG_NAME)
 from sim_bridge.report_text import (
     cap_text, first_line, format_measured, json_safe, outcome, PathNames, printable, reason)
-from sim_bridge.scenario import CriterionResult, load_scenarios, ScenarioRun
+from sim_bridge.scenario import (
+    CriterionResult, load_scenarios, ScenarioRun, with_node_overrides)
 from sim_bridge.targets import split_target
 from sim_bridge.world import World, WorldError
 
@@ -173,8 +174,12 @@ def run_scenario(run: ScenarioRun, out_dir: Path, *, simulate: Simulate | None =
                           start=scenario.start, quiet=quiet, record=record, plot=plot,
                           progress=progress)
     except Exception as error:  # one broken run must not stop the batch
+        from sim_bridge.run import RunError
+        # A run that cannot start keeps the node's part of the traceback (its import failed),
+        # or none (bad input); a crash of the runner keeps all of it.
+        kept = error.traceback if isinstance(error, RunError) else traceback.format_exc()
         return RunReport(run, out_dir, [], None, f'{type(error).__name__}: {error}',
-                         time.perf_counter() - wall_start, traceback.format_exc())
+                         time.perf_counter() - wall_start, kept)
     return RunReport(run, out_dir, scenario.judge(result.metrics), result.metrics, None,
                      time.perf_counter() - wall_start)
 
@@ -585,8 +590,7 @@ def main(argv: list[str] | None = None) -> int:
             raise ValueError('--jobs must be at least 1')
         limits = limits_from(args)
         scenarios = load_scenarios(args.scenarios)
-        for override in args.node_override:
-            scenarios = [scenario.with_node_override(override) for scenario in scenarios]
+        scenarios = with_node_overrides(scenarios, args.node_override)
         batch = (grade_class.ClassBatch(scenarios, args.submissions, args.out)
                  if args.submissions is not None else None)
     except (ValueError, OSError) as error:

@@ -11,6 +11,7 @@ runs before physics advances, see sim_bridge.stepping), as if each had been star
 import argparse
 from dataclasses import dataclass
 import functools
+import inspect
 import json
 import math
 from pathlib import Path
@@ -21,7 +22,6 @@ import sys
 import tempfile
 import threading
 import time
-import traceback
 from typing import Any, Callable, Iterable, Sequence
 
 from rclpy.event_handler import SubscriptionEventCallbacks
@@ -35,10 +35,10 @@ from sim_bridge.report_text import json_safe
 from sim_bridge.run_environment import (
     FIELD_CHECK_HINT, is_field_check_failure, run_environment)
 from sim_bridge.run_trace import CollisionEvent, ScanSnapshot, Trace
-from sim_bridge.scenario import target_name
+from sim_bridge.scenario import is_seed, MAX_SEED, target_name
 from sim_bridge.stepping import (
-    describe, next_timer_ns, NodeError, origin, spin_until_idle)
-from sim_bridge.targets import load_node_class, TargetError
+    describe, next_timer_ns, NodeEnded, NodeError, spin_until_idle, SteppedExecutor)
+from sim_bridge.targets import load_node_class, StudentCode, TargetError
 from sim_bridge.world import World, WorldError
 import yaml
 
@@ -57,7 +57,16 @@ NO_TYPE_DESCRIPTION_SERVICE = Parameter('start_type_description_service', value=
 
 
 class RunError(Exception):
-    """A run that could not start: unknown world, bad target or parameter, bad output folder."""
+    """
+    A run that could not start: unknown world, bad target or parameter, bad output folder.
+
+    ``traceback`` is the node's part of the traceback when its code failed (a node file that
+    fails to import), else None.
+    """
+
+    def __init__(self, message: str, traceback: str | None = None):
+        super().__init__(message)
+        self.traceback = traceback
 
 
 class RunStopped(BaseException):
@@ -125,7 +134,10 @@ def node_parameters(world: World, params: Params | None, *, seed: int, gui: bool
 
     RunError when ``params`` sets one of the RUNNER_BRIDGE_PARAMETERS.
     """
-    bridge_params = {'world': str(world.path), 'seed': int(seed), 'gui': bool(gui)}
+    if not is_seed(seed):
+        raise RunError(f'seed must be a non-negative integer up to {MAX_SEED} (a ROS integer '
+                       f'parameter is int64), got {seed!r}')
+    bridge_params = {'world': str(world.path), 'seed': seed, 'gui': bool(gui)}
     pose = start_pose(world, start)
     if pose is not None:
         bridge_params['start_pose'] = pose
@@ -252,9 +264,8 @@ class SteppedRun:
     (``ROS_AUTOMATIC_DISCOVERY_RANGE=OFF``, see README).
     """
 
-    def __init__(self, params_file: Path, quiet: bool):
+    def __init__(self, params_file: Path, quiet: bool, code: StudentCode = StudentCode()):
         import rclpy
-        from rclpy.executors import SingleThreadedExecutor
         from rclpy.signals import SignalHandlerOptions
         self.rclpy = rclpy
         self.node_arguments = ['--ros-args', '--params-file', str(params_file),  # bridge's too
@@ -264,7 +275,7 @@ class SteppedRun:
         # KeyboardInterrupt: the runner then writes what the run produced.
         rclpy.init(args=self.node_arguments, signal_handler_options=SignalHandlerOptions.NO)
         self.context = rclpy.utilities.get_default_context()
-        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor = SteppedExecutor(self.context, code)
         self.nodes = []
         self.bridge = None
 
@@ -282,15 +293,18 @@ class SteppedRun:
         Create a node as if its process had been started with the run's command line.
 
         A parameter override of the wrong type is a RunError; any other exception from the
-        node's constructor is the node failing, reported as a NodeError under ``label``.
+        node's constructor is the node failing, reported as a NodeError under ``label``; a
+        constructor that shuts ROS down ends the run (NodeEnded).
         """
         try:
             node = node_class(**kwargs)
         except self.rclpy.exceptions.InvalidParameterTypeException as error:
             raise RunError(f'{label}: {error}') from None
         except BaseException as error:  # noqa: B902 sys.exit() in a constructor ends the run
-            raise NodeError(label, error) from error
+            raise NodeError(label, error, code=self.executor.code) from error
         self.nodes.append(node)
+        if not self.context.ok():
+            raise NodeEnded(label, 'its constructor', self.executor.shutdown_where or '')
         self.executor.add_node(node)
         return node
 
@@ -312,16 +326,17 @@ class SteppedRun:
         return self.bridge
 
     def start_nodes(self, targets: Iterable[tuple[str, type]],
-                    params: Params) -> NodeError | None:
+                    params: Params) -> NodeError | NodeEnded | None:
         """
         Start each (label, Node class) in ``targets``; return the error of one that raised.
 
-        RunError when ``params`` names a node that is not running.
+        Or the end of one that shut ROS down. RunError when ``params`` names a node that is not
+        running.
         """
         try:
             for label, node_class in targets:
                 self.start(node_class, label)
-        except NodeError as error:
+        except (NodeError, NodeEnded) as error:
             return error
         self.check_params(params)
         return None
@@ -332,6 +347,20 @@ class SteppedRun:
         if unknown:
             raise RunError(f"parameters given for node(s) {', '.join(sorted(unknown))}, but the "
                            f"nodes are {', '.join(node.get_name() for node in self.nodes)}")
+
+    def undeclared(self, params: Params) -> list[str]:
+        """
+        Return a warning for each parameter in ``params`` that its node did not declare.
+
+        rclpy ignores an override of a parameter a node never declares: a misspelt name would
+        otherwise grade the default in silence.
+        """
+        nodes = {node.get_name(): node for node in self.nodes}
+        return [f"node '{node_name}' did not declare parameter '{name}' (given by --param or "
+                'the params file); it was ignored'
+                for node_name, values in params.items() for name in values
+                if not (node_name == BRIDGE_NODE and name in RUNNER_BRIDGE_PARAMETERS)
+                and name != 'use_sim_time' and not nodes[node_name].has_parameter(name)]
 
     def parameter(self, name: str) -> Any:
         """Return the value of parameter ``name`` of the first node that has it, else None."""
@@ -440,13 +469,27 @@ def node_failure(error: NodeError) -> str:
     """
     if isinstance(error.original, RunStopped):
         return (f"{error.original}: node '{error.node_name}' did not return from "
-                f'{error.place}{origin(error.original)}')
+                f'{error.place}{error.code.origin(error.original)}')
     hint = ''
     if is_field_check_failure(error.original):
         hint = f' ({FIELD_CHECK_HINT})'
     elif isinstance(error.original, MemoryError) and memory_limit() is not None:
         hint = f' (memory limit {memory_limit()} reached in {error.place})'
     return str(error) + hint
+
+
+def import_failure(error: TargetError) -> RunError:
+    """
+    Return the RunError of a TARGET that failed to import, with the node's part of the traceback.
+
+    A MemoryError names the run's memory limit and the file.
+    """
+    message, cause = str(error), error.__cause__
+    if isinstance(cause, MemoryError) and memory_limit() is not None:
+        message += f' (memory limit {memory_limit()} reached while importing {error.file})'
+    if cause is None:
+        return RunError(message)
+    return RunError(message, StudentCode.of([error.file] if error.file else []).traceback(cause))
 
 
 def default_out_dir(world: World, targets: Sequence[str]) -> Path:
@@ -482,7 +525,10 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
     run cannot start, before writing anything to ``out_dir``; a node that raises (while
     starting or during the run) ends it early, is reported in ``metrics['node_errors']`` and,
     unless ``quiet``, with its traceback on stderr, and every output is written up to that
-    point.
+    point. A node that shuts ROS down (``rclpy.shutdown()``) ends the run there, as it would
+    end its process: not a node error, but ``metrics['ended_by']`` says which node and where.
+    A parameter its node did not declare is ignored, with a line in ``metrics['warnings']``
+    (one-line texts, also printed on stderr).
     """
     if not (math.isfinite(duration_s) and duration_s > 0):
         raise RunError(f'duration must be a positive number of seconds, got {duration_s}')
@@ -490,23 +536,32 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
     node_params = node_parameters(world_model, params, seed=seed, gui=gui, start=start)
     out_dir = Path(out_dir) if out_dir is not None else default_out_dir(world_model, targets)
 
-    node_errors, setpoint, wall_start = [], None, time.perf_counter()
+    node_errors, warnings, ended_by = [], [], None
+    setpoint, wall_start = None, time.perf_counter()
     with run_environment(field_checks), tempfile.TemporaryDirectory() as scratch:
         from rclpy.node import Node
         from sim_bridge.bridge import SimBridge
         try:
             classes = [load_node_class(target, Node) for target in targets]
         except TargetError as error:
-            raise RunError(str(error)) from None
+            failure = import_failure(error)
+            if not quiet and failure.traceback:
+                sys.stderr.write(failure.traceback)  # what `python3 node.py` would print
+            raise failure from None
+        code = StudentCode.of(inspect.getfile(node_class) for node_class in classes)
         params_file = Path(scratch) / 'params.yaml'
         write_params_file(params_file, node_params)
-        run = SteppedRun(params_file, quiet)
+        run = SteppedRun(params_file, quiet, code)
         bag, interrupt, outputs_open = None, UserInterrupt(), False
         try:
             bridge = run.start_simulator(SimBridge)
             observer = Observer(bridge.sim, duration_s)
             recorder = RunRecorder(run, observer, record)
             start_failure = run.start_nodes(zip(targets, classes), node_params)
+            if start_failure is None:
+                warnings += run.undeclared(node_params)
+                for warning in warnings:
+                    print(f'warning: {warning}', file=sys.stderr)
             setpoint = run.parameter(SETPOINT_PARAMETER)
             bag = open_outputs(out_dir, params_file, record)
             recorder.record(bag)
@@ -521,15 +576,20 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
             if not interrupt.pressed:
                 raise
             # Ctrl-C outside the nodes' code: the outputs are written, then it goes on.
+        except NodeEnded as end:
+            ended_by = str(end)
+            warnings.append(f'{end}: the run ended at {bridge.now_ns / NANOSECONDS_PER_SECOND:g} '
+                            f's of its {duration_s:g} s')
+            print(f'warning: {warnings[-1]}', file=sys.stderr)
         except NodeError as error:
+            student_traceback = error.code.traceback(error.original)
             if not interrupt.pressed:  # a Ctrl-C while a callback ran is the user's
                 node_errors.append(json_safe({'node': error.node_name,
                                               'error': node_failure(error),
-                                              'traceback': ''.join(traceback.format_exception(
-                                                  error.original))}))
+                                              'traceback': student_traceback}))
             if not quiet and not interrupt.pressed:
-                # What the node's own process would print before dying.
-                traceback.print_exception(error.original, file=sys.stderr)
+                # What the node's own process would print before dying, its own part.
+                sys.stderr.write(student_traceback)
         except RunStopped as stop:
             if not outputs_open:  # stopped while starting: there is nothing to write yet
                 raise
@@ -541,6 +601,8 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
     metrics = compute_metrics(observer.finish(), world_model, setpoint=setpoint,
                               wall_time_s=time.perf_counter() - wall_start,
                               node_errors=node_errors)
+    metrics['warnings'] = [*metrics.get('warnings', []), *warnings]
+    metrics['ended_by'] = ended_by
     (out_dir / 'metrics.json').write_text(json.dumps(metrics, indent=2) + '\n')
     if plot:
         plot_trajectory(observer.trace, world_model, out_dir / 'trajectory.png',
@@ -570,6 +632,7 @@ def summary_table(metrics: dict) -> str:
         ('coverage', f"{metrics['coverage']:.0%}"),
         ('node errors', '; '.join(f"{e['node']}: {e['error']}" for e in metrics['node_errors'])
          or 'none'),
+        ('warnings', '; '.join(metrics['warnings']) or 'none'),
     ]
     width = max(len(name) for name, _ in rows)
     return '\n'.join(f'  {name:<{width}}  {value}' for name, value in rows)

@@ -26,7 +26,7 @@ A scenario is a YAML mapping; every key not listed here is an error::
       - all(turns_deg) > 90
 
 Relative paths (a world file, a node file) are relative to the scenario file. The scenario's
-name is the file name without ``.yaml``.
+name is the file name without ``.yaml``. A seed is an integer from 0 to MAX_SEED (2**63 - 1).
 
 Criteria
 --------
@@ -54,6 +54,11 @@ import yaml
 SCENARIO_SUFFIX = '.yaml'
 #: A parameter value replaced by each run's seed, so a node's own randomness follows it.
 SEED_PLACEHOLDER = '$seed'
+#: The largest seed: a seed is a ROS integer parameter (int64) of the simulator and, through
+#: $seed, of a node; the simulator's generator (numpy) takes any non-negative integer.
+MAX_SEED = 2 ** 63 - 1
+#: What a NODE of ``--node-override NODE=TARGET`` can be: a node's name, no path.
+_OVERRIDE_NODE = re.compile(r'[\w.-]+')
 _KEYS = ('description', 'world', 'nodes', 'params', 'duration', 'seed', 'seeds', 'start',
          'criteria')
 _REQUIRED = ('world', 'nodes', 'duration', 'criteria')
@@ -239,12 +244,10 @@ class Scenario:
         (by console script, module or file name) are replaced and a scenario without one is
         returned unchanged. Without it, the nodes of the same name as TARGET are replaced, or
         else the only node; a scenario with several nodes and none of that name is an error.
+        An override naming an existing file is that file, '=' or not (``/tmp/a=b/wf.py``);
+        one that could be read either way is an error, as is one that is neither.
         """
-        node, equals, target = override.partition('=')
-        if not equals:
-            node, target = '', override
-        if not target:
-            raise ScenarioError(f"--node-override '{override}': expected TARGET or NODE=TARGET")
+        node, equals, target = split_override(override)
         wanted = node if equals else target_name(target)
         matching = [index for index, current in enumerate(self.nodes)
                     if target_name(current) == wanted]
@@ -258,6 +261,48 @@ class Scenario:
         for index in matching:
             nodes[index] = target
         return replace(self, nodes=tuple(nodes))
+
+
+def with_node_overrides(scenarios: list[Scenario], overrides: list[str]) -> list[Scenario]:
+    """
+    Apply each ``--node-override`` to every scenario (:meth:`Scenario.with_node_override`).
+
+    ScenarioError when a ``NODE=TARGET`` override names a node no scenario runs: a misspelt
+    NODE would otherwise grade the scenarios' own node in silence.
+    """
+    names = sorted({target_name(target) for scenario in scenarios for target in scenario.nodes})
+    for override in overrides:
+        node, equals, _ = split_override(override)
+        if equals and node not in names:
+            raise ScenarioError(f"--node-override '{override}': no scenario runs a node '{node}' "
+                                f"(they run {', '.join(names)})")
+        scenarios = [scenario.with_node_override(override) for scenario in scenarios]
+    return scenarios
+
+
+def split_override(override: str) -> tuple[str, bool, str]:
+    """
+    Read ``--node-override``: return (NODE, whether NODE= was given, TARGET).
+
+    ScenarioError when it is empty, or neither an existing file nor ``NODE=TARGET`` with a
+    node name for NODE, or both an existing file and ``NODE=`` an existing file.
+    """
+    label = f"--node-override '{override}'"
+    node, equals, target = override.partition('=')
+    named = bool(equals and target and _OVERRIDE_NODE.fullmatch(node))
+    if Path(split_target(override)[0]).is_file():
+        if named and Path(split_target(target)[0]).is_file():
+            raise ScenarioError(f'{label} is ambiguous: both the file {override} and node {node} '
+                                f'replaced by {target} exist; write ./{override} for the file')
+        return '', False, override
+    if not equals:
+        if not override:
+            raise ScenarioError(f'{label}: expected TARGET or NODE=TARGET')
+        return '', False, override
+    if not named:
+        raise ScenarioError(f'{label}: no such file, and not NODE=TARGET (NODE a node name '
+                            'without a path, TARGET a console script, module or file)')
+    return node, True, target
 
 
 def target_name(target: str) -> str:
@@ -323,9 +368,10 @@ def scenario_from_dict(data: Any, name: str, path: Path | None = None) -> Scenar
     if not isinstance(seeds, list) or not seeds:
         raise fail('seeds', f'must be a non-empty list of integers, got {_kind(seeds)}')
     for index, seed in enumerate(seeds):
-        if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        if not is_seed(seed):
             field_name = f'seeds[{index}]' if 'seeds' in data else 'seed'
-            raise fail(field_name, f'must be a non-negative integer, got {seed!r}')
+            raise fail(field_name, f'must be a non-negative integer up to {MAX_SEED} (a ROS '
+                       f'integer parameter is int64), got {seed!r}')
     if len(set(seeds)) != len(seeds):
         raise fail('seeds', f'has repeated seeds: {seeds}')
 
@@ -384,10 +430,15 @@ def load_scenarios(paths: list[str | os.PathLike]) -> list[Scenario]:
 
 def _resolve(reference: str, base: Path | None, suffix: str) -> str:
     """Anchor a file reference (``path/x.py:Class``, ``../w.yaml``) at the scenario's folder."""
-    where, colon, rest = reference.partition(':')
+    where, class_name = split_target(reference, base)
     if base is None or not (where.endswith(suffix) or '/' in where) or Path(where).is_absolute():
         return reference
-    return str(base / where) + colon + rest
+    return str(base / where) + (f':{class_name}' if class_name else '')
+
+
+def is_seed(value: Any) -> bool:
+    """Return True when ``value`` can be a run's seed: an integer from 0 to MAX_SEED."""
+    return isinstance(value, int) and not isinstance(value, bool) and 0 <= value <= MAX_SEED
 
 
 def _is_number(value: Any) -> bool:

@@ -9,30 +9,75 @@ that hands out nothing is the exact "nothing is ready": no message waits in any 
 its clock. This is the lockstep Gazebo keeps with its ROS nodes, on the real executor.
 """
 
-import os
 import traceback
 from typing import Iterable
 
+import rclpy
 from rclpy.clock import ClockType
-from rclpy.executors import Executor, TimeoutException
+from rclpy.context import Context
+from rclpy.executors import SingleThreadedExecutor, TimeoutException
 from rclpy.node import Node
+from sim_bridge.targets import describe, StudentCode
 
-#: Frames in here are the runner's, never a node's own code.
-PACKAGE_DIR = os.path.dirname(os.path.abspath(__file__)) + os.sep
+#: What it means for a node to leave the runner's executor, and the usual way students do.
+LEFT_EXECUTOR = ("it is no longer on the executor that spins it (main's rclpy.spin), as when a "
+                 'callback spins an executor of its own: on a robot it would get no more '
+                 'callbacks')
 
 
 class NodeError(Exception):
     """
     An exception raised by a node's code, with the node and where: a callback or constructor.
 
-    ``place`` says what of the node's code ran, e.g. 'its /scan callback'.
+    ``place`` says what of the node's code ran, e.g. 'its /scan callback'; ``code`` finds the
+    node's own line in the traceback; ``what`` replaces 'raised <the error> at <line>'.
     """
 
-    def __init__(self, node_name: str, original: BaseException, place: str = 'its constructor'):
+    def __init__(self, node_name: str, original: BaseException, place: str = 'its constructor',
+                 code: StudentCode = StudentCode(), what: str | None = None):
         self.node_name = node_name
         self.original = original
         self.place = place
-        super().__init__(f"node '{node_name}' raised {describe(original)}")
+        self.code = code
+        super().__init__(f"node '{node_name}' {what or 'raised ' + describe(original, code)}")
+
+
+class NodeEnded(Exception):
+    """
+    A node shut the ROS context down (``rclpy.shutdown()``): as its process would, the run ends.
+
+    ``place`` is the callback (or constructor), ``where`` the node's line (' at file:line').
+    """
+
+    def __init__(self, node_name: str, place: str, where: str):
+        self.node_name = node_name
+        self.place = place
+        super().__init__(f"node '{node_name}' shut ROS down (rclpy.shutdown()) in {place}{where}")
+
+
+class SteppedExecutor(SingleThreadedExecutor):
+    """
+    The runner's executor; it notes the node code that takes a node off it or ends ROS.
+
+    So that :func:`spin_until_idle` reports a callback doing either at the node's line.
+    """
+
+    def __init__(self, context: Context, code: StudentCode = StudentCode()):
+        super().__init__(context=context)
+        self.code = code
+        #: Nodes taken off this executor, with the node's line that did it (' at file:line').
+        self.removed: dict[Node, str] = {}
+        self.shutdown_where: str | None = None
+        context.on_shutdown(self.note_shutdown)
+
+    def remove_node(self, node: Node) -> None:
+        """Stop managing ``node``'s callbacks; note the code that asked."""
+        self.removed[node] = self.code.stack_origin(traceback.extract_stack()[:-1])
+        super().remove_node(node)
+
+    def note_shutdown(self) -> None:
+        """Note the code that shuts the context down (called by the context as it does)."""
+        self.shutdown_where = self.code.stack_origin(traceback.extract_stack()[:-1])
 
 
 def callback_place(entity: object) -> str:
@@ -45,37 +90,34 @@ def callback_place(entity: object) -> str:
     return f'its {type(entity).__name__.lower()} callback'
 
 
-def describe(error: BaseException) -> str:
-    """Say what ``error`` was and where the node's own code raised it (see :func:`origin`)."""
-    text = f'{type(error).__name__}: {error}' if str(error) else type(error).__name__
-    if isinstance(error, SystemExit):
-        text = f'SystemExit (sys.exit({error.code!r}))'
-    return text + origin(error)
-
-
-def origin(error: BaseException) -> str:
+def check_ros_state(executor: SteppedExecutor, node: Node, place: str) -> None:
     """
-    Return ' at file:line: code' of where ``error`` was raised, or '' when unknown.
+    After ``node``'s code ran in ``place``: NodeEnded if it ended ROS, NodeError if it left.
 
-    The place is the innermost frame outside generated message code, rclpy and this package,
-    so an int assigned to a float field points at the assignment, not at rosidl's setter, and
-    a watchdog's stop at the node's line it interrupted, not at the signal handler.
+    A node taken off the executor by ``rclpy.spin_once(node)`` or
+    ``rclpy.spin_until_future_complete(node, ...)`` is now on rclpy's global executor: in its
+    own process main's ``rclpy.spin(node)`` spins that same executor, and the node stays on
+    it, so it is put back here. A node otherwise off the executor is a NodeError.
     """
-    frames = [frame for frame in traceback.extract_tb(error.__traceback__)
-              if '/msg/_' not in frame.filename and '/rclpy/' not in frame.filename
-              and not frame.filename.startswith(PACKAGE_DIR)]
-    if not frames:
-        return ''
-    frame = frames[-1]
-    return f' at {frame.filename}:{frame.lineno}' + (f': {frame.line}' if frame.line else '')
+    if not executor.context.ok():
+        raise NodeEnded(node.get_name(), place, executor.shutdown_where or '')
+    while executor.removed:
+        left, where = executor.removed.popitem()
+        if left.executor is rclpy.get_global_executor():
+            executor.add_node(left)
+        elif left not in executor.get_nodes():
+            raise NodeError(left.get_name(), RuntimeError(LEFT_EXECUTOR), place, executor.code,
+                            f"was taken off the runner's executor in {place}{where}: "
+                            f'{LEFT_EXECUTOR}')
 
 
-def spin_until_idle(executor: Executor) -> int:
+def spin_until_idle(executor: SteppedExecutor) -> int:
     """
     Run every callback that is ready, and those made ready by them, until none is; return count.
 
     NodeError when a callback raises anything, ``SystemExit`` and ``KeyboardInterrupt``
-    included: the node's process would have died there.
+    included: the node's process would have died there; see :func:`check_ros_state` for a
+    callback that ends ROS (NodeEnded) or takes its node off the executor.
     """
     count = 0
     while True:
@@ -84,13 +126,15 @@ def spin_until_idle(executor: Executor) -> int:
             while True:
                 task, entity, node = executor.wait_for_ready_callbacks(timeout_sec=0)
                 count += 1
+                place = callback_place(entity)
                 try:
                     task()
                 except BaseException as error:  # noqa: B902 sys.exit() in a callback ends it
-                    raise NodeError(node.get_name(), error, callback_place(entity)) from error
+                    raise NodeError(node.get_name(), error, place, executor.code) from error
                 if task.exception() is not None:
-                    raise NodeError(node.get_name(), task.exception(),
-                                    callback_place(entity)) from task.exception()
+                    raise NodeError(node.get_name(), task.exception(), place,
+                                    executor.code) from task.exception()
+                check_ros_state(executor, node, place)
         except TimeoutException:
             if count == ran_before:
                 return count

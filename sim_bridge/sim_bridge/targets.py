@@ -4,37 +4,123 @@ Find the rclpy Node class a runner TARGET names: a console script, a module or a
 TARGET forms: ``wall_follow`` (a console script, as ``ros2 run`` knows it),
 ``scan_pkg.wall_follow`` (a module), ``path/to/node.py`` (any file, run as written); each
 optionally followed by
-``:ClassName`` when the module defines several Node subclasses. Modules are imported as they
-are, with the rclpy of this Python (a sourced ROS 2 Jazzy, or the PyPI wheels).
+``:ClassName`` when the module defines several Node subclasses. A path that exists is a path,
+whatever it holds (``col:on/node.py``). Modules are imported as they are, with the rclpy of
+this Python (a sourced ROS 2 Jazzy, or the PyPI wheels).
+
+:class:`StudentCode` tells a node's own code from everything else in a traceback, so that an
+error is reported at the student's line, not at rclpy's, the runner's or Python's library's.
 """
 
+from dataclasses import dataclass
 from importlib import import_module
 from importlib.metadata import entry_points
 import importlib.util
 import inspect
+import os
 from pathlib import Path
+import site
 import sys
+import sysconfig
 import traceback
 from types import ModuleType
+from typing import Iterable
+
+#: Frames under these folders are never a node's own code: this package (the runner), and
+#: Python's library and installed packages (a node calling random.choice([]) raised the
+#: IndexError, not random.py).
+LIBRARY_DIRS = tuple({os.path.dirname(os.path.abspath(__file__)) + os.sep} | {
+    os.path.join(path, '') for path in (
+        *(sysconfig.get_paths()[key] for key in ('stdlib', 'platstdlib', 'purelib', 'platlib')),
+        *site.getsitepackages())})
 
 
 class TargetError(LookupError):
-    """A TARGET that names no loadable module or no rclpy Node subclass in it."""
-
-
-def split_target(target: str) -> tuple[str, str | None]:
     """
-    Return a TARGET's module or file and its ``:ClassName`` (or None).
+    A TARGET that names no loadable module or no rclpy Node subclass in it.
 
-    A file that exists is a file, whatever its path holds: ``class/col:on/wall_follow.py``.
+    ``file`` is the node file that failed to import, when known.
     """
-    if Path(target).is_file():
-        return target, None
+
+    def __init__(self, message: str, file: str | None = None):
+        super().__init__(message)
+        self.file = file
+
+
+def split_target(target: str, base: Path | None = None) -> tuple[str, str | None]:
+    """
+    Split ``TARGET`` into what it names and the ``:ClassName`` that follows, if any.
+
+    A TARGET naming an existing file (relative to ``base`` if given) is a path even when it
+    holds ':'; otherwise the text after its last ':' is a class name when it is an identifier.
+    """
     where, colon, class_name = target.rpartition(':')
-    if colon and Path(where).is_file():
-        return where, class_name or None
-    where, _, class_name = target.partition(':')
-    return where, class_name or None
+    if not colon or not class_name.isidentifier() or ((base or Path()) / target).is_file():
+        return target, None
+    return where, class_name
+
+
+def is_library_frame(filename: str) -> bool:
+    """Return True when code in ``filename`` is not a node's own: see LIBRARY_DIRS."""
+    return (filename.startswith('<') or '/msg/_' in filename or '/rclpy/' in filename
+            or os.path.abspath(filename).startswith(LIBRARY_DIRS))
+
+
+@dataclass(frozen=True)
+class StudentCode:
+    """
+    Where a run's node code is, to find the node's own frames in a traceback.
+
+    ``folders``: the folders of the run's node files (a node's own code is its file and the
+    modules beside it). Without folders (or when no frame is in them), a node's own frames are
+    those outside generated message code, rclpy, this package and Python's library
+    (:func:`is_library_frame`).
+    """
+
+    folders: frozenset[str] = frozenset()
+
+    @classmethod
+    def of(cls, files: Iterable[str | os.PathLike]) -> 'StudentCode':
+        """Return the student code of a run of the node files ``files``."""
+        return cls(frozenset(os.path.dirname(os.path.abspath(file)) for file in files))
+
+    def frames(self, frames: Iterable[traceback.FrameSummary]) -> list[traceback.FrameSummary]:
+        """Return the frames of ``frames`` that are a node's own code, outermost first."""
+        frames = list(frames)
+        own = [frame for frame in frames
+               if os.path.dirname(os.path.abspath(frame.filename)) in self.folders]
+        return own or [frame for frame in frames if not is_library_frame(frame.filename)]
+
+    def origin(self, error: BaseException) -> str:
+        """
+        Return ' at file:line: code' of the node's line where ``error`` arose, or ''.
+
+        The innermost frame of the node's own code, so an int assigned to a float field points
+        at the assignment, not at rosidl's setter; a SyntaxError at its own file and line.
+        """
+        if isinstance(error, SyntaxError) and error.filename and error.lineno:
+            text = (error.text or '').strip()
+            return f' at {error.filename}:{error.lineno}' + (f': {text}' if text else '')
+        return self.stack_origin(traceback.extract_tb(error.__traceback__))
+
+    def stack_origin(self, frames: Iterable[traceback.FrameSummary]) -> str:
+        """Return ' at file:line: code' of the innermost of ``frames`` that is the node's."""
+        own = self.frames(frames)
+        if not own:
+            return ''
+        frame = own[-1]
+        return f' at {frame.filename}:{frame.lineno}' + (f': {frame.line}' if frame.line else '')
+
+    def traceback(self, error: BaseException) -> str:
+        """
+        Return the node's part of ``error``'s traceback: its own frames and the error lines.
+
+        A SyntaxError ends with its file, line, the offending code and a caret, as Python
+        prints it.
+        """
+        own = self.frames(traceback.extract_tb(error.__traceback__))
+        head = ['Traceback (most recent call last):\n', *traceback.format_list(own)] if own else []
+        return ''.join(head + traceback.format_exception_only(error))
 
 
 def _console_script_module(name: str) -> str | None:
@@ -54,7 +140,7 @@ def _load_file(path: Path) -> ModuleType:
     sys.path.insert(0, str(path.parent))
     try:
         spec.loader.exec_module(module)
-    except Exception:
+    except BaseException:  # noqa: B902 the half-run module must not stay importable
         del sys.modules[module_name]
         raise
     finally:
@@ -75,12 +161,25 @@ def load_module(where: str) -> ModuleType:
         raise TargetError(f"'{where}' is neither a console script, a module nor a .py file")
 
 
-def import_failure(error: Exception) -> str:
-    """Describe an exception raised while importing a TARGET, with where it was raised."""
-    if isinstance(error, SyntaxError):
-        return f'{type(error).__name__}: {error}'
-    frame = traceback.extract_tb(error.__traceback__)[-1]
-    return f'{type(error).__name__}: {error} ({frame.filename}:{frame.lineno})'
+def describe(error: BaseException, code: StudentCode = StudentCode()) -> str:
+    """Say what ``error`` was and the node's own line that raised it (StudentCode.origin)."""
+    text = f'{type(error).__name__}: {error}' if str(error) else type(error).__name__
+    if isinstance(error, SystemExit):
+        text = f'SystemExit (sys.exit({error.code!r}))'
+    elif isinstance(error, SyntaxError):
+        text = f'{type(error).__name__}: {error.msg}'  # str() has the file's name and line
+    return text + code.origin(error)
+
+
+def module_file(where: str) -> str | None:
+    """Return the file of the module a TARGET (without ``:ClassName``) names, when found."""
+    if where.endswith('.py') or '/' in where or Path(where).is_file():
+        return where
+    try:
+        spec = importlib.util.find_spec(_console_script_module(where) or where)
+    except (ImportError, ValueError):
+        return None
+    return spec.origin if spec is not None and spec.has_location else None
 
 
 def node_classes(module: ModuleType, node_base: type) -> dict[str, type]:
@@ -97,8 +196,9 @@ def load_node_class(target: str, node_base: type) -> type:
         module = load_module(where)
     except TargetError:
         raise
-    except Exception as error:
-        raise TargetError(f"'{where}' fails to import: {import_failure(error)}") from error
+    except (Exception, SystemExit) as error:  # a file that exits as it is imported
+        raise TargetError(f"'{where}' fails to import: {describe(error)}",
+                          module_file(where)) from error
     classes = node_classes(module, node_base)
     if class_name is not None:
         if class_name not in classes:

@@ -24,6 +24,7 @@ from rosbags.rosbag2 import Reader
 from rosbags.typesys import get_typestore, Stores
 from sim_bridge.geometry import signed_distance
 from sim_bridge.run import main, run_simulation, RunError
+from sim_bridge.scenario import scenario_from_dict
 from sim_bridge.world import World
 import yaml
 
@@ -249,6 +250,17 @@ def test_target_can_be_a_copy_of_a_node_file_anywhere(tmp_path, capfd):
     assert len(log_lines(capfd.readouterr().err, 'scan_ahead')) == 3
 
 
+@pytest.mark.parametrize('suffix', ['', ':ScanAhead'])
+def test_a_node_file_in_a_folder_with_a_colon_is_a_path(suffix, tmp_path, capfd):
+    student_file = tmp_path / 'col:on' / 'my_scan_ahead.py'
+    student_file.parent.mkdir()
+    shutil.copy(SCAN_AHEAD_SOURCE, student_file)
+    result = run_simulation('obstacles', [f'{student_file}{suffix}'], duration_s=0.3,
+                            out_dir=tmp_path / 'out', record=False, plot=False)
+    assert result.ok
+    assert len(log_lines(capfd.readouterr().err, 'scan_ahead')) == 3
+
+
 def test_file_target_with_class_name_picks_that_class(tmp_path):
     result = run_simulation('obstacles', [f"{FIXTURES / 'two_nodes.py'}:Driver"],
                             duration_s=1.0, out_dir=tmp_path, record=False, plot=False)
@@ -278,10 +290,14 @@ def test_file_target_with_class_name_picks_that_class(tmp_path):
     (['--node', 'scan_ahead', '--duration', '0'], 'duration must be a positive number'),
     (['--node', 'scan_ahead', '--duration', 'inf'], 'duration must be a positive number'),
     (['--node', 'scan_ahead', '--seed', '-1'], 'seed must be a non-negative integer'),
+    (['--node', 'scan_ahead', '--seed', str(2 ** 63)],
+     'seed must be a non-negative integer up to 9223372036854775807 (a ROS integer parameter '
+     'is int64), got 9223372036854775808'),
 ], ids=['unknown target', 'missing file', 'no Node subclass', 'two Node subclasses',
         'unknown class', 'unknown world', 'param type', 'param for absent node',
         'malformed param', 'param the runner sets', 'bad simulator param',
-        'bad lidar param', 'zero duration', 'infinite duration', 'negative seed'])
+        'bad lidar param', 'zero duration', 'infinite duration', 'negative seed',
+        'seed beyond int64'])
 def test_start_error_is_one_line_exit_2_and_writes_nothing(args, mentions, tmp_path, run_main):
     out_dir = tmp_path / 'out'
     argv = ['--world', 'wall_follow_box', '--duration', '1', *args, '--out', str(out_dir)]
@@ -389,6 +405,26 @@ def test_node_ending_its_process_in_a_callback_fails_the_run_with_outputs(how, s
     assert (out_dir / 'trajectory.png').is_file()
 
 
+def test_an_error_in_the_standard_library_is_reported_at_the_students_line(tmp_path, run_main):
+    node_file = FIXTURES / 'near_average.py'
+    status, _, stderr = run_main('--world', 'obstacles', '--node', str(node_file), '--duration',
+                                 '1', '--no-record', '--no-plot', '--out', str(tmp_path))
+    assert status == 1
+    (error,) = load_metrics(tmp_path)['node_errors']
+    # statistics.mean raised it, on the student's call: their line, not statistics.py's.
+    assert error['error'] == (
+        "node 'near_average' raised StatisticsError: mean requires at least one data point at "
+        f"{node_file}:20: self.get_logger().info(f'mean near reading: "
+        "{statistics.mean(near):.2f} m')")
+    # The traceback kept and printed is the student's part: their frames, then the error.
+    lines = error['traceback'].splitlines()
+    assert [lines[0], lines[1], lines[-1]] == [
+        'Traceback (most recent call last):', f'  File "{node_file}", line 20, in on_scan',
+        'statistics.StatisticsError: mean requires at least one data point']
+    assert sum(line.startswith('  File ') for line in lines) == 1
+    assert error['traceback'] in stderr and 'rclpy' not in stderr.split('[near_average]')[-1]
+
+
 def test_node_raising_in_its_constructor_fails_the_run(tmp_path, run_main):
     out_dir = tmp_path / 'out'
     status, _, _ = run_main('--world', 'wall_follow_box', '--node', 'wall_follow', '--param',
@@ -397,6 +433,74 @@ def test_node_raising_in_its_constructor_fails_the_run(tmp_path, run_main):
     (error,) = load_metrics(out_dir)['node_errors']
     assert error['node'] == 'wall_follow' and 'side must be one of' in error['error']
     assert set(read_bag(out_dir / 'run')) <= {'/clock', '/tf_static'}
+
+
+def test_rclpy_spin_once_inside_a_callback_works_as_in_the_nodes_own_process(tmp_path, capfd):
+    """rclpy.spin_once(self) spins the global executor, the one main's rclpy.spin spins."""
+    status = main(['--world', 'obstacles', '--node', str(FIXTURES / 'spin_in_callback.py'),
+                   '--duration', '2', '--no-record', '--no-plot', '--out', str(tmp_path)])
+    assert status == 0
+    # Its 20 Hz timer ran all 2 s (and its scans with it): the node stayed on the executor.
+    assert len(log_lines(capfd.readouterr().err, 'spinner')) == 40
+    assert load_metrics(tmp_path)['distance_m'] == pytest.approx(0.2 * 2.0, abs=0.05)
+
+
+def test_a_node_spinning_its_own_executor_in_a_callback_fails_the_run(tmp_path, run_main):
+    node_file = FIXTURES / 'spin_in_callback.py'
+    status, _, _ = run_main('--world', 'obstacles', '--node', str(node_file), '--param',
+                            'spinner:executor=own', '--duration', '2', '--no-record',
+                            '--no-plot', '--out', str(tmp_path))
+    assert status == 1
+    metrics = load_metrics(tmp_path)
+    (error,) = metrics['node_errors']
+    assert error['error'].startswith(
+        "node 'spinner' was taken off the runner's executor in its timer callback at "
+        f'{node_file}:38: executor.add_node(self): it is no longer on the executor that spins '
+        "it (main's rclpy.spin)")
+    # The run ends at its first timer call (0.05 s), not quietly 2 s later.
+    assert metrics['sim_time_s'] < 0.2
+
+
+def test_a_parameter_no_node_declared_is_a_warning(tmp_path, run_main):
+    status, _, stderr = run_main(
+        '--world', 'wall_follow_box', '--node', 'wall_follow', '--param', 'wall_follow:nosuch=1',
+        '--param', 'wall_follow:distance=0.6', '--param', 'sim_bridge:nosuch_either=true',
+        '--duration', '0.5', '--no-record', '--no-plot', '--out', str(tmp_path))
+    assert status == 0
+    warnings = [
+        "node 'wall_follow' did not declare parameter 'nosuch' (given by --param or the params "
+        'file); it was ignored',
+        "node 'sim_bridge' did not declare parameter 'nosuch_either' (given by --param or the "
+        'params file); it was ignored']
+    assert load_metrics(tmp_path)['warnings'] == warnings
+    assert [line[len('warning: '):] for line in stderr.splitlines()
+            if line.startswith('warning: ')] == warnings
+
+
+def test_a_run_with_only_declared_parameters_has_no_warnings(wall_follow_runs):
+    assert load_metrics(wall_follow_runs['first'])['warnings'] == []
+
+
+def test_a_node_that_shuts_ros_down_ends_the_run_with_every_output(tmp_path, run_main):
+    node_file = FIXTURES / 'quitter.py'
+    status, stdout, stderr = run_main('--world', 'obstacles', '--node', str(node_file),
+                                      '--duration', '3', '--out', str(tmp_path))
+    # A node ending ROS ends its own process normally: the run ends there, not as a failure.
+    assert status == 0, stderr
+    metrics = load_metrics(tmp_path)
+    ended_by = ("node 'quitter' shut ROS down (rclpy.shutdown()) in its timer callback at "
+                f'{node_file}:26: rclpy.shutdown()')
+    assert metrics['ended_by'] == ended_by and metrics['node_errors'] == []
+    assert metrics['warnings'] == [f'{ended_by}: the run ended at 1 s of its 3 s']
+    assert f'warning: {ended_by}' in stderr and ended_by in stdout
+    assert metrics['sim_time_s'] == pytest.approx(1.0)
+    assert metrics['distance_m'] == pytest.approx(0.2 * 0.9, abs=0.03)
+    assert (tmp_path / 'trajectory.png').is_file()
+    assert len(read_bag(tmp_path / 'run')['/scan']) == SCAN_RATE
+
+
+def test_a_run_to_its_duration_was_ended_by_nothing(wall_follow_runs):
+    assert load_metrics(wall_follow_runs['first'])['ended_by'] is None
 
 
 def test_same_seed_gives_identical_metrics_and_recordings(wall_follow_runs):
@@ -493,9 +597,11 @@ def broken_import_target(tmp_path: Path) -> str:
 @pytest.mark.parametrize('make_target, outcome', [
     (lambda tmp_path: 'scan_ahead', 'completes'),
     (lambda tmp_path: str(FIXTURES / 'raising_node.py'), 'node error'),
+    (lambda tmp_path: str(FIXTURES / 'quitter.py'), 'completes'),
     (lambda tmp_path: 'no_such_node', RunError),
     (broken_import_target, RunError),
-], ids=['completed', 'node raised', 'start error', 'target import fails'])
+], ids=['completed', 'node raised', 'node shut ROS down', 'start error',
+        'target import fails'])
 def test_runner_leaves_rclpy_shut_down_and_the_environment_as_it_was(
         make_target, outcome, tmp_path, monkeypatch):
     import rclpy
@@ -529,9 +635,11 @@ def test_no_record_and_no_plot_leave_only_the_metrics(tmp_path, run_main):
 
 @pytest.mark.parametrize('source, mentions', [
     ('import rclpy\n\nraise ImportError("no module named scan_utils")\n',
-     'ImportError: no module named scan_utils ({path}:3)'),
-    ('def broken(:\n', 'SyntaxError: '),
-], ids=['import error', 'syntax error'])
+     'ImportError: no module named scan_utils at {path}:3: raise ImportError('),
+    ('x = 1\ndef broken(:\n', 'SyntaxError: invalid syntax at {path}:2: def broken(:'),
+    ('import sys\n\nsys.exit("run me with ros2 run")\n',
+     "SystemExit (sys.exit('run me with ros2 run')) at {path}:3: sys.exit("),
+], ids=['import error', 'syntax error', 'exit at import'])
 def test_a_target_that_fails_to_import_is_a_one_line_start_error(
         source, mentions, tmp_path, run_main):
     path = tmp_path / 'broken.py'
@@ -542,6 +650,41 @@ def test_a_target_that_fails_to_import_is_a_one_line_start_error(
     (error,) = [line for line in stderr.splitlines() if line.startswith('error: ')]
     assert error.startswith(f"error: '{path}' fails to import: ")
     assert mentions.format(path=path) in error
+    # Above it, the student's part of the traceback, as `python3 broken.py` shows it: their
+    # file and line, not the runner's frames.
+    assert f'File "{path}", line ' in stderr and 'sim_bridge' not in stderr
+
+
+def test_a_syntax_error_is_reported_at_the_students_line_in_the_grade_report(tmp_path):
+    from sim_bridge.grade import run_scenario
+    path = tmp_path / 'wall_follow.py'
+    path.write_text('import rclpy\n\n\ndef on_scan(self, msg)\n    pass\n')
+    scenario = scenario_from_dict({'world': 'obstacles', 'nodes': [str(path)], 'duration': 1,
+                                   'criteria': ['collisions == 0']}, 'syntax')
+    report = run_scenario(scenario.runs()[0], tmp_path / 'out', record=False, plot=False)
+    assert report.error.endswith(f"SyntaxError: expected ':' at {path}:4: def on_scan(self, msg)")
+    # The traceback kept is the student's: their file, line, code and caret; no grader frame.
+    assert report.traceback.splitlines() == [
+        f'  File "{path}", line 4', '    def on_scan(self, msg)', ' ' * 26 + '^',
+        "SyntaxError: expected ':'"]
+
+
+def test_a_memory_error_while_importing_names_the_memory_limit_and_the_file(tmp_path):
+    import resource
+    path = tmp_path / 'lookup_node.py'
+    path.write_text('# A precomputed table far beyond the memory limit.\n'
+                    'TABLE = bytearray(2 ** 37)\n')
+    soft, hard = resource.getrlimit(resource.RLIMIT_AS)
+    # 64 GiB: far above what this process uses, far below the table (128 GiB).
+    resource.setrlimit(resource.RLIMIT_AS, (2 ** 36, hard))
+    try:
+        with pytest.raises(RunError) as error:
+            run_simulation('obstacles', [str(path)], duration_s=1.0, out_dir=tmp_path / 'out')
+    finally:
+        resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
+    assert str(error.value) == (
+        f"'{path}' fails to import: MemoryError at {path}:2: TABLE = bytearray(2 ** 37) "
+        f'(memory limit 64 GiB reached while importing {path})')
 
 
 def test_a_node_file_imports_modules_beside_it(tmp_path, run_main):

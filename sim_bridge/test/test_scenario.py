@@ -5,8 +5,8 @@ import textwrap
 
 import pytest
 
-from sim_bridge.scenario import (load_scenario, load_scenarios, parse_criterion, ScenarioError,
-                                 target_name)
+from sim_bridge.scenario import (load_scenario, load_scenarios, MAX_SEED, parse_criterion,
+                                 ScenarioError, target_name, with_node_overrides)
 
 METRICS = {
     'collisions': 0, 'laps': -2, 'min_clearance_m': 0.21, 'turns_deg': [104.5, 171.0, 95.25],
@@ -129,6 +129,12 @@ def test_a_start_pose_is_three_numbers(tmp_path):
     (('seeds: [1, 2, 3]', 'seeds: [1, true]'), 'seeds[1]', 'non-negative integer'),
     (('seeds: [1, 2, 3]', 'seeds: [1, 1]'), 'seeds', 'repeated seeds'),
     (('seeds: [1, 2, 3]', 'seed: 1.5'), 'seed', 'non-negative integer'),
+    (('seeds: [1, 2, 3]', 'seed: true'), 'seed', 'non-negative integer up to'),
+    (('seeds: [1, 2, 3]', 'seed: -1'), 'seed', 'non-negative integer up to'),
+    (('seeds: [1, 2, 3]', 'seed: 9223372036854775808'), 'seed',
+     'must be a non-negative integer up to 9223372036854775807 (a ROS integer parameter is '
+     'int64), got 9223372036854775808'),
+    (('seeds: [1, 2, 3]', 'seeds: [1, 9223372036854775808]'), 'seeds[1]', 'int64'),
     (('seeds: [1, 2, 3]', 'seeds: [1]\nseed: 2'), 'seeds', "either 'seed' or 'seeds'"),
     (('start: mirrored', 'start: [1, 2]'), 'start', "must be 'mirrored' or [x, y, yaw]"),
     (('start: mirrored', 'start: mirror'), 'start', "must be 'mirrored'"),
@@ -197,3 +203,48 @@ def test_an_ambiguous_override_must_name_the_node(tmp_path):
         scenario.with_node_override('ana.py')
     assert scenario.with_node_override('wf=ana.py').nodes == ('wall_follow', 'ana.py')
     assert scenario.with_node_override('wanderbot=ana.py') == scenario
+
+
+def test_the_largest_seed_is_the_largest_int64(tmp_path):
+    scenario = load_scenario(write(tmp_path, 's.yaml', VALID.replace(
+        'seeds: [1, 2, 3]', f'seed: {2 ** 63 - 1}')))
+    assert scenario.seeds == (MAX_SEED,) == (2 ** 63 - 1,)
+
+
+def test_an_override_naming_an_existing_file_is_that_file_whatever_it_holds(tmp_path):
+    scenario = load_scenario(write(tmp_path, 's.yaml', VALID))
+    for folder in ('with=sign', 'col:on', 'both=a:b'):
+        student_file = tmp_path / folder / 'wall_follow.py'
+        student_file.parent.mkdir()
+        student_file.write_text('')
+        replaced = scenario.with_node_override(str(student_file))
+        assert replaced.nodes == (str(student_file), scenario.nodes[1])
+        assert target_name(str(student_file)) == 'wall_follow'
+
+
+def test_an_override_that_is_neither_a_file_nor_node_equals_target_is_an_error(tmp_path):
+    scenario = load_scenario(write(tmp_path, 's.yaml', VALID))
+    with pytest.raises(ScenarioError, match=r"--node-override '/nowhere/with=sign/wf\.py': no "
+                       r'such file, and not NODE=TARGET \(NODE a node name without a path'):
+        scenario.with_node_override('/nowhere/with=sign/wf.py')
+
+
+def test_an_override_read_both_ways_is_an_error(tmp_path, monkeypatch):
+    scenario = load_scenario(write(tmp_path, 's.yaml', VALID.replace(
+        'nodes: [wall_follow, ../students/wf.py:Follower]', 'nodes: [wall_follow]')))
+    monkeypatch.chdir(tmp_path)
+    for name in ('wall_follow=ana.py', 'ana.py'):
+        (tmp_path / name).write_text('')
+    with pytest.raises(ScenarioError, match=r"'wall_follow=ana\.py' is ambiguous: both the "
+                       r'file wall_follow=ana\.py and node wall_follow replaced by ana\.py exist; '
+                       r'write \./wall_follow=ana\.py for the file'):
+        scenario.with_node_override('wall_follow=ana.py')
+    assert scenario.with_node_override('./wall_follow=ana.py').nodes == ('./wall_follow=ana.py',)
+
+
+def test_an_override_of_a_node_no_scenario_runs_is_an_error(tmp_path):
+    scenarios = [load_scenario(write(tmp_path, 's.yaml', VALID))]
+    assert with_node_overrides(scenarios, ['wf=ana.py'])[0].nodes == ('wall_follow', 'ana.py')
+    with pytest.raises(ScenarioError, match="no scenario runs a node 'wal_follow' "
+                       r'\(they run wall_follow, wf\)'):
+        with_node_overrides(scenarios, ['wal_follow=ana.py'])
