@@ -162,7 +162,8 @@ def run_scenario(run: ScenarioRun, out_dir: Path, *, simulate: Simulate | None =
 
     A run that cannot start (bad world, target or parameter) or whose runner crashes is
     reported with its error and fails; a node raising during the run is in the metrics'
-    ``node_errors`` and fails the criteria that look at it.
+    ``node_errors`` and fails the criteria that look at it; a run a node ended early fails
+    (:func:`ended_early`).
     """
     if simulate is None:
         from sim_bridge.run import run_simulation as simulate
@@ -180,8 +181,22 @@ def run_scenario(run: ScenarioRun, out_dir: Path, *, simulate: Simulate | None =
         kept = error.traceback if isinstance(error, RunError) else traceback.format_exc()
         return RunReport(run, out_dir, [], None, f'{type(error).__name__}: {error}',
                          time.perf_counter() - wall_start, kept)
-    return RunReport(run, out_dir, scenario.judge(result.metrics), result.metrics, None,
+    return RunReport(run, out_dir, scenario.judge(result.metrics), result.metrics,
+                     ended_early(result.metrics, scenario.duration_s),
                      time.perf_counter() - wall_start)
+
+
+def ended_early(metrics: dict[str, Any], duration_s: float) -> str | None:
+    """
+    Return why a run that a node ended (``rclpy.shutdown()``) before ``duration_s`` (s) fails.
+
+    The runner ends such a run as the node's process would end, not as a node error; a grade
+    still needs the whole scenario, or a node could pass by quitting before it is tested.
+    """
+    if not metrics.get('ended_by'):
+        return None
+    return (f"the run ended at {metrics['sim_time_s']:.1f} s of its {duration_s:g} s: "
+            f"{metrics['ended_by']}")
 
 
 class BatchProgress:

@@ -392,3 +392,16 @@ def test_main_writes_the_page_when_the_json_report_cannot_be_written(
     assert f'error: cannot write {out / grade.REPORT_NAME}: Is a directory' in captured.err
     assert (out / grade.PAGE_NAME).stat().st_size > 0
     assert f'report: {out / grade.PAGE_NAME}' in captured.out
+
+
+def test_a_run_a_node_ended_early_fails_saying_when_and_who(tmp_path, runs):
+    ended_by = "node 'quitter' shut ROS down (rclpy.shutdown()) in its timer callback"
+
+    def quitting_simulate(world, targets, **options):
+        return SimpleNamespace(metrics={'laps': 1, 'sim_time_s': 3.0, 'collisions': 0,
+                                        'node_errors': [], 'ended_by': ended_by})
+
+    report = run_scenario(runs[0], tmp_path, simulate=quitting_simulate)
+    assert all(result.passed for result in report.results)
+    assert not report.passed
+    assert report.error == f'the run ended at 3.0 s of its 30 s: {ended_by}'
