@@ -22,6 +22,7 @@ import os
 from pathlib import Path
 import select
 import shutil
+import signal
 import sys
 import time
 import traceback
@@ -428,6 +429,15 @@ def main(argv: list[str] | None = None) -> int:
         GradeJob(run, args.out / run.name) for scenario in scenarios for run in scenario.runs()]
     progress = BatchProgress(len(jobs), sum(job.run.scenario.duration_s for job in jobs),
                              enabled=not args.quiet)
+    # SIGTERM (kill, a CI job's timeout) interrupts as Ctrl-C does; the exit status then says
+    # which it was, 128 + the signal's number, as a shell's for a process killed by it.
+    interrupted_by = [signal.SIGINT]
+
+    def terminate(signum: int, frame: Any) -> None:
+        interrupted_by[0] = signum
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, terminate)
     try:
         reports = grade_runs(jobs, workers=args.jobs, limits=limits, progress=progress,
                              resume=not args.fresh, quiet=False,
@@ -435,7 +445,9 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f'\ninterrupted: {progress.done} of {len(jobs)} runs finished; the same command '
               'again resumes from there', file=sys.stderr)
-        return 130
+        return 128 + interrupted_by[0]
+    finally:
+        signal.signal(signal.SIGTERM, previous)
     if batch is not None:
         print(batch.write_outputs(reports))
         return 0 if all(report.passed for report in reports) else 1
