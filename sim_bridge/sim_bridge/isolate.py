@@ -466,7 +466,7 @@ def run_child(job: Job, status: multiprocessing.connection.Connection,
     # each child. A child lets go of it, so that the fork server ends with the grader (and the
     # SIGTERM above comes then). This child creates no process through the fork server.
     server = multiprocessing.forkserver._forkserver
-    if server._forkserver_alive_fd is not None:
+    if getattr(server, '_forkserver_alive_fd', None) is not None:
         os.close(server._forkserver_alive_fd)
         server._forkserver_alive_fd = None
     if not process_exists(grader):  # it died before the line above

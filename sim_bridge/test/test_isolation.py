@@ -71,6 +71,7 @@ def test_the_passing_run_passes_beside_every_failure(batch):
     assert [name for name, report in batch.items() if report.passed] == ['passing']
     assert (batch['passing'].out_dir / 'metrics.json').is_file()
     assert (batch['passing'].out_dir / RESULT_NAME).is_file()
+    assert 'warnings' not in batch['passing'].metrics  # the runner's own threads are not named
 
 
 @pytest.mark.parametrize('kind', ['loop', 'sleep'])
