@@ -482,15 +482,19 @@ def run_child(job: Job, status: multiprocessing.connection.Connection,
     supervisor = os.getpid()
     run = os.fork()
     if run == 0:
+        returncode = 1
         try:
             signal.signal(signal.SIGTERM, signal.SIG_DFL)
             prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
-            if os.getppid() == supervisor:
+            if os.getppid() == supervisor:  # else the supervisor died before the line above
                 run_job(job, status, scratch, environ)
+                returncode = 0
+        except BaseException:  # noqa: B902 the log says why the run ended without its result
+            traceback.print_exc()
         finally:
             for stream in (sys.stdout, sys.stderr):
                 stream.flush()
-            os._exit(0)  # now: a thread a node left running does not keep the run alive
+            os._exit(returncode)  # now: a thread a node left running does not keep it alive
     status.close()
     try:
         returncode = wait_for(run)
@@ -517,14 +521,20 @@ def wait_for(pid: int) -> int:
 
 
 def children() -> list[int]:
-    """Return the process ids of this process's children."""
+    """Return the process ids of the processes whose parent is this one (read from /proc)."""
+    parent = os.getpid()
     found = []
-    for task in os.listdir('/proc/self/task'):
+    for entry in os.listdir('/proc'):
+        if not entry.isdigit():
+            continue
         try:
-            with open(f'/proc/self/task/{task}/children') as listed:
-                found += [int(pid) for pid in listed.read().split()]
-        except OSError:  # the task ended
-            pass
+            with open(f'/proc/{entry}/stat', 'rb') as stat:
+                # pid (command) state ppid ...: the command may hold spaces and parentheses.
+                ppid = int(stat.read().rpartition(b')')[2].split()[1])
+        except (OSError, IndexError, ValueError):  # it ended meanwhile
+            continue
+        if ppid == parent:
+            found.append(int(entry))
     return found
 
 
