@@ -22,6 +22,7 @@ import os
 from pathlib import Path
 import select
 import shutil
+import signal
 import sys
 import sysconfig
 import time
@@ -617,6 +618,15 @@ def main(argv: list[str] | None = None) -> int:
                              enabled=not args.quiet)
     names = report_names(args.out, args.submissions,
                          [scenario.path for scenario in scenarios if scenario.path])
+    # SIGTERM (kill, a CI job's timeout) interrupts as Ctrl-C does; the exit status then says
+    # which it was, 128 + the signal's number, as a shell's for a process killed by it.
+    interrupted_by = [signal.SIGINT]
+
+    def terminate(signum: int, frame: Any) -> None:
+        interrupted_by[0] = signum
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, terminate)
     try:
         reports = grade_runs(jobs, workers=args.jobs, limits=limits, progress=progress,
                              resume=not args.fresh, names=names, quiet=False,
@@ -624,7 +634,9 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f'\ninterrupted: {progress.done} of {len(jobs)} runs finished; the same command '
               'again resumes from there', file=sys.stderr)
-        return 130
+        return 128 + interrupted_by[0]
+    finally:
+        signal.signal(signal.SIGTERM, previous)
     status = 0 if all(report.passed for report in reports) else 1
     if batch is not None:
         text, unwritten = batch.write_outputs(reports, names)

@@ -7,27 +7,42 @@ is a real child process on real rclpy, with a short stall limit so the batch sta
 """
 
 from dataclasses import replace
+import os
 from pathlib import Path
 import re
+import signal
+import subprocess
+import sys
+import time
 
 import pytest
 
-from sim_bridge import isolate
+from sim_bridge import isolate, paths
 from sim_bridge.grade import BatchProgress, grade_runs, GradeJob, RESULT_NAME
-from sim_bridge.isolate import exit_reason, Limits, trimmed_environment
+from sim_bridge.isolate import (
+    CappedLog, exit_reason, Limits, LOG_HEAD_BYTES, log_tail, LOG_TAIL_BYTES, LOG_TAIL_READ,
+    process_exists, remove_leftover_scratch, trimmed_environment)
 from sim_bridge.scenario import scenario_from_dict
 
 FIXTURES = Path(__file__).resolve().parent / 'fixtures'
 MISBEHAVING = FIXTURES / 'misbehaving_node.py'
+HELPER_STARTER = FIXTURES / 'helper_process_node.py'
+#: What a capped log says where it cut the output.
+CUT = re.compile(r"\n\[\.\.\. [\d.]+ MiB of output cut here: a run's log keeps the first "
+                 r'512\.0 KiB and the last 512\.0 KiB of it \.\.\.\]\n')
+#: What helper_process_node.py prints when it starts.
+STARTED = re.compile(r'node pid (\d+), helper pid (\d+)\n')
+#: Wall seconds a test waits for something a child does (it starts rclpy and pybullet).
+WAIT_S = 120.0
 STALL_S = 3.0
 #: Every line of the misbehaving node's scan callback that a stop may interrupt.
 IN_CALLBACK = re.compile(r'misbehaving_node\.py:\d+: ')
 
 
-def scenario(name: str, node: str, **params):
+def scenario(name: str, node: str, node_name: str = 'misbehaver', **params):
     return scenario_from_dict({
         'world': 'obstacles', 'nodes': [node], 'duration': 2.0, 'seed': 1,
-        'params': {'misbehaver': params} if params else {},
+        'params': {node_name: params} if params else {},
         'criteria': ['len(node_errors) == 0', 'collisions == 0']}, name)
 
 
@@ -56,6 +71,7 @@ def test_the_passing_run_passes_beside_every_failure(batch):
     assert [name for name, report in batch.items() if report.passed] == ['passing']
     assert (batch['passing'].out_dir / 'metrics.json').is_file()
     assert (batch['passing'].out_dir / RESULT_NAME).is_file()
+    assert not batch['passing'].metrics['warnings']  # the runner's own threads are not named
 
 
 @pytest.mark.parametrize('kind', ['loop', 'sleep'])
@@ -190,3 +206,209 @@ def test_exit_reasons(returncode, says):
 def test_budget_grows_with_the_simulated_duration():
     assert Limits().budget_s(600.0) == isolate.BUDGET_BASE_S + 600.0 * isolate.BUDGET_PER_SIM_S
     assert Limits(timeout_s=5.0).budget_s(600.0) == 5.0
+
+
+def test_a_run_keeps_the_variables_that_locate_gazebo_models_and_worlds(tmp_path):
+    environ = {'GZ_SIM_RESOURCE_PATH': '/models', 'GAZEBO_MODEL_PATH': '/classic',
+               'IGN_GAZEBO_RESOURCE_PATH': '/ign', 'GAZEBO_RESOURCE_PATH': '/worlds',
+               'GZ_SIM_SYSTEM_PLUGIN_PATH': '/plugins'}
+    child = trimmed_environment(tmp_path, environ)
+    kept = {**environ, 'GZ_SIM_SYSTEM_PLUGIN_PATH': None}
+    assert {name: child.get(name) for name in environ} == kept
+
+
+def test_a_model_found_through_gz_sim_resource_path_is_found_in_a_graded_run(
+        tmp_path, monkeypatch):
+    post = tmp_path / 'models' / 'my_post'
+    post.mkdir(parents=True)
+    (post / 'model.sdf').write_text(
+        (paths.models_dir() / 'obstacle_post' / 'model.sdf').read_text())
+    monkeypatch.setenv('GZ_SIM_RESOURCE_PATH', str(tmp_path / 'models'))
+    world = tmp_path / 'world.yaml'
+    world.write_text('obstacles:\n  - {name: p, type: model, model: my_post, pose: [2, 1]}\n')
+    [report] = grade_runs(
+        jobs_of(tmp_path, [scenario_from_dict({
+            'world': str(world), 'nodes': ['scan_ahead'], 'duration': 1.0,
+            'criteria': ['len(node_errors) == 0']}, 'post')]),
+        quiet=True, record=False, plot=False)
+    assert report.error is None and report.passed
+
+
+def test_a_memory_error_at_import_names_the_memory_limit(tmp_path):
+    [report] = grade_runs(
+        jobs_of(tmp_path, [scenario('table', str(FIXTURES / 'lookup_table_node.py'))]),
+        quiet=True, record=False, plot=False)
+    assert 'fails to import: MemoryError' in report.error
+    assert '(memory limit 2 GiB reached' in report.error
+
+
+def test_a_capped_log_keeps_its_head_and_tail_and_says_how_much_was_cut(tmp_path):
+    log = CappedLog(tmp_path / 'log.txt', head=10, tail=6)
+    for chunk in (b'0123456', b'789abcdefghij', b'klmnop'):
+        log.write(chunk)
+    log.close()
+    assert (tmp_path / 'log.txt').read_bytes() == (
+        b"0123456789\n[... 10 bytes of output cut here: a run's log keeps the first 10 bytes and "
+        b'the last 6 bytes of it ...]\nklmnop')
+
+
+def test_log_tail_reads_only_the_end_of_a_log(tmp_path):
+    path = tmp_path / 'log.txt'
+    path.write_text('x' * (3 * LOG_TAIL_READ) + '\nlast line\n')
+    assert log_tail(path) == 'last line'
+    path.write_text('y' * (3 * LOG_TAIL_READ))
+    assert log_tail(path) == 'y' * LOG_TAIL_READ
+
+
+@pytest.fixture(scope='module')
+def chatty(tmp_path_factory):
+    """Grade a node printing 50 MB of lines and one printing a 50 MB line before os._exit."""
+    folder = tmp_path_factory.mktemp('chatty')
+    reports = grade_runs(
+        jobs_of(folder, [scenario(how.replace('_', '-'), str(FIXTURES / 'chatty_node.py'),
+                                  'chatty', how=how) for how in ('lines', 'one_line')]),
+        workers=2, quiet=True, record=False, plot=False)
+    return {report.run.scenario.name: report for report in reports}
+
+
+def test_a_node_printing_50_mb_gets_a_log_of_its_head_and_tail(chatty):
+    report = chatty['lines']
+    assert report.passed, report.error
+    log = (report.out_dir / isolate.LOG_NAME).read_text()
+    cut = CUT.search(log)
+    assert cut, log[:200]
+    head, tail = log[:cut.start()], log[cut.end():]
+    assert len(head.encode()) == LOG_HEAD_BYTES and len(tail.encode()) == LOG_TAIL_BYTES
+    assert 'scan 0: ' in head and 'done printing the scan' in tail
+    assert float(re.search(r'([\d.]+) MiB', cut.group()).group(1)) > 45
+
+
+def test_a_50_mb_line_before_os_exit_is_cut_in_the_log_and_the_report(chatty):
+    report = chatty['one-line']
+    assert report.error == 'exit status 1'
+    log = report.out_dir / isolate.LOG_NAME
+    assert log.stat().st_size < LOG_HEAD_BYTES + LOG_TAIL_BYTES + 200
+    assert CUT.search(log.read_text())
+    assert report.traceback.endswith('x' * 100) and len(report.traceback) <= LOG_TAIL_READ
+
+
+def started_processes(log: Path) -> list[int]:
+    """Return the pids helper_process_node.py printed to a run's log: the node's, the helper's."""
+    found = STARTED.search(log.read_text()) if log.is_file() else None
+    return [int(pid) for pid in found.groups()] if found else []
+
+
+def wait_until(condition, timeout_s: float = WAIT_S) -> bool:
+    """Wait (bounded) until ``condition()`` holds; tell whether it did."""
+    deadline = time.monotonic() + timeout_s
+    while not condition():
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.05)
+    return True
+
+
+@pytest.fixture
+def no_strays():
+    """Kill, after the test, any process a test's run left (so a failure leaves no sleep 300)."""
+    pids = []
+    yield pids
+    for pid in pids:
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+
+
+@pytest.mark.parametrize('how', ['finish', 'os._exit'])
+def test_a_process_a_node_starts_in_a_session_of_its_own_ends_with_the_run(
+        tmp_path, how, no_strays):
+    [report] = grade_runs(
+        jobs_of(tmp_path, [scenario('helper', str(HELPER_STARTER), 'helper_starter', how=how)]),
+        quiet=True, record=False, plot=False)
+    assert report.passed if how == 'finish' else report.error == 'exit status 5'
+    started = started_processes(report.out_dir / isolate.LOG_NAME)
+    no_strays.extend(started)
+    assert len(started) == 2
+    assert [pid for pid in started if process_exists(pid)] == []
+
+
+def test_a_thread_a_node_leaves_running_ends_with_the_run_and_is_named(tmp_path):
+    [report] = grade_runs(
+        jobs_of(tmp_path, [scenario('threaded', str(FIXTURES / 'thread_node.py'))]),
+        limits=Limits(stall_s=STALL_S), quiet=True, record=False, plot=False)
+    assert report.passed, report.error
+    [warning] = report.metrics['warnings']
+    assert re.fullmatch(r"node thread 'Thread-\d+ \(control_loop\)', in control_loop at "
+                        r'thread_node\.py:\d+ was still running when the run ended; it was '
+                        r'stopped \(.*\)', warning), warning
+
+
+def grader(tmp_path: Path, *options: str) -> subprocess.Popen:
+    """
+    Start ``python -m sim_bridge.grade`` on two hanging runs of helper_process_node.py.
+
+    Its temporary folder is ``tmp_path/tmp``, its stderr ``tmp_path/stderr.txt`` (a file: a
+    pipe would stay open as long as any process that inherited it runs).
+    """
+    (tmp_path / 'hang.yaml').write_text(
+        f'world: obstacles\nnodes: [{HELPER_STARTER}]\nduration: 5.0\nseeds: [1, 2]\n'
+        'params: {helper_starter: {how: hang}}\ncriteria: [collisions == 0]\n')
+    (tmp_path / 'tmp').mkdir()
+    with open(tmp_path / 'stderr.txt', 'w') as stderr:
+        return subprocess.Popen(
+            [sys.executable, '-m', 'sim_bridge.grade', str(tmp_path / 'hang.yaml'), '--out',
+             str(tmp_path / 'out'), '--stall-timeout', '600', '--quiet', '--no-record',
+             '--no-plot', *options], env={**os.environ, 'TMPDIR': str(tmp_path / 'tmp')},
+            stdout=subprocess.DEVNULL, stderr=stderr)
+
+
+def run_log(tmp_path: Path, seed: int) -> Path:
+    return tmp_path / 'out' / 'hang' / f'seed_{seed}' / isolate.LOG_NAME
+
+
+def started_runs(tmp_path: Path) -> list[int]:
+    """Return the pids printed by both runs of :func:`grader`, once both printed them."""
+    pids = [started_processes(run_log(tmp_path, seed)) for seed in (1, 2)]
+    return pids[0] + pids[1] if all(pids) else []
+
+
+def scratch_folders(tmp_path: Path) -> list[str]:
+    """Return the scratch folders in the temporary folder of :func:`grader`."""
+    return [name for name in os.listdir(tmp_path / 'tmp')
+            if name.startswith(isolate.SCRATCH_PREFIX)]
+
+
+def test_sigterm_interrupts_the_grader_as_ctrl_c_and_ends_every_process_of_its_runs(
+        tmp_path, no_strays):
+    process = grader(tmp_path, '--jobs', '2')
+    try:
+        assert wait_until(lambda: started_runs(tmp_path)), (tmp_path / 'stderr.txt').read_text()
+        no_strays.extend(started_runs(tmp_path))
+        assert len(scratch_folders(tmp_path)) == 2
+        process.send_signal(signal.SIGTERM)
+        process.wait(timeout=WAIT_S)
+    finally:
+        process.kill()
+    assert process.returncode == 128 + signal.SIGTERM
+    assert (tmp_path / 'stderr.txt').read_text().endswith(
+        'interrupted: 0 of 2 runs finished; the same command again resumes from there\n')
+    assert wait_until(lambda: not any(map(process_exists, no_strays)), 10.0)
+    assert scratch_folders(tmp_path) == []
+
+
+def test_a_killed_graders_runs_end_with_it_and_its_scratch_goes_at_the_next_start(
+        tmp_path, no_strays):
+    process = grader(tmp_path)
+    try:
+        assert wait_until(lambda: started_processes(run_log(tmp_path, 1))), \
+            (tmp_path / 'stderr.txt').read_text()
+        no_strays.extend(started_processes(run_log(tmp_path, 1)))
+    finally:
+        process.kill()
+        process.wait()
+    assert wait_until(lambda: not any(map(process_exists, no_strays)), 30.0)
+    [left] = scratch_folders(tmp_path)
+    assert left.startswith(f'{isolate.SCRATCH_PREFIX}{process.pid}-')
+    remove_leftover_scratch(str(tmp_path / 'tmp'))
+    assert scratch_folders(tmp_path) == []
