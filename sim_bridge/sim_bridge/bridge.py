@@ -199,7 +199,8 @@ class SimBridge(Node):
                         angle_increment=float(scan.angle_increment),
                         time_increment=float(scan.time_increment),
                         scan_time=float(scan.scan_time), range_min=float(scan.range_min),
-                        range_max=float(scan.range_max), ranges=scan.ranges)
+                        range_max=float(scan.range_max), ranges=scan.ranges,
+                        intensities=scan.intensities)
         msg.header.stamp = stamp
         msg.header.frame_id = self.frames['laser']
         return msg
