@@ -18,13 +18,13 @@ import math
 
 from geometry_msgs.msg import PointStamped, TransformStamped, Twist, TwistStamped
 from nav_msgs.msg import Odometry
+import numpy as np
 import rclpy
 from rclpy.clock import Clock as RclpyClock, ClockType
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.time import Time
-import numpy as np
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import LaserScan
 
