@@ -16,9 +16,9 @@ rosbag2 itself is not on PyPI, so the bag is written by rosbags. The two halves 
   written as Jazzy's rosbag2_storage_mcap writes them, where rosbags differs: each MCAP channel
   holds the type hash (``topic_type_hash``) beside its QoS, and the metadata name the
   distribution (``ros_distro: jazzy``), not the writing library;
-* a bag holds the simulator's clock: a /clock message at (or before) every recorded message's
-  time (see :meth:`BagRecorder.write`), so a node replaying it with ``use_sim_time`` never
-  receives a message from its future.
+* a stepped run's bag (``sim_clock``, see :class:`BagRecorder`) holds the simulator's clock: a
+  /clock message at every recorded message's time, so a node replaying it with
+  ``use_sim_time`` never receives a message from its future.
 
 Reading a bag back (``rosbags.rosbag2.Reader`` and ``Typestore.deserialize_cdr``) is for
 whoever needs the messages; the recorder never looks inside them.
