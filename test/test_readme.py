@@ -1,6 +1,14 @@
-"""The README documents what the code does: every driving-node parameter is listed."""
+"""
+The README documents what the code does, and its commands work.
 
+Every driving-node parameter is listed; ``./lab test PYTEST_OPTIONS`` (pytest alone over the
+three test folders) collects, and ``./lab test`` prints its one-line total, pass or fail.
+"""
+
+import os
 from pathlib import Path
+import subprocess
+import sys
 
 import pytest
 import yaml
@@ -15,3 +23,46 @@ def test_readme_lists_every_parameter_of_the_driving_nodes(node):
     section = readme[readme.index(f'`{node}` parameters'):]
     for name in shipped[node]['ros__parameters']:
         assert f'`{name}`' in section, name
+
+
+@pytest.mark.parametrize('folder, arguments', [
+    ('.', ['scan_pkg/test', 'sim_bridge/test', 'test']),  # ./lab test -k laser, say
+    ('scan_pkg', []), ('sim_bridge', []),  # as colcon test runs each package
+])
+def test_pytest_collects_every_test_folder_without_an_error(folder, arguments):
+    """Both packages have ament's test_flake8.py and test_pep257.py: the names must not clash."""
+    collected = subprocess.run(
+        [sys.executable, '-m', 'pytest', '--collect-only', '-q', *arguments],
+        cwd=ROOT / folder, capture_output=True, text=True, timeout=120)
+    assert collected.returncode == 0, collected.stdout[-3000:] + collected.stderr[-3000:]
+    assert ' tests collected in ' in collected.stdout.splitlines()[-1]
+    assert 'error' not in collected.stdout.splitlines()[-1]
+
+
+COLCON_STUB = """#!/bin/sh
+# colcon as ./lab test calls it, its tests failed: test and test-result exit 1.
+case "$*" in
+    *test-result*--verbose*) echo "1 failure in sim_bridge"; exit 1 ;;
+    *test-result*) echo "pytest.xml: 4 tests, 0 errors, 1 failure, 0 skipped"
+                   echo "Summary: 10 tests, 1 error, 2 failures, 3 skipped"; exit 1 ;;
+    *" test "*) exit 1 ;;
+esac
+"""
+
+
+def test_lab_test_prints_its_total_when_tests_fail(tmp_path):
+    """``colcon test-result`` exits 1 then; ``set -euo pipefail`` must not lose the total."""
+    venv = tmp_path / 'venv'
+    (venv / 'bin').mkdir(parents=True)
+    (venv / 'bin' / 'colcon').write_text(COLCON_STUB)
+    (venv / 'bin' / 'python').write_text('#!/bin/sh\nexit 1\n')  # pytest test/ fails too
+    for stub in (venv / 'bin').iterdir():
+        stub.chmod(0o755)
+    done = subprocess.run(
+        ['bash', '-c', 'source "$1"; venv=$2; run_tests', 'bash', ROOT / 'lab', venv],
+        cwd=tmp_path, capture_output=True, text=True, timeout=60,
+        env={**os.environ, 'PATH': '/usr/bin:/bin'})
+    assert done.returncode == 1, done.stderr
+    assert done.stdout.splitlines()[-2:] == [
+        'lab test: colcon test of scan_pkg and sim_bridge, then pytest test/: 0 s in all',
+        '4 passed, 3 failed, 3 skipped']

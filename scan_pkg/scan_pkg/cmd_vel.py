@@ -10,12 +10,15 @@ from typing import Any
 
 from geometry_msgs.msg import Twist, TwistStamped
 import rclpy
+from rclpy.duration import Duration
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
 #: Longest wait (s) for work in the driving nodes' spin before Python can handle Ctrl-C.
 SPIN_TIMEOUT_S = 0.1
+#: Longest wait (s) for the subscribers to acknowledge the zero command a stopping node sends.
+STOP_ACK_TIMEOUT_S = 1.0
 
 
 def declare_config(node: Node, config_class: type) -> Any:
@@ -57,8 +60,14 @@ class CmdVelPublisher:
             self._publisher.publish(twist)
 
     def stop(self) -> None:
-        """Send a zero command."""
+        """
+        Send a zero command and wait (bounded) until every reliable subscriber has it.
+
+        The node's process may end right after: on a busy machine it would otherwise end before
+        DDS delivered the command to another process, and the robot would drive on.
+        """
         self.publish(0.0, 0.0)
+        self._publisher.wait_for_all_acked(Duration(seconds=STOP_ACK_TIMEOUT_S))
 
 
 def spin_then_stop(node_class: type, args: list[str] | None = None) -> None:

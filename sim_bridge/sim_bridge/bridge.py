@@ -13,10 +13,12 @@ TF needs ``tf2_ros``, which a ROS 2 installation has and PyPI does not: without 
 says so once and publishes everything else.
 """
 
+from array import array
 import math
 
 from geometry_msgs.msg import PointStamped, TransformStamped, Twist, TwistStamped
 from nav_msgs.msg import Odometry
+import numpy as np
 import rclpy
 from rclpy.clock import Clock as RclpyClock, ClockType
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
@@ -49,6 +51,16 @@ def quaternion_from_euler(roll: float, pitch: float, yaw: float
     cy, sy = math.cos(yaw / 2.0), math.sin(yaw / 2.0)
     return (sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy,
             cr * cp * sy - sr * sp * cy, cr * cp * cy + sr * sp * sy)
+
+
+def float32_array(values: np.ndarray) -> array:
+    """
+    Return ``values`` as the ``array('f')`` rosidl stores a float32 sequence field in.
+
+    Rounded by numpy in one pass: handed a numpy array, rosidl's setter converts it one
+    element at a time (about 40 us for 1081 beams).
+    """
+    return array('f', np.asarray(values, dtype=np.float32).tobytes())
 
 
 class SimBridge(Node):
@@ -199,7 +211,8 @@ class SimBridge(Node):
                         angle_increment=float(scan.angle_increment),
                         time_increment=float(scan.time_increment),
                         scan_time=float(scan.scan_time), range_min=float(scan.range_min),
-                        range_max=float(scan.range_max), ranges=scan.ranges)
+                        range_max=float(scan.range_max), ranges=float32_array(scan.ranges),
+                        intensities=float32_array(scan.intensities))
         msg.header.stamp = stamp
         msg.header.frame_id = self.frames['laser']
         return msg

@@ -18,7 +18,7 @@ from typing import Sequence
 
 from sim_bridge import live
 from sim_bridge.lab_tasks import LAB_TASKS
-from sim_bridge.paths import repo_root
+from sim_bridge.paths import output_folder, repo_root
 from sim_bridge.run import run_simulation, summary_table
 from sim_bridge.run_environment import rclpy_origin
 
@@ -122,7 +122,7 @@ def run_live_task() -> bool:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the demo; return 0 when every task ran, every scenario passed and live ran cleanly."""
     parser = argparse.ArgumentParser(prog='./lab demo', description=__doc__.strip().split('\n')[0])
-    parser.add_argument('--out', type=Path, default=Path('out') / 'demo',
+    parser.add_argument('--out', type=output_folder, default=Path('out') / 'demo',
                         help='output folder (default out/demo)')
     parser.add_argument('--no-grade', action='store_true',
                         help='only run the lab tasks, not the grading scenarios')

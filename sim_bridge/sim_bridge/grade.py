@@ -32,6 +32,7 @@ from typing import Any, TextIO
 from sim_bridge.isolate import (
     BUDGET_BASE_S, BUDGET_PER_SIM_S, Child, DEFAULT_MEMORY_BYTES, DEFAULT_STALL_S, Job, Limits,
     LOG_NAME)
+from sim_bridge.paths import output_folder
 from sim_bridge.report_text import (
     cap_text, first_line, format_measured, json_safe, outcome, PathNames, printable, reason)
 from sim_bridge.scenario import (
@@ -565,7 +566,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help='grade a class: DIR holds one folder per student with node files '
                         "named as the lab names them (wall_follow.py, ...); each scenario's "
                         "node is replaced by the student's file of the same name")
-    parser.add_argument('--out', type=Path, default=DEFAULT_OUT, metavar='DIR',
+    parser.add_argument('--out', type=output_folder, default=DEFAULT_OUT, metavar='DIR',
                         help=f'folder for {REPORT_NAME}, {PAGE_NAME} and the outputs of each '
                         f'run (default {DEFAULT_OUT}); the same folder again resumes')
     parser.add_argument('--jobs', type=int, default=1, metavar='N',

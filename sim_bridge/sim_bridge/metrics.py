@@ -27,6 +27,11 @@ STATIONARY_RADIUS = 0.05
 PATH_ROUNDING = 1e-6
 # Side (m) of the square cells of the coverage grid.
 COVERAGE_CELL = 0.5
+# Most cells along a side of a grid laid over a world (coverage, offset path): what a grid
+# holds is bounded, whatever the extent of the world, so a huge one costs coarser cells, not
+# memory (1000 x 1000 cells: a few 8 MB arrays).
+MAX_GRID_SIDE = 1000
+OFFSET_GRID_SIDE = 2000
 
 #: What a node error in the metrics holds: the node's name, what it raised and where, and
 #: the traceback when there is one.
@@ -192,9 +197,11 @@ def coverage(x: np.ndarray, y: np.ndarray, bounds: tuple[float, float, float, fl
 
     The grid of ``cell``-sided squares (m) starts at the lower corner of ``bounds`` (xmin, ymin,
     xmax, ymax, m); a cell is free when its centre lies farther than ``robot_radius`` (m) from
-    every obstacle footprint, i.e. the robot could stand there.
+    every obstacle footprint, i.e. the robot could stand there. Bounds wider than
+    MAX_GRID_SIDE cells get larger cells, as many as fit along their longer side.
     """
     xmin, ymin, xmax, ymax = bounds
+    cell = max(cell, max(xmax - xmin, ymax - ymin) / MAX_GRID_SIDE)
     columns = max(1, math.ceil((xmax - xmin) / cell - 1e-9))
     rows = max(1, math.ceil((ymax - ymin) / cell - 1e-9))
     column, row = np.meshgrid(np.arange(columns), np.arange(rows), indexing='ij')
@@ -220,12 +227,17 @@ def offset_path_length(footprints: Sequence[Footprint], distance: float,
     Return the length (m) of the loop at ``distance`` (m) from the footprints' surface.
 
     This is the path a perfect wall follower drives around the footprints. The loop is traced
-    as the level line of the signed distance on a grid of ``resolution`` (m); the longest
-    line is the outer loop.
+    as the level line of the signed distance on a grid of ``resolution`` (m), coarser when
+    that takes more than OFFSET_GRID_SIDE points along a side; the longest line is the outer
+    loop.
     """
-    reach = distance + 2.0 * resolution + max(
+    reach = distance + max(
         max(footprint.radius, math.hypot(footprint.half_x, footprint.half_y))
         for footprint in footprints)
+    extent = 2.0 * reach + max(max(f.x for f in footprints) - min(f.x for f in footprints),
+                               max(f.y for f in footprints) - min(f.y for f in footprints))
+    resolution = max(resolution, extent / (OFFSET_GRID_SIDE - 4))
+    reach += 2.0 * resolution
     xs = np.arange(min(f.x for f in footprints) - reach,
                    max(f.x for f in footprints) + reach, resolution)
     ys = np.arange(min(f.y for f in footprints) - reach,

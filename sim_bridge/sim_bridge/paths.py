@@ -100,3 +100,19 @@ def find_model(name: str) -> Path:
     raise FileNotFoundError(
         f"model '{name}' not found (looked for {name}/model.sdf in "
         f"{', '.join(str(folder) for folder in folders)})")
+
+
+def output_folder(text: str) -> Path:
+    """
+    Return the ``--out`` folder of a command line: a folder, or a path one can be made at.
+
+    Raises argparse.ArgumentTypeError (argparse's one-line error) when the path, or the nearest
+    part of it that exists, is a file.
+    """
+    from argparse import ArgumentTypeError
+    path = Path(text)
+    existing = next((place for place in (path, *path.parents) if place.exists()), None)
+    if existing is not None and not existing.is_dir():
+        raise ArgumentTypeError(f'{existing} is a file, not a folder: name a folder for the '
+                                'outputs')
+    return path

@@ -12,7 +12,13 @@ rosbag2 itself is not on PyPI, so the bag is written by rosbags. The two halves 
   the index and ``metadata.yaml`` (rosbag2 metadata version 9, as Jazzy's ``ros2 bag record``).
   Each topic's connection carries the message definition and type hash of rosbags' ROS2_JAZZY
   type store, and the offered QoS profile ``ros2 bag record`` would store, so ``ros2 bag play``
-  re-publishes each topic with a compatible profile (``/tf_static`` latched).
+  re-publishes each topic with a compatible profile (``/tf_static`` latched). Two things are
+  written as Jazzy's rosbag2_storage_mcap writes them, where rosbags differs: each MCAP channel
+  holds the type hash (``topic_type_hash``) beside its QoS, and the metadata name the
+  distribution (``ros_distro: jazzy``), not the writing library;
+* a stepped run's bag (``sim_clock``, see :class:`BagRecorder`) holds the simulator's clock: a
+  /clock message at every recorded message's time, so a node replaying it with
+  ``use_sim_time`` never receives a message from its future.
 
 Reading a bag back (``rosbags.rosbag2.Reader`` and ``Typestore.deserialize_cdr``) is for
 whoever needs the messages; the recorder never looks inside them.
@@ -20,17 +26,22 @@ whoever needs the messages; the recorder never looks inside them.
 
 from collections.abc import Iterable
 import functools
+from io import BytesIO, StringIO
 import os
 from pathlib import Path
 import shutil
 from types import TracebackType
 from typing import Any
 
+from rclpy.serialization import serialize_message
 from rosbags.interfaces import (Connection, Qos, QosDurability, QosHistory, QosLiveliness,
                                 QosReliability, QosTime)
 from rosbags.rosbag2 import StoragePlugin, Writer
+from rosbags.rosbag2.storage_mcap import Channel, McapWriter, write_channel, write_string
 from rosbags.typesys import get_typestore, Stores
 from rosbags.typesys.store import Typestore
+from rosgraph_msgs.msg import Clock
+from ruamel.yaml import YAML
 
 from sim_bridge.cdr_padding import PaddingZeroer
 
@@ -38,6 +49,11 @@ from sim_bridge.cdr_padding import PaddingZeroer
 DEFAULT_TOPICS = ('/scan', '/cmd_vel', '/odom', '/tf', '/tf_static', '/clock')
 #: rosbag2 metadata version of ROS 2 Jazzy.
 BAG_VERSION = 9
+#: The ``ros_distro`` of the metadata: the messages are Jazzy's (rosbag2 writes $ROS_DISTRO).
+ROS_DISTRO = 'jazzy'
+#: The topic of the simulator's clock, kept in step with the recorded messages.
+CLOCK_TOPIC = '/clock'
+_CLOCK_TYPE = 'rosgraph_msgs/msg/Clock'
 # What `ros2 bag record` stores for durations it cannot query from the publisher ("infinite").
 _UNSET_DURATION = QosTime(2147483647, 4294967295)
 # Interface kinds whose generated classes are messages on a topic (services' and actions'
@@ -94,6 +110,51 @@ def _absolute(topic: str) -> str:
     return topic if topic.startswith('/') else '/' + topic
 
 
+def _with_jazzy_distro(metadata: str, *, strip: bool) -> str:
+    """Return rosbag2 metadata YAML (whole, or its inner mapping) naming Jazzy as its distro."""
+    yaml = YAML(typ='safe')
+    yaml.default_flow_style = False  # as rosbags dumps it
+    info = yaml.load(metadata)
+    info.get('rosbag2_bagfile_information', info)['ros_distro'] = ROS_DISTRO
+    text = StringIO()
+    yaml.dump(info, text)
+    return text.getvalue().strip() if strip else text.getvalue()
+
+
+class _JazzyMcapWriter(McapWriter):
+    """rosbags' MCAP storage, with channels and metadata as Jazzy's rosbag2_storage_mcap has."""
+
+    def add_connection(self, connection: Connection, offered_qos_profiles: str) -> None:
+        """Add a channel whose metadata holds the offered QoS and the type hash (RIHS01)."""
+        # rosbags' own add_connection with one more key, which rosbag2_storage_mcap's
+        # create_topic writes and its reader turns back into the topic's type_description_hash.
+        metadata = BytesIO()
+        for key, value in (('offered_qos_profiles', offered_qos_profiles),
+                           ('topic_type_hash', connection.digest)):
+            write_string(metadata, key)
+            write_string(metadata, value)
+        self.channels.append(Channel(connection.id, connection.msgtype, connection.topic,
+                                     connection.ext.serialization_format, metadata.getvalue()))
+        self.channel_stats[connection.id] = 0
+        write_channel(self.chunk.bio, self.channels[-1], self.schemas)
+
+    def close(self, version: int, metadata: str) -> None:
+        """Write the index and the MCAP's copy of the metadata, with Jazzy's distro."""
+        super().close(version, _with_jazzy_distro(metadata, strip=True))
+
+
+class _JazzyWriter(Writer):
+    """rosbags' rosbag2 writer, storing as :class:`_JazzyMcapWriter` and naming Jazzy."""
+
+    STORAGE_PLUGINS = {StoragePlugin.MCAP: _JazzyMcapWriter}
+
+    def close(self) -> None:
+        """Close the storage and write ``metadata.yaml`` with ``ros_distro: jazzy``."""
+        super().close()
+        self.metapath.write_text(
+            _with_jazzy_distro(self.metapath.read_text('utf8'), strip=False), 'utf8')
+
+
 class BagRecorder:
     """
     Write the CDR bytes of messages on the chosen topics into a new rosbag2 bag (MCAP storage).
@@ -103,10 +164,18 @@ class BagRecorder:
     only) is deleted first; anything else at ``path`` is an error. A connection is created on a
     topic's first message of a type. Use it as a context manager: the bag is closed (index and
     metadata written, so it stays readable) even when the run fails half-way.
+
+    With ``sim_clock`` (and /clock among the topics) the bag keeps the simulator's clock in
+    step with its messages: a /clock message at each time (ns) a message is recorded at, written
+    before it, and one only. ``ros2 bag play`` publishes /clock as it was recorded, so a node
+    replaying the bag with ``use_sim_time`` never gets a message stamped ahead of its clock,
+    whichever topics the run's nodes listened to (a stepped run sends /clock only when a node
+    hears it, see :meth:`sim_bridge.bridge.SimBridge.step`). A /clock message given at a time
+    that has one is not written again: the clock messages of a stepped run hold their time.
     """
 
     def __init__(self, path: str | os.PathLike, topics: Iterable[str] = DEFAULT_TOPICS, *,
-                 overwrite: bool = False) -> None:
+                 overwrite: bool = False, sim_clock: bool = False) -> None:
         self.path = Path(path)
         #: The recorded topics, absolute names.
         self.topics = frozenset(_absolute(topic) for topic in topics)
@@ -114,13 +183,17 @@ class BagRecorder:
             _remove_old_bag(self.path)
         self._typestore = _jazzy_typestore()
         self._zero_padding = PaddingZeroer(self._typestore)
-        self._writer = Writer(self.path, version=BAG_VERSION, storage_plugin=StoragePlugin.MCAP)
+        self._writer = _JazzyWriter(self.path, version=BAG_VERSION,
+                                    storage_plugin=StoragePlugin.MCAP)
         self._writer.open()
         self._write = self._writer.write
         # What write does per topic (as given) and type name: write to the connection, or
         # nothing (None) for a topic not recorded. Emptied on close.
         self._routes: dict[tuple[str, str], Connection | None] = {}
         self._closed = False
+        self._sim_clock = sim_clock and CLOCK_TOPIC in self.topics
+        self._clock_ns = -1  # the time of the last /clock in the bag (ns)
+        self._clock = Clock()  # filled in place for each /clock written
 
     @property
     def mcap_path(self) -> Path:
@@ -158,8 +231,24 @@ class BagRecorder:
             connection = self._routes[topic, type_name]
         except KeyError:
             connection = self._route(topic, type_name)
-        if connection is not None:
-            self._write(connection, t_ns, self._zero_padding(type_name, data))
+        if connection is None:
+            return
+        if self._sim_clock and t_ns > self._clock_ns:
+            self._clock_ns = t_ns
+            if connection.topic != CLOCK_TOPIC:
+                self._write_clock(t_ns)
+        elif self._sim_clock and connection.topic == CLOCK_TOPIC:
+            return  # the bag has the clock at t_ns already
+        self._write(connection, t_ns, self._zero_padding(type_name, data))
+
+    def _write_clock(self, t_ns: int) -> None:
+        """Write a rosgraph_msgs/msg/Clock holding ``t_ns`` (ns) on /clock at ``t_ns``."""
+        stamp = self._clock.clock
+        stamp.sec, stamp.nanosec = divmod(t_ns, 1_000_000_000)
+        connection = self._routes.get((CLOCK_TOPIC, _CLOCK_TYPE)) or \
+            self._route(CLOCK_TOPIC, _CLOCK_TYPE)
+        self._write(connection, t_ns,
+                    self._zero_padding(_CLOCK_TYPE, serialize_message(self._clock)))
 
     def _route(self, topic: str, type_name: str) -> Connection | None:
         """Return (and keep) the connection of ``type_name`` on ``topic``, None if not kept."""

@@ -502,7 +502,7 @@ def open_outputs(out_dir: Path, params_file: Path, record: bool) -> BagRecorder 
     try:
         out_dir.mkdir(parents=True, exist_ok=True)
         shutil.copyfile(params_file, out_dir / 'params.yaml')
-        return BagRecorder(out_dir / 'run', overwrite=True) if record else None
+        return BagRecorder(out_dir / 'run', overwrite=True, sim_clock=True) if record else None
     except OSError as error:
         raise RunError(f'cannot write to {out_dir}: {error}') from None
 

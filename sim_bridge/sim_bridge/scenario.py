@@ -49,6 +49,7 @@ from typing import Any, Callable
 
 from sim_bridge.metrics import METRIC_KINDS
 from sim_bridge.targets import split_target
+from sim_bridge.yaml_loader import load_yaml
 import yaml
 
 SCENARIO_SUFFIX = '.yaml'
@@ -318,7 +319,7 @@ def load_scenario(path: str | os.PathLike) -> Scenario:
     path = Path(path)
     label = str(path)
     try:
-        data = yaml.safe_load(path.read_text(encoding='utf-8'))
+        data = load_yaml(path.read_text(encoding='utf-8'))
     except OSError as error:
         raise ScenarioError(f'{label}: cannot read: {error.strerror or error}') from None
     except yaml.YAMLError as error:

@@ -17,10 +17,12 @@ import time
 from geometry_msgs.msg import Twist, TwistStamped
 import rclpy
 from rclpy.duration import Duration
+from rclpy.exceptions import InvalidTopicNameException
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 from rclpy.utilities import remove_ros_args
+from rclpy.validate_topic_name import validate_topic_name
 
 #: Longest wait (s) for the published commands to be acknowledged before exiting.
 ACK_TIMEOUT_S = 1.0
@@ -37,6 +39,32 @@ def numeric(kind: str, minimum: float | None = None, integer: bool = False):
             raise argparse.ArgumentTypeError(f'expected {kind}, got {text!r}')
         return value
     return convert
+
+
+def attach_negative_numbers(argv: list[str]) -> list[str]:
+    """
+    Return ``argv`` with each option followed by a negative number written ``--option=-1e-3``.
+
+    argparse takes ``-1`` and ``-0.5`` for values but anything else that starts with '-'
+    (``-1e-3``, ``-.5e1``) for an option, and this program has no option that looks like a
+    number.
+    """
+    joined: list[str] = []
+    for argument in argv:
+        if joined and joined[-1].startswith('--') and '=' not in joined[-1] \
+                and argument.startswith('-') and _is_float(argument):
+            joined[-1] += '=' + argument
+        else:
+            joined.append(argument)
+    return joined
+
+
+def _is_float(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 def parse_arguments(argv: list[str]) -> argparse.Namespace:
@@ -61,9 +89,15 @@ def parse_arguments(argv: list[str]) -> argparse.Namespace:
     parser.add_argument('--stamped', action='store_true',
                         help='publish geometry_msgs/TwistStamped instead of Twist')
     parser.add_argument('--topic', default='cmd_vel', help='topic name (default cmd_vel)')
-    arguments = parser.parse_args(argv)
+    arguments = parser.parse_args(attach_negative_numbers(argv))
     if arguments.once and arguments.times is not None:
         parser.error('argument --times: not allowed with argument --once')
+    try:
+        validate_topic_name(arguments.topic)
+    except InvalidTopicNameException as error:
+        # The first line of rclpy's message: the others repeat the name with a caret.
+        problem = str(error).splitlines()[0].rstrip(': ')
+        parser.error(f'argument --topic: {problem}, got {arguments.topic!r}')
     return arguments
 
 

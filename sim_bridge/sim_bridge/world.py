@@ -56,9 +56,13 @@ listed here is an error, so a typo never goes unnoticed::
                                 # coverage; default: the walls' extent, or without walls the
                                 # obstacles and the robot start plus 1 m all round
 
-Numbers must be numbers (``1.0e3``, not ``1e3``, which YAML 1.1 reads as text), sizes and radii
-positive. The robot must start clear of every obstacle. A file breaking any rule is rejected
-with a :class:`WorldError` naming the file, the entry and the field, e.g.
+Numbers must be numbers (``1e3``, ``1.0e3`` and ``1.0e+3`` are, as in YAML 1.2; ``'1'`` is
+text), sizes and radii positive. A world is lab-sized: sizes, radii, lengths and heights at most
+:data:`MAX_SIZE_M` (1000 m), positions (poses, wall ends, centres, ``z``, ``bounds``) within
+± :data:`MAX_COORDINATE_M` (1000 m) of the origin, so that bounds written in millimetres are
+an error, not a world the simulator cannot hold. The robot must start clear of every obstacle.
+A file breaking any rule is rejected with a :class:`WorldError` naming the file, the entry and
+the field, e.g.
 ``worlds/room.yaml: obstacles[2] (box_a): 'size': must be 3 positive finite numbers, got
 [1, -1, 1]``.
 
@@ -78,6 +82,7 @@ from typing import Any
 from sim_bridge import paths
 from sim_bridge.geometry import Footprint, Shape, wrap_angle
 from sim_bridge.sdf import load_model, Model, SdfError
+from sim_bridge.yaml_loader import load_yaml
 import yaml
 
 DEFAULT_ROBOT_MODEL = 'lab_robot'
@@ -85,6 +90,10 @@ DEFAULT_WALL_THICKNESS = 0.15
 DEFAULT_WALL_HEIGHT = 1.0
 #: Margin (m) around obstacles and robot start for the default bounds of a world without walls.
 BOUNDS_MARGIN = 1.0
+#: Largest size, radius, length or height (m) a world file may give: a lab, not a continent.
+MAX_SIZE_M = 1000.0
+#: Largest distance (m) from the origin of a position, along x, y or z, a world file may give.
+MAX_COORDINATE_M = 1000.0
 OBSTACLE_TYPES = ('cube', 'cylinder', 'sphere', 'model')
 
 _TOP_KEYS = ('name', 'description', 'floor', 'robot', 'walls', 'obstacles', 'target', 'bounds')
@@ -170,7 +179,7 @@ class World:
         path = paths.find_world(name_or_path)
         label = _display_path(path)
         try:
-            data = yaml.load(path.read_text(encoding='utf-8'), Loader=_StrictLoader)
+            data = load_yaml(path.read_text(encoding='utf-8'))
         except yaml.YAMLError as error:
             mark = getattr(error, 'problem_mark', None)
             where = f'line {mark.line + 1}, column {mark.column + 1}: ' if mark else ''
@@ -228,24 +237,6 @@ class World:
 
     def _label(self) -> str:
         return _display_path(self.path) if self.path is not None else self.name
-
-
-class _StrictLoader(getattr(yaml, 'CSafeLoader', yaml.SafeLoader)):
-    """
-    YAML's safe loader, except that a key given twice in one mapping is an error.
-
-    libyaml's parser where PyYAML has it (twice as fast), the pure-Python one otherwise.
-    """
-
-    def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict:
-        seen = set()
-        for key_node, _ in node.value:
-            key = self.construct_object(key_node, deep=deep)
-            if key in seen:
-                raise yaml.constructor.ConstructorError(
-                    None, None, f'duplicate key {key!r}', key_node.start_mark)
-            seen.add(key)
-        return super().construct_mapping(node, deep=deep)
 
 
 def _display_path(path: Path) -> str:
@@ -478,32 +469,56 @@ class _Parser:
     def pose(self, value: Any, where: str) -> tuple[float, float, float]:
         if not isinstance(value, list) or len(value) not in (2, 3):
             raise self.fail(where, 'pose', f'must be [x, y] or [x, y, yaw], got {value!r}')
-        numbers = self.numbers(value, where, 'pose', len(value))
+        numbers = self.numbers(value, where, 'pose', len(value), positions=2)
         return (numbers[0], numbers[1], wrap_angle(numbers[2]) if len(numbers) == 3 else 0.0)
 
-    def numbers(self, value: Any, where: str | None, key: str, count: int) -> tuple[float, ...]:
+    def numbers(self, value: Any, where: str | None, key: str, count: int,
+                positions: int | None = None) -> tuple[float, ...]:
+        """
+        Return ``count`` finite numbers, the first ``positions`` (all by default) positions (m).
+
+        A position is within ±MAX_COORDINATE_M of the origin.
+        """
         if not isinstance(value, list) or len(value) != count \
                 or not all(_is_number(item) for item in value):
             raise self.fail(where, key, f'must be {count} finite numbers, got {value!r}')
+        self.within_limit(value[:positions], value, where, key)
         return tuple(float(item) for item in value)
 
     def positives(self, value: Any, where: str | None, key: str,
                   count: int) -> tuple[float, ...]:
+        """Return ``count`` sizes (m), each positive and at most MAX_SIZE_M."""
         if not isinstance(value, list) or len(value) != count \
                 or not all(_is_number(item) and item > 0 for item in value):
             raise self.fail(where, key, f'must be {count} positive finite numbers, got {value!r}')
+        self.within_limit(value, value, where, key, sizes=True)
         return tuple(float(item) for item in value)
 
-    def number(self, value: Any, where: str | None, key: str) -> float:
+    def number(self, value: Any, where: str | None, key: str, position: bool = True) -> float:
+        """Return a finite number: a position (m) within ±MAX_COORDINATE_M unless not one."""
         if not _is_number(value):
             raise self.fail(where, key, f'must be a finite number, got {value!r}')
+        if position:
+            self.within_limit([value], value, where, key)
         return float(value)
 
     def positive(self, value: Any, where: str | None, key: str) -> float:
-        number = self.number(value, where, key)
+        """Return a size (m): positive and at most MAX_SIZE_M."""
+        number = self.number(value, where, key, position=False)
         if number <= 0.0:
             raise self.fail(where, key, f'must be a positive number, got {value!r}')
+        self.within_limit([number], value, where, key, sizes=True)
         return number
+
+    def within_limit(self, numbers: list, value: Any, where: str | None, key: str,
+                     sizes: bool = False) -> None:
+        """Fail unless every number is a lab's: a size or a position in metres (module doc)."""
+        if sizes and any(number > MAX_SIZE_M for number in numbers):
+            raise self.fail(where, key, f'must be at most {MAX_SIZE_M:g} m (sizes are in '
+                            f'metres), got {value!r}')
+        if not sizes and any(abs(number) > MAX_COORDINATE_M for number in numbers):
+            raise self.fail(where, key, f'must be within ±{MAX_COORDINATE_M:g} m of the origin '
+                            f'(positions are in metres), got {value!r}')
 
 
 def _is_number(value: Any) -> bool:

@@ -242,6 +242,9 @@ def test_scan_has_the_labs_geometry(session):
         (scan.angle_max - scan.angle_min) / (len(scan.ranges) - 1), rel=1e-6)
     assert (scan.range_min, scan.range_max) == pytest.approx((0.12, 10.0))
     assert (scan.scan_time, scan.time_increment) == pytest.approx((0.1, 0.0))
+    # One intensity per beam, 0.0 as Gazebo's gpu_lidar gives (through ros_gz_bridge) for
+    # surfaces without <laser_retro>, the SDF default.
+    assert list(scan.intensities) == [0.0] * 36
 
 
 def test_scan_is_reliable_depth_10_and_reaches_best_effort_and_reliable_subscribers(session):

@@ -2,6 +2,7 @@
 
 import json
 import math
+import tracemalloc
 
 import numpy as np
 import pytest
@@ -334,6 +335,35 @@ def test_cells_too_close_to_an_obstacle_for_the_robot_are_not_free():
     blocked = coverage(centres_row, np.full(4, 0.25), (0.0, 0.0, 2.0, 1.0), wall, 0.25)
     assert low == pytest.approx(0.5)
     assert blocked is None
+
+
+def peak_allocated(function, *args):
+    """Return what ``function(*args)`` returns and the most memory (bytes) it held at once."""
+    tracemalloc.start()  # numpy reports its arrays to tracemalloc
+    try:
+        return function(*args), tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+
+
+@pytest.mark.parametrize('bounds', [
+    (-1.0e300, -1.0e300, 1.0e300, 1.0e300),  # accepted before worlds had limits
+    (-5000.0, -4000.0, 5000.0, 4000.0),      # a world written in millimetres
+    (-1000.0, -1000.0, 1000.0, 1000.0),      # the largest a world file may give now
+])
+def test_the_coverage_grid_of_huge_bounds_is_coarser_not_bigger(bounds):
+    wall = [Footprint('box', 100.0, 0.0, half_x=0.05, half_y=50.0)]
+    x = np.linspace(-10.0, 10.0, 2001)
+    value, peak = peak_allocated(coverage, x, np.zeros_like(x), bounds, wall, 0.2)
+    assert value is not None and 0.0 < value < 0.01
+    assert peak < 200 * 2 ** 20  # a 1000 x 1000 grid of centres, distances and flags
+
+
+def test_the_offset_path_of_a_huge_target_is_traced_on_a_coarser_grid():
+    target = (Footprint('box', 0.0, 0.0, half_x=500.0, half_y=1.0),)
+    length, peak = peak_allocated(offset_path_length, target, 0.5)
+    assert length == pytest.approx(2 * 1000.0 + 2 * 2.0 + math.pi, rel=1e-3)
+    assert peak < 500 * 2 ** 20  # 2000 x 2000 points
 
 
 def test_collisions_clearance_distance_and_speed_up():

@@ -1,6 +1,8 @@
 """Tests of finding worlds and models in a checkout, an install, and Gazebo's model paths."""
 
+from argparse import ArgumentTypeError
 from pathlib import Path
+import subprocess
 import sys
 
 import pytest
@@ -73,3 +75,21 @@ def test_models_are_also_found_on_gazebos_resource_path(tmp_path, monkeypatch):
     with pytest.raises(FileNotFoundError, match="model 'nothing' not found"):
         paths.find_model('nothing')
     assert Path(tmp_path) in paths.model_search_path()
+
+
+def test_an_output_folder_that_is_a_file_is_a_one_line_command_line_error(tmp_path):
+    """``./lab demo --out FILE`` and ``python -m sim_bridge.grade --out FILE``, say."""
+    a_file = tmp_path / 'notes.txt'
+    a_file.write_text('')
+    assert paths.output_folder(str(tmp_path / 'new' / 'out')) == tmp_path / 'new' / 'out'
+    assert paths.output_folder(str(tmp_path)) == tmp_path
+    for out in (a_file, a_file / 'out'):
+        with pytest.raises(ArgumentTypeError, match=f'{a_file} is a file, not a folder'):
+            paths.output_folder(str(out))
+    for program in (['sim_bridge.demo', '--no-live'], ['sim_bridge.grade', str(tmp_path)]):
+        done = subprocess.run([sys.executable, '-m', *program, '--out', str(a_file / 'out')],
+                              capture_output=True, text=True, timeout=60)
+        assert done.returncode == 2 and 'Traceback' not in done.stderr
+        assert done.stderr.splitlines()[-1].endswith(
+            f'error: argument --out: {a_file} is a file, not a folder: name a folder for the '
+            'outputs')

@@ -17,6 +17,8 @@ from pathlib import Path
 import random
 
 from geometry_msgs.msg import Twist
+from mcap.reader import make_reader
+from mcap_ros2.decoder import DecoderFactory
 from nav_msgs.msg import Odometry
 import numpy as np
 import pytest
@@ -28,6 +30,7 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import LaserScan
 from sim_bridge.cdr_padding import PaddingZeroer
 from sim_bridge.record import BAG_VERSION, BagRecorder, DEFAULT_TOPICS, message_type_name
+from sim_bridge.run import run_simulation
 from std_msgs.msg import String
 from std_srvs.srv import SetBool
 import yaml
@@ -263,6 +266,94 @@ def test_connections_carry_the_type_hashes_of_the_installed_message_packages(tmp
     assert len(installed) == 4
     assert installed == {type_name: hashes[type_name] for type_name in installed}
     assert all(value.startswith('RIHS01_') for value in hashes.values())
+
+
+def test_the_independent_mcap_readers_decode_every_message_of_a_bag_as_jazzy_writes_it(
+        tmp_path):
+    """
+    Foxglove's ``mcap`` and ``mcap-ros2-support``: every message decodes from the bag's schemas.
+
+    As Jazzy's rosbag2_storage_mcap writes them, each channel's metadata holds the type hash
+    (``topic_type_hash``, read back by ``ros2 bag info`` as the topic's type_description_hash)
+    beside the offered QoS, and both copies of the rosbag2 metadata (``metadata.yaml`` and the
+    MCAP's ``rosbag2`` record) name the distribution, ``jazzy``.
+    """
+    messages = run_messages(0.2)
+    record(tmp_path / 'run', messages)
+    info = yaml.safe_load((tmp_path / 'run' / 'metadata.yaml').read_text())
+    info = info['rosbag2_bagfile_information']
+    assert info['ros_distro'] == 'jazzy'
+    hashes = {entry['topic_metadata']['name']: entry['topic_metadata']['type_description_hash']
+              for entry in info['topics_with_message_count']}
+    with (tmp_path / 'run' / 'run.mcap').open('rb') as stream:
+        reader = make_reader(stream, decoder_factories=[DecoderFactory()])
+        decoded = [(channel.topic, message.log_time, ros_msg)
+                   for _, channel, message, ros_msg in reader.iter_decoded_messages()]
+        summary = reader.get_summary()
+        (rosbag2,) = [entry for entry in reader.iter_metadata() if entry.name == 'rosbag2']
+    recorded = [message for message in messages if message[0] != '/rosout_like']
+    assert [(topic, t_ns) for topic, t_ns, _ in decoded] == \
+        [('/' + topic.lstrip('/'), t_ns) for topic, _, _, _, t_ns in recorded]
+    for (topic, _, ros_msg), (_, msg, _, _, _) in zip(decoded, recorded):
+        if topic in ('/scan', '/odom', '/cmd_vel'):
+            assert_same_message(ros_msg, msg, topic)
+    for channel in summary.channels.values():
+        assert set(channel.metadata) == {'offered_qos_profiles', 'topic_type_hash'}
+        assert channel.metadata['topic_type_hash'] == hashes[channel.topic]
+        assert channel.metadata['topic_type_hash'].startswith('RIHS01_')
+    assert yaml.safe_load(rosbag2.metadata['serialized_metadata'])['ros_distro'] == 'jazzy'
+    with Reader(tmp_path / 'run') as reader:
+        assert reader.ros_distro == 'jazzy'
+
+
+def test_the_sim_clock_has_one_message_at_each_recorded_time_before_the_messages(tmp_path):
+    """Times with no /clock given get one; a /clock given at a time that has one is dropped."""
+    twist, odom = serialize_message(Twist()), serialize_message(Odometry())
+
+    def clock_at(t_ns):
+        clock = Clock()
+        stamp_of(clock.clock, t_ns)
+        return serialize_message(clock)
+
+    with BagRecorder(tmp_path / 'run', sim_clock=True) as recorder:
+        recorder.write('/odom', 'nav_msgs/msg/Odometry', odom, 0)
+        recorder.write('/clock', 'rosgraph_msgs/msg/Clock', clock_at(0), 0)
+        recorder.write('/odom', 'nav_msgs/msg/Odometry', odom, 20)
+        recorder.write('/cmd_vel', 'geometry_msgs/msg/Twist', twist, 20)
+        recorder.write('clock', 'rosgraph_msgs/msg/Clock', clock_at(35), 35)
+        recorder.write('/cmd_vel', 'geometry_msgs/msg/Twist', twist, 35)
+        recorder.write('/rosout', 'geometry_msgs/msg/Twist', twist, 50)  # not recorded
+    read, _ = read_bag(tmp_path / 'run')
+    assert [(topic, t_ns) for topic, _, t_ns, _ in read] == [
+        ('/clock', 0), ('/odom', 0), ('/clock', 20), ('/odom', 20), ('/cmd_vel', 20),
+        ('/clock', 35), ('/cmd_vel', 35)]
+    for topic, type_name, t_ns, data in read:
+        if topic == '/clock':
+            clock = TYPESTORE.deserialize_cdr(data, type_name).clock
+            assert clock.sec * 10 ** 9 + clock.nanosec == t_ns
+
+
+def test_a_stepped_runs_bag_has_its_clock_at_every_message_so_a_replay_never_lags(tmp_path):
+    """
+    The run sends /clock only with what a node hears; the bag has it at every message's time.
+
+    wall_follow hears /scan only, so the run sends /clock with the 10 Hz scans and not with
+    the 50 Hz odometry.
+    """
+    run_simulation('wall_follow_box', ['wall_follow'], duration_s=1.0, seed=1,
+                   out_dir=tmp_path, quiet=True, plot=False)
+    read, _ = read_bag(tmp_path / 'run')
+    clock_ns, lagging = -1, []
+    for topic, type_name, t_ns, data in read:
+        if topic == '/clock':
+            clock = TYPESTORE.deserialize_cdr(data, type_name).clock
+            assert clock.sec * 10 ** 9 + clock.nanosec == t_ns > clock_ns
+            clock_ns = t_ns
+        elif t_ns != clock_ns:
+            lagging.append((topic, t_ns, clock_ns))
+    assert not lagging
+    odom_times = [t_ns for topic, _, t_ns, _ in read if topic == '/odom']
+    assert len(odom_times) == 50
 
 
 def test_metadata_has_the_counts_times_and_qos_that_ros2_bag_play_uses(tmp_path):

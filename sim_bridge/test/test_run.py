@@ -189,8 +189,8 @@ def test_run_records_a_bag_rosbags_reads_back(scan_ahead_run):
     messages = read_bag(out_dir / 'run')
     duration_s = 2
     counts = {topic: len(items) for topic, items in messages.items()}
-    # /clock at the start, then with each message a node hears (scan_ahead has no timer).
-    assert without_tf(counts) == {'/clock': 1 + SCAN_RATE * duration_s,
+    # /clock at the start and at each recorded message's time: the odometry's (record.py).
+    assert without_tf(counts) == {'/clock': 1 + ODOM_RATE * duration_s,
                                   '/odom': ODOM_RATE * duration_s,
                                   '/scan': SCAN_RATE * duration_s}
     if HAS_TF:
@@ -215,7 +215,7 @@ def test_driving_node_run_records_its_commands(wall_follow_runs):
     messages = read_bag(wall_follow_runs['first'] / 'run')
     # wall_follow answers every scan with one command.
     assert len(messages['/cmd_vel']) == len(messages['/scan']) == 20 * SCAN_RATE
-    assert len(messages['/clock']) == 1 + 20 * SCAN_RATE
+    assert len(messages['/clock']) == 1 + 20 * ODOM_RATE
     # Each command is recorded at the sim time of the scan it answers.
     assert [t for t, _ in messages['/cmd_vel']] == [t for t, _ in messages['/scan']]
     speeds = [twist.linear.x for _, twist in messages['/cmd_vel']]

@@ -95,6 +95,14 @@ def test_a_scenario_file_loads_with_paths_relative_to_it(tmp_path):
     assert scenario.description == 'follow the box'
 
 
+def test_numbers_are_read_as_yaml_1_2_reads_them_as_in_world_files(tmp_path):
+    """As read by PyYAML alone (YAML 1.1), ``1.0e2`` and ``5e-1`` would be text."""
+    scenario = load_scenario(write(tmp_path, 's.yaml', VALID.replace(
+        'duration: 76.2', 'duration: 1.0e2').replace('distance: 0.5', 'distance: 5e-1')))
+    assert scenario.duration_s == 100.0
+    assert scenario.params['wall_follow']['distance'] == 0.5
+
+
 def test_each_seed_is_a_run_with_its_own_output_name_and_seeded_params(tmp_path):
     runs = load_scenario(write(tmp_path, 'box_ccw.yaml', VALID)).runs()
     assert [run.name for run in runs] == ['box_ccw/seed_1', 'box_ccw/seed_2', 'box_ccw/seed_3']

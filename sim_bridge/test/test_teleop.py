@@ -104,17 +104,23 @@ def test_ctrl_c_stops_and_quits():
     (['--angular', 'abc'], '--angular'), (['--rate', '0'], '--rate'),
     (['--rate', 'nan'], '--rate'), (['--times', '0'], '--times'),
     (['--times', '1.5'], '--times'), (['--wait', '-1'], '--wait'),
-    (['--once', '--rate', '5'], '--rate'), (['--once', '--times', '2'], '--times')])
+    (['--once', '--rate', '5'], '--rate'), (['--once', '--times', '2'], '--times'),
+    (['--topic', 'bad topic!'], '--topic'), (['--topic', '/cmd_vel/'], '--topic'),
+    (['--rate', '-1e-3'], '--rate')])
 def test_send_cmd_vel_refuses_a_bad_argument_by_name(argv, named, capsys):
     with pytest.raises(SystemExit) as exit_info:
         parse_arguments(argv)
     assert exit_info.value.code == 2
-    assert f'argument {named}' in capsys.readouterr().err
+    error = capsys.readouterr().err.splitlines()
+    assert error[0].startswith('usage: ') and all(line.startswith(' ') for line in error[1:-1])
+    assert error[-1].startswith(f'send_cmd_vel: error: argument {named}: ')  # one line
 
 
 def test_send_cmd_vel_arguments_are_floats_with_defaults():
     arguments = parse_arguments(['--linear', '-0.2', '--angular', '1', '--once'])
     assert (arguments.linear, arguments.angular, arguments.once) == (-0.2, 1.0, True)
+    arguments = parse_arguments(['--linear', '-1e-3', '--angular', '-.5E1', '--topic', '~/x'])
+    assert (arguments.linear, arguments.angular, arguments.topic) == (-0.001, -5.0, '~/x')
     assert type(arguments.angular) is float
     arguments = parse_arguments([])
     assert (arguments.linear, arguments.angular, arguments.rate, arguments.times,

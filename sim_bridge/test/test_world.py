@@ -8,6 +8,7 @@ from sim_bridge import paths
 from sim_bridge import world as world_module
 from sim_bridge.geometry import Footprint, Shape, signed_distance
 from sim_bridge.world import World, WorldError
+from sim_bridge.yaml_loader import load_yaml
 import yaml
 
 WALL_FOLLOW_WORLDS = ('wall_follow_box', 'wall_follow_box_rotated', 'wall_follow_cross',
@@ -227,8 +228,23 @@ CUBE = {'name': 'box_a', 'type': 'cube', 'size': [1, 1, 1], 'pose': [3, 0]}
      'obstacles[0] (can)', 'length', 'must be a finite number'),
     ('obstacles:\n- {name: ball, type: sphere, radius: true, pose: [3, 0]}\n',
      'obstacles[0] (ball)', 'radius', 'must be a finite number'),
-    ('obstacles:\n- {name: ball, type: sphere, radius: 1e3, pose: [3, 0]}\n',
+    ("obstacles:\n- {name: ball, type: sphere, radius: '1e-1', pose: [3, 0]}\n",
      'obstacles[0] (ball)', 'radius', 'must be a finite number'),
+    # Lab-sized: huge but finite sizes and positions (bounds in mm, say) are refused.
+    ('floor: {size: [1.0e+300, 10]}\n', 'floor', 'size', 'must be at most 1000 m'),
+    ('walls:\n- {room: [1.0e+9, 8]}\n', 'walls[0] (wall_0)', 'room', 'must be at most 1000 m'),
+    ('walls:\n- {room: [4, 4], center: [0, 2000]}\n', 'walls[0] (wall_0)', 'center',
+     'must be within ±1000 m of the origin'),
+    ('walls:\n- {start: [0, 0], end: [1, 0], height: 1.0e+300}\n', 'walls[0] (wall_0)',
+     'height', 'must be at most 1000 m'),
+    ('obstacles:\n- {name: ball, type: sphere, radius: 1001, pose: [3, 0]}\n',
+     'obstacles[0] (ball)', 'radius', 'must be at most 1000 m'),
+    ('obstacles:\n- {name: ball, type: sphere, radius: 1, pose: [3, 0], z: -1.0e+300}\n',
+     'obstacles[0] (ball)', 'z', 'must be within ±1000 m'),
+    ('obstacles:\n- {name: box_a, type: cube, size: [1, 1, 1], pose: [3, 1.0e+300]}\n',
+     'obstacles[0] (box_a)', 'pose', 'must be within ±1000 m'),
+    ('bounds: [-5000, -4000, 5000, 4000]\n', None, 'bounds',
+     'must be within ±1000 m of the origin (positions are in metres)'),
     ('obstacles:\n- {name: x, type: model, model: no_such_model, pose: [3, 0]}\n',
      'obstacles[0] (x)', 'model', "model 'no_such_model' not found"),
     ('obstacles:\n- {name: x, type: model, pose: [3, 0]}\n', 'obstacles[0] (x)', 'model',
@@ -279,6 +295,31 @@ def test_broken_world_file_is_rejected_naming_file_entry_and_field(
     for part in (entry, repr(field) if field else None):
         if part:
             assert part in message
+
+
+def test_the_largest_world_accepted_is_a_lab_sized_one_and_a_yaw_may_be_any_angle():
+    world = World.from_dict({
+        'floor': {'size': [1000, 1000]}, 'bounds': [-1000, -1000, 1000, 1000],
+        'walls': [{'room': [1000, 999], 'center': [0, 0]}],
+        'obstacles': [{'name': 'far', 'type': 'cube', 'size': [1000, 1, 1],
+                       'pose': [-1000, 1000, 1.0e+6]}]})
+    assert world.bounds == (-1000.0, -1000.0, 1000.0, 1000.0)
+    assert world.floor_size == (1000.0, 1000.0)
+
+
+@pytest.mark.parametrize('written, value', [
+    ('1e3', 1000.0), ('1.0e3', 1000.0), ('1.0e+3', 1000.0), ('-2.5E-3', -0.0025),
+    ('+1E2', 100.0), ('.5e1', 5.0), ('2.', 2.0), ('1_0.5', 10.5)])
+def test_numbers_are_read_as_yaml_1_2_reads_them(tmp_path, written, value):
+    """In YAML 1.1, which PyYAML reads, ``1e3`` and ``1.0e3`` are text; not in a world file."""
+    path = tmp_path / 'room.yaml'
+    path.write_text(f"robot: {{pose: [{written}, 0]}}\ndescription: '{written}'\n")
+    world = World.load(path)
+    assert world.robot_start[0] == value and type(world.robot_start[0]) is float
+    assert world.description == written  # quoted, it stays text
+    assert load_yaml(f'[{written}, 1e3x, 1e, e3, 0x1F, 012, 1_000, .inf, .nan, 1:30]') == \
+        [value, '1e3x', '1e', 'e3', 31, 10, 1000, math.inf, pytest.approx(math.nan, nan_ok=True),
+         90]
 
 
 def test_a_broken_model_is_reported_with_the_entry_that_places_it(tmp_path, monkeypatch):
