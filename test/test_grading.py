@@ -19,7 +19,8 @@ import re
 import pytest
 
 from sim_bridge import grade
-from sim_bridge.grade import grade_runs, GradeJob, run_scenario
+from sim_bridge.grade import grade_runs
+from sim_bridge.grading import GradeJob, run_scenario
 from sim_bridge.report_text import json_safe
 from sim_bridge.scenario import load_scenarios, ScenarioRun
 

@@ -8,7 +8,7 @@ from sim_bridge.lab_tasks import LAB_TASKS
 from sim_bridge.metrics import offset_path_length
 from sim_bridge.paths import world_names
 from sim_bridge.scenario import load_scenario, load_scenarios
-from sim_bridge.world import World
+from sim_bridge.simulation.world import World
 
 SCENARIOS = Path(__file__).resolve().parent / 'scenarios'
 WALL_FOLLOW_WORLDS = [name for name in world_names() if name.startswith('wall_follow_')]

@@ -33,9 +33,9 @@ try:
 except ImportError:  # tf2_ros is part of a ROS 2 installation, not of the PyPI wheels
     StaticTransformBroadcaster = TransformBroadcaster = None
 
-from sim_bridge.robot import DriveLimits
-from sim_bridge.simulator import Simulator
-from sim_bridge.world import World
+from sim_bridge.simulation.robot import DriveLimits
+from sim_bridge.simulation.simulator import Simulator
+from sim_bridge.simulation.world import World
 
 NANOSECONDS_PER_SECOND = 10 ** 9
 NO_TF_WARNING = ('tf2_ros is not installed (it comes with a ROS 2 installation, not from PyPI): '

@@ -16,7 +16,7 @@ import os
 from pathlib import Path
 
 from sim_bridge import html_report
-from sim_bridge.grade import (
+from sim_bridge.grading import (
     GradeJob, PAGE_NAME, REPORT_NAME, reuse_notes, RunReport, write_outputs, write_report)
 from sim_bridge.report_text import count_cell, OUTCOME_LEGEND, PathNames, printable
 from sim_bridge.scenario import Scenario, target_name

@@ -9,7 +9,7 @@ stderr into a pipe the grader drains into the run's ``log.txt`` (at most ``LOG_H
 of its beginning and ``LOG_TAIL_BYTES`` of its end, see :class:`CappedLog`), becomes the
 subreaper of everything below it and forks the run itself. The run (:func:`run_job`) works in
 a scratch directory with a trimmed environment (:func:`trimmed_environment`) and a bounded
-address space; it runs the scenario with :func:`sim_bridge.grade.run_scenario` exactly as an
+address space; it runs the scenario with :func:`sim_bridge.grading.run_scenario` exactly as an
 in-process run does, sending its progress in simulated seconds and, when it ends, the run's
 report over a pipe. It then ends at once, whatever threads a node left running (they are
 named in the report's ``metrics['warnings']``). However the run ends, the supervisor then kills
@@ -54,6 +54,7 @@ import time
 import traceback
 from typing import Any
 
+from sim_bridge.grading import LOG_NAME, run_scenario, RunReport
 from sim_bridge.scenario import ScenarioRun
 
 #: Wall seconds a run may take: BUDGET_BASE_S (start-up, writing outputs) plus this many per
@@ -69,7 +70,6 @@ DEFAULT_MEMORY_BYTES = 2 * 2 ** 30
 #: Wall seconds a stopped run gets to write its outputs, and a SIGABRT for its stack dump.
 GRACE_S = 10.0
 ABORT_GRACE_S = 2.0
-LOG_NAME = 'log.txt'
 #: A run's log.txt keeps at most this many bytes of the beginning of its output (rclpy's and
 #: the nodes' start-up lines, the first of a flood of warnings) and of its end (the traceback,
 #: the stacks of a stopped run, the last lines before a crash); a line between them says how
@@ -587,7 +587,6 @@ def run_job(job: Job, status: multiprocessing.connection.Connection, scratch: Pa
     # The supervisor ignores SIGABRT; after its dump, faulthandler ends the run with it.
     signal.signal(signal.SIGABRT, signal.SIG_DFL)
     faulthandler.enable()
-    from sim_bridge.grade import RunReport, run_scenario
     from sim_bridge.run import RunStopped
     from sim_bridge.stepping import describe
     started = False

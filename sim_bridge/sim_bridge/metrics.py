@@ -12,8 +12,8 @@ from typing import Any, Iterable, Mapping, Sequence
 import contourpy
 import numpy as np
 
-from sim_bridge.geometry import Footprint, signed_distance
 from sim_bridge.run_trace import Trace
+from sim_bridge.simulation.geometry import Footprint, signed_distance
 
 # A stop-and-turn manoeuvre: turning faster than this (rad/s) ...
 TURN_MIN_ANGULAR = 0.1

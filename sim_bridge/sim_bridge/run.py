@@ -36,10 +36,10 @@ from sim_bridge.run_environment import (
     FIELD_CHECK_HINT, is_field_check_failure, run_environment)
 from sim_bridge.run_trace import CollisionEvent, ScanSnapshot, Trace
 from sim_bridge.scenario import is_seed, MAX_SEED, target_name
+from sim_bridge.simulation.world import World, WorldError
 from sim_bridge.stepping import (
     describe, next_timer_ns, NodeEnded, NodeError, spin_until_idle, SteppedExecutor)
 from sim_bridge.targets import load_node_class, StudentCode, TargetError
-from sim_bridge.world import World, WorldError
 import yaml
 
 BRIDGE_NODE = 'sim_bridge'

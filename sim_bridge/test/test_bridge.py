@@ -32,10 +32,10 @@ from sensor_msgs.msg import LaserScan
 from sim_bridge import bridge as bridge_module
 from sim_bridge.bridge import NO_TF_WARNING, SimBridge
 from sim_bridge.paths import find_world
-from sim_bridge.robot import DriveLimits
-from sim_bridge.simulator import Simulator
+from sim_bridge.simulation.robot import DriveLimits
+from sim_bridge.simulation.simulator import Simulator
+from sim_bridge.simulation.world import World
 from sim_bridge.stepping import spin_until_idle
-from sim_bridge.world import World
 import yaml
 
 NANOSECONDS_PER_SECOND = 10 ** 9

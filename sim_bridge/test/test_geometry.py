@@ -1,12 +1,13 @@
-"""Tests of sim_bridge.geometry: footprints, signed distances, shapes and their meshes."""
+"""Tests of simulation.geometry: footprints, signed distances, shapes and their meshes."""
 
 import math
 
 import numpy as np
 import pytest
 
-from sim_bridge.geometry import (compose_pose, Footprint, FootprintSet, MESH_TOLERANCE, Shape,
-                                 signed_distance, triangulate, wrap_angle)
+from sim_bridge.simulation.geometry import (
+    compose_pose, Footprint, FootprintSet, MESH_TOLERANCE, Shape, signed_distance, triangulate,
+    wrap_angle)
 
 
 def test_wrap_angle_maps_into_minus_pi_to_pi():

@@ -13,8 +13,8 @@ from types import SimpleNamespace
 import pytest
 
 from sim_bridge import grade, paths
-from sim_bridge.grade import (BatchProgress, format_duration, format_table, GradeJob, main,
-                              run_scenario, summary, write_report)
+from sim_bridge.grade import BatchProgress, format_duration, format_table, main, summary
+from sim_bridge.grading import GradeJob, run_scenario, write_report
 from sim_bridge.report_text import TEXT_LIMIT_BYTES
 from sim_bridge.scenario import scenario_from_dict
 

@@ -18,7 +18,8 @@ import time
 import pytest
 
 from sim_bridge import isolate, paths
-from sim_bridge.grade import BatchProgress, grade_runs, GradeJob, RESULT_NAME
+from sim_bridge.grade import BatchProgress, grade_runs
+from sim_bridge.grading import GradeJob, RESULT_NAME
 from sim_bridge.isolate import (
     CappedLog, exit_reason, Limits, LOG_HEAD_BYTES, log_tail, LOG_TAIL_BYTES, LOG_TAIL_READ,
     process_exists, remove_leftover_scratch, trimmed_environment)

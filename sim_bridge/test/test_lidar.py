@@ -1,4 +1,4 @@
-"""Tests of sim_bridge.lidar: ray casts, beam layout, REP-117 readings, noise and batching."""
+"""Tests of simulation.lidar: ray casts, beam layout, REP-117 readings, noise and batching."""
 
 from dataclasses import replace
 import math
@@ -7,9 +7,9 @@ import numpy as np
 import pybullet
 import pytest
 
-from sim_bridge.geometry import Shape
-from sim_bridge.lidar import beam_directions, build_scene, cast_rays, Lidar
-from sim_bridge.sdf import LidarConfig
+from sim_bridge.simulation.geometry import Shape
+from sim_bridge.simulation.lidar import beam_directions, build_scene, cast_rays, Lidar
+from sim_bridge.simulation.sdf import LidarConfig
 
 NOISELESS = LidarConfig(noise_stddev=0.0)
 # A 4 m wall across +x at x = 2 (its near face), a post on the left, a ball behind.
@@ -242,7 +242,7 @@ def test_two_scenes_in_two_clients_do_not_see_each_other(scene):
 
 
 def test_pybullet_threads_split_a_dense_scan_without_changing_it():
-    from sim_bridge.simulator import Simulator
+    from sim_bridge.simulation.simulator import Simulator
     scans = {}
     for threads in (1, 0, None):
         with Simulator('room', lidar_samples=1081, lidar_noise_stddev=0.0,

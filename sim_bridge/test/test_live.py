@@ -22,9 +22,9 @@ import time
 import numpy as np
 import pytest
 from sim_bridge import live
-from sim_bridge.geometry import signed_distance
 from sim_bridge.lab_tasks import LAB_TASKS
-from sim_bridge.world import World
+from sim_bridge.simulation.geometry import signed_distance
+from sim_bridge.simulation.world import World
 
 FIXTURES = Path(__file__).parent / 'fixtures'
 PACKAGES = Path(__file__).resolve().parents[2]

@@ -7,11 +7,11 @@ import tracemalloc
 import numpy as np
 import pytest
 
-from sim_bridge.geometry import Footprint, signed_distance
 from sim_bridge.metrics import (compute_metrics, coverage, laps_around, longest_stationary,
                                 METRIC_KINDS, offset_path_length, stop_and_turn_angles)
 from sim_bridge.run_trace import CollisionEvent, Trace
-from sim_bridge.world import World
+from sim_bridge.simulation.geometry import Footprint, signed_distance
+from sim_bridge.simulation.world import World
 
 STEP = 0.01  # s, the runner's physics step
 

@@ -7,7 +7,7 @@ import pytest
 
 from sim_bridge.plot import plot_trajectory, scan_hits, SCANS_DRAWN, spread_evenly
 from sim_bridge.run_trace import CollisionEvent, ScanSnapshot, Trace
-from sim_bridge.world import World
+from sim_bridge.simulation.world import World
 
 PNG_SIGNATURE = b'\x89PNG\r\n\x1a\n'
 

@@ -1,10 +1,10 @@
-"""Tests of sim_bridge.robot: exact arcs, limits, and rejected or clamped commands."""
+"""Tests of sim_bridge.simulation.robot: exact arcs, limits, and rejected or clamped commands."""
 
 import math
 
 import pytest
 
-from sim_bridge.robot import check_command, DiffDrive, DriveLimits, integrate_arc, ramp
+from sim_bridge.simulation.robot import check_command, DiffDrive, DriveLimits, integrate_arc, ramp
 
 INSTANT = DriveLimits(max_linear_accel=math.inf, max_angular_accel=math.inf)
 

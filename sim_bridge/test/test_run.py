@@ -22,10 +22,10 @@ import numpy as np
 import pytest
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import get_typestore, Stores
-from sim_bridge.geometry import signed_distance
 from sim_bridge.run import main, run_simulation, RunError
 from sim_bridge.scenario import scenario_from_dict
-from sim_bridge.world import World
+from sim_bridge.simulation.geometry import signed_distance
+from sim_bridge.simulation.world import World
 import yaml
 
 FIXTURES = Path(__file__).parent / 'fixtures'
@@ -656,7 +656,7 @@ def test_a_target_that_fails_to_import_is_a_one_line_start_error(
 
 
 def test_a_syntax_error_is_reported_at_the_students_line_in_the_grade_report(tmp_path):
-    from sim_bridge.grade import run_scenario
+    from sim_bridge.grading import run_scenario
     path = tmp_path / 'wall_follow.py'
     path.write_text('import rclpy\n\n\ndef on_scan(self, msg)\n    pass\n')
     scenario = scenario_from_dict({'world': 'obstacles', 'nodes': [str(path)], 'duration': 1,

@@ -1,4 +1,4 @@
-"""Tests of sim_bridge.sdf: Gazebo model folders, collision shapes and lidar sensor blocks."""
+"""Tests of simulation.sdf: Gazebo model folders, collision shapes and lidar sensor blocks."""
 
 from dataclasses import replace
 import math
@@ -8,8 +8,8 @@ import shutil
 import pytest
 
 from sim_bridge import paths
-from sim_bridge.geometry import Shape
-from sim_bridge.sdf import LidarConfig, load_model, parse_model, SdfError
+from sim_bridge.simulation.geometry import Shape
+from sim_bridge.simulation.sdf import LidarConfig, load_model, parse_model, SdfError
 
 MODEL_FILE = Path('robot/model.sdf')
 

@@ -1,4 +1,4 @@
-"""Tests of sim_bridge.simulator: shipped worlds as pybullet sees them, driving, collisions."""
+"""Tests of simulation.simulator: shipped worlds as pybullet sees them, driving, collisions."""
 
 from dataclasses import replace
 import math
@@ -8,11 +8,11 @@ import pybullet
 import pytest
 
 from sim_bridge import paths
-from sim_bridge.geometry import Shape
-from sim_bridge.lidar import cast_rays
-from sim_bridge.robot import DriveLimits
-from sim_bridge.simulator import Collision, Simulator
-from sim_bridge.world import World
+from sim_bridge.simulation.geometry import Shape
+from sim_bridge.simulation.lidar import cast_rays
+from sim_bridge.simulation.robot import DriveLimits
+from sim_bridge.simulation.simulator import Collision, Simulator
+from sim_bridge.simulation.world import World
 
 INSTANT = DriveLimits(max_linear_accel=math.inf, max_angular_accel=math.inf)
 ROBOT_RADIUS = 0.15

@@ -6,8 +6,8 @@ import numpy as np
 import pybullet
 import pytest
 
-from sim_bridge.simulator import Simulator
-from sim_bridge.viewer import drawn_beams, MAX_DRAWN_RAYS, Viewer
+from sim_bridge.simulation.simulator import Simulator
+from sim_bridge.simulation.viewer import drawn_beams, MAX_DRAWN_RAYS, Viewer
 
 
 @pytest.fixture

@@ -1,13 +1,13 @@
-"""Tests of sim_bridge.world: the shipped worlds, the file format and its error messages."""
+"""Tests of simulation.world: the shipped worlds, the file format and its error messages."""
 
 import math
 
 import numpy as np
 import pytest
 from sim_bridge import paths
-from sim_bridge import world as world_module
-from sim_bridge.geometry import Footprint, Shape, signed_distance
-from sim_bridge.world import World, WorldError
+from sim_bridge.simulation import world as world_module
+from sim_bridge.simulation.geometry import Footprint, Shape, signed_distance
+from sim_bridge.simulation.world import World, WorldError
 from sim_bridge.yaml_loader import load_yaml
 import yaml
 

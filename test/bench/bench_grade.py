@@ -20,7 +20,8 @@ import sys
 import tempfile
 import time
 
-from sim_bridge.grade import grade_runs, GradeJob, run_scenario
+from sim_bridge.grade import grade_runs
+from sim_bridge.grading import GradeJob, run_scenario
 from sim_bridge.isolate import PRELOADED
 from sim_bridge.run_environment import keep_dds_in_process
 from sim_bridge.scenario import load_scenarios

@@ -36,8 +36,8 @@ from sim_bridge import run
 from sim_bridge.bridge import SimBridge
 from sim_bridge.paths import find_world
 from sim_bridge.record import BagRecorder
-from sim_bridge.simulator import Simulator
-from sim_bridge.world import World
+from sim_bridge.simulation.simulator import Simulator
+from sim_bridge.simulation.world import World
 
 WORLD = 'wall_follow_box'
 NODE = 'wall_follow'

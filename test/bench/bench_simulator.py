@@ -23,10 +23,10 @@ import timeit
 import numpy as np
 import pybullet
 
-from sim_bridge.geometry import FootprintSet
-from sim_bridge.lidar import build_scene, Lidar
-from sim_bridge.simulator import Simulator
-from sim_bridge.world import World
+from sim_bridge.simulation.geometry import FootprintSet
+from sim_bridge.simulation.lidar import build_scene, Lidar
+from sim_bridge.simulation.simulator import Simulator
+from sim_bridge.simulation.world import World
 
 WORLD = 'room'
 BEAM_COUNTS = (36, 360, 1081)

@@ -66,9 +66,9 @@ the field, e.g.
 ``worlds/room.yaml: obstacles[2] (box_a): 'size': must be 3 positive finite numbers, got
 [1, -1, 1]``.
 
-What the simulator sees: every obstacle is one or more :class:`~sim_bridge.geometry.Shape`
+What the simulator sees: every obstacle is one or more :class:`~.geometry.Shape`
 primitives (walls and cubes are boxes); the robot collides with their floor outlines
-(:class:`~sim_bridge.geometry.Footprint`, the vertical projection, whatever the height) and the
+(:class:`~.geometry.Footprint`, the vertical projection, whatever the height) and the
 lidar sees their 3-D shapes.
 """
 
@@ -80,8 +80,8 @@ from pathlib import Path
 from typing import Any
 
 from sim_bridge import paths
-from sim_bridge.geometry import Footprint, Shape, wrap_angle
-from sim_bridge.sdf import load_model, Model, SdfError
+from sim_bridge.simulation.geometry import Footprint, Shape, wrap_angle
+from sim_bridge.simulation.sdf import load_model, Model, SdfError
 from sim_bridge.yaml_loader import load_yaml
 import yaml
 

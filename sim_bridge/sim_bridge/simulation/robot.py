@@ -12,7 +12,7 @@ simulator's business.
 from dataclasses import dataclass
 import math
 
-from sim_bridge.geometry import wrap_angle
+from sim_bridge.simulation.geometry import wrap_angle
 
 Pose = tuple[float, float, float]
 #: Below this turn rate (rad/s) an arc is integrated as a straight line (no division by ~0).

@@ -1,7 +1,7 @@
 """
 A planar lidar made of pybullet ray casts, and the pybullet bodies it sees.
 
-:func:`build_scene` turns a world's :class:`~sim_bridge.geometry.Shape` primitives into static
+:func:`build_scene` turns a world's :class:`~.geometry.Shape` primitives into static
 pybullet bodies; :class:`Lidar` casts one ray per beam with ``rayTestBatch`` from the laser
 frame on the robot and returns a LaserScan-shaped :class:`LaserScanData`. Readings follow
 Gazebo's ``gpu_lidar`` (gz-sensors) and REP-117:
@@ -14,7 +14,7 @@ Gazebo's ``gpu_lidar`` (gz-sensors) and REP-117:
   clamped to [range_min, range_max].
 
 Every shape is given to pybullet as a static triangle mesh (exact for boxes, within
-:data:`~sim_bridge.geometry.MESH_TOLERANCE` for round ones): Bullet's ray test against its
+:data:`~.geometry.MESH_TOLERANCE` for round ones): Bullet's ray test against its
 cylinder and sphere primitives runs an iterative convex cast several times slower per ray (see
 ``test/bench/bench_simulator.py``), which would cap a 1081-beam lidar far below 100x real time.
 """
@@ -26,8 +26,8 @@ from operator import itemgetter
 import numpy as np
 import pybullet
 
-from sim_bridge.geometry import MESH_TOLERANCE, Shape, triangulate
-from sim_bridge.sdf import LidarConfig
+from sim_bridge.simulation.geometry import MESH_TOLERANCE, Shape, triangulate
+from sim_bridge.simulation.sdf import LidarConfig
 
 #: Rays per ``rayTestBatch`` call. pybullet refuses more than MAX_RAY_INTERSECTION_BATCH_SIZE
 #: and, at exactly that many, silently returns one result fewer; so stay one below.

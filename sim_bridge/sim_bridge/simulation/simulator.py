@@ -8,7 +8,7 @@ simulators coexist in one process; the lidar noise comes from a generator seeded
 the only randomness, so one seed makes a run bit-identical.
 
 Collisions are checked analytically on the floor: the robot's circle against the obstacles'
-footprints (:class:`~sim_bridge.geometry.FootprintSet`, about a microsecond per check in a lab
+footprints (:class:`~.geometry.FootprintSet`, about a microsecond per check in a lab
 world, which also gives the clearance; pybullet's getClosestPoints takes some 20 times longer,
 see ``test/bench/bench_simulator.py``). A motion that would
 make them overlap stops where they touch, to within :data:`CONTACT_RESOLUTION` (the robot keeps
@@ -26,12 +26,12 @@ import weakref
 import numpy as np
 import pybullet
 
-from sim_bridge.geometry import FootprintSet, wrap_angle
-from sim_bridge.lidar import build_scene, LaserScanData, Lidar
-from sim_bridge.robot import DiffDrive, DriveLimits, integrate_arc
-from sim_bridge.sdf import LidarConfig
-from sim_bridge.viewer import Viewer
-from sim_bridge.world import World
+from sim_bridge.simulation.geometry import FootprintSet, wrap_angle
+from sim_bridge.simulation.lidar import build_scene, LaserScanData, Lidar
+from sim_bridge.simulation.robot import DiffDrive, DriveLimits, integrate_arc
+from sim_bridge.simulation.sdf import LidarConfig
+from sim_bridge.simulation.viewer import Viewer
+from sim_bridge.simulation.world import World
 
 #: Body-to-obstacle distance (m) at or below which the robot touches an obstacle.
 CONTACT_DISTANCE = 1e-3
@@ -60,14 +60,14 @@ class Simulator:
     """
     A world with one robot: command it, step it, scan, and read its ground truth.
 
-    ``world`` is a :class:`~sim_bridge.world.World` or a world name/path. ``lidar`` replaces
+    ``world`` is a :class:`~.world.World` or a world name/path. ``lidar`` replaces
     the robot model's lidar; ``lidar_samples`` and ``lidar_noise_stddev`` (m) override just
-    its beam count and noise; ``limits`` are the drive's :class:`~sim_bridge.robot.DriveLimits`;
+    its beam count and noise; ``limits`` are the drive's :class:`~.robot.DriveLimits`;
     ``command_timeout`` (s, sim time): with no new command for longer than this the robot is
     told to stop (None: a command holds until the next); ``gui`` opens the pybullet window
     (one per process) with a camera following the robot, ``draw_rays`` draws the lidar's rays
     there; ``ray_threads`` is pybullet's numThreads for the lidar (None: chosen by beam count,
-    see :class:`~sim_bridge.lidar.Lidar`); ``collision_meshes`` False gives pybullet
+    see :class:`~.lidar.Lidar`); ``collision_meshes`` False gives pybullet
     primitives instead of meshes (slower; for comparison).
     """
 

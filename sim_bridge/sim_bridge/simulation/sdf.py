@@ -28,7 +28,7 @@ import os
 from pathlib import Path
 import xml.etree.ElementTree as ElementTree
 
-from sim_bridge.geometry import compose_pose, Footprint, Shape
+from sim_bridge.simulation.geometry import compose_pose, Footprint, Shape
 
 LIDAR_SENSOR_TYPES = ('ray', 'gpu_ray', 'lidar', 'gpu_lidar')
 NOISE_TYPES = ('gaussian', 'none')
