@@ -30,7 +30,7 @@ setup(
         *tree('../models', os.path.join(share, 'models')),
     ],
     install_requires=['setuptools', 'numpy', 'pybullet', 'rosbags>=0.11,<0.12', 'matplotlib',
-                      'contourpy', 'PyYAML'],
+                      'contourpy', 'PyYAML', 'trimesh', 'pycollada', 'shapely'],
     extras_require={
         'test': [
             'pytest',

@@ -1,9 +1,10 @@
 """
 Plain geometry of the simulated world: 3-D primitives, their 2-D floor outlines, distances.
 
-A :class:`Shape` is a box, an upright cylinder or a sphere, placed by its centre and a rotation
-about the vertical axis (the only rotation a floor obstacle needs). Its :class:`Footprint` is
-its vertical projection on the floor: what a round robot driving on the floor can bump into.
+A :class:`Shape` is a collision primitive (box, cylinder, sphere, capsule, ellipsoid) or a
+triangle :class:`Mesh`, placed by its centre and a rotation (roll, pitch, yaw: SDF's fixed-axis
+X-Y-Z, REP-103). Its :class:`Footprint` is its vertical projection on the floor: what a round
+robot driving on the floor can bump into.
 :func:`signed_distance` and :class:`FootprintSet` measure how far points are from footprints;
 :func:`triangulate` turns a shape into a triangle mesh for the ray caster.
 
@@ -11,12 +12,12 @@ Everything here is pure Python and numpy. Units: m and rad; angles counter-clock
 """
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 import math
 
 import numpy as np
 
-SHAPE_KINDS = ('box', 'cylinder', 'sphere')
+SHAPE_KINDS = ('box', 'cylinder', 'sphere', 'capsule', 'ellipsoid', 'mesh')
 FOOTPRINT_KINDS = ('circle', 'box')
 #: Largest distance (m) between a triangulated surface and the true one (see :func:`triangulate`).
 MESH_TOLERANCE = 2e-4
@@ -186,14 +187,30 @@ class FootprintSet:
         return best
 
 
+@dataclass(frozen=True, eq=False)
+class Mesh:
+    """
+    A triangle mesh in its shape's frame: (V, 3) ``vertices`` (m, scale applied), (F, 3) ``faces``.
+
+    ``source`` names the file it was read from, for messages.
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    source: str = ''
+
+
 @dataclass(frozen=True)
 class Shape:
     """
-    A 3-D collision primitive resting in (or above) the world.
+    A 3-D collision primitive or mesh resting in (or above) the world.
 
-    ``x``, ``y``, ``z`` (m) is the centre, ``yaw`` (rad) the rotation about the vertical axis.
-    A box has full edge lengths ``size`` (m); a cylinder (axis vertical) has ``radius`` and
-    ``length`` (m); a sphere has ``radius`` (m).
+    ``x``, ``y``, ``z`` (m) is the centre (a mesh's frame origin), ``roll``, ``pitch``, ``yaw``
+    (rad) its rotation, fixed axes X then Y then Z as in an SDF ``<pose>``. A box has full edge
+    lengths ``size`` (m); a cylinder (axis along its z) has ``radius`` and ``length`` (m); a
+    sphere has ``radius`` (m); a capsule is a cylinder of ``radius`` and ``length`` (m) capped by
+    half spheres; an ellipsoid has full diameters ``size`` (m, twice SDF's radii); a mesh has
+    ``mesh``.
     """
 
     kind: str
@@ -204,36 +221,80 @@ class Shape:
     size: tuple[float, float, float] = (0.0, 0.0, 0.0)
     radius: float = 0.0
     length: float = 0.0
+    roll: float = 0.0
+    pitch: float = 0.0
+    mesh: Mesh | None = None
 
     def __post_init__(self) -> None:
         if self.kind not in SHAPE_KINDS:
             raise ValueError(f'shape kind must be one of {SHAPE_KINDS}, not {self.kind!r}')
+        if (self.kind == 'mesh') != (self.mesh is not None):
+            raise ValueError('a mesh shape, and only a mesh shape, has a mesh')
+
+    @property
+    def upright(self) -> bool:
+        """Return True when the shape is rotated about the vertical axis only."""
+        return self.roll == 0.0 and self.pitch == 0.0
+
+    def rotation(self) -> np.ndarray:
+        """Return the 3x3 rotation of the shape's frame: Rz(yaw) @ Ry(pitch) @ Rx(roll)."""
+        return rotation_matrix(self.roll, self.pitch, self.yaw)
 
     @property
     def height(self) -> float:
         """Return the vertical extent (m)."""
-        if self.kind == 'box':
-            return self.size[2]
-        if self.kind == 'cylinder':
-            return self.length
-        return 2.0 * self.radius
+        bottom, top = self.z_range()
+        return top - bottom
 
     def z_range(self) -> tuple[float, float]:
         """Return the (bottom, top) heights (m)."""
-        return (self.z - 0.5 * self.height, self.z + 0.5 * self.height)
+        if self.upright and self.kind in ('box', 'cylinder', 'sphere'):
+            half = {'box': 0.5 * self.size[2], 'cylinder': 0.5 * self.length,
+                    'sphere': self.radius}[self.kind]
+            return (self.z - half, self.z + half)
+        heights = triangulate(self)[0] @ self.rotation()[2] + self.z
+        return (float(heights.min()), float(heights.max()))
 
-    def placed(self, x: float, y: float, z: float, yaw: float) -> 'Shape':
+    def placed(self, x: float, y: float, z: float, yaw: float, roll: float = 0.0,
+               pitch: float = 0.0) -> 'Shape':
         """Return this shape, given in a parent frame, moved by the parent's pose (m, rad)."""
-        x, y, z, yaw = compose_pose((x, y, z, yaw), (self.x, self.y, self.z, self.yaw))
-        return Shape(self.kind, x, y, z, yaw,
-                     size=self.size, radius=self.radius, length=self.length)
+        parent = rotation_matrix(roll, pitch, yaw)
+        position = parent @ (self.x, self.y, self.z) + (x, y, z)
+        roll, pitch, yaw = euler_from_matrix(parent @ self.rotation())
+        return replace(self, x=float(position[0]), y=float(position[1]),
+                       z=float(position[2]), roll=roll, pitch=pitch, yaw=yaw)
 
     def footprint(self) -> Footprint:
-        """Return the vertical projection of the shape on the floor."""
+        """Return the vertical projection on the floor of an upright box, cylinder or sphere."""
+        if not self.upright or self.kind not in ('box', 'cylinder', 'sphere'):
+            raise ValueError(f'no floor outline for a {self.kind} rotated by roll {self.roll}, '
+                             f'pitch {self.pitch}')
         if self.kind == 'box':
             return Footprint('box', self.x, self.y, self.yaw,
                              half_x=0.5 * self.size[0], half_y=0.5 * self.size[1])
         return Footprint('circle', self.x, self.y, radius=self.radius)
+
+
+def rotation_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
+    """Return the 3x3 rotation Rz(yaw) @ Ry(pitch) @ Rx(roll) of fixed-axis angles (rad)."""
+    cr, sr = math.cos(roll), math.sin(roll)
+    cp, sp = math.cos(pitch), math.sin(pitch)
+    cy, sy = math.cos(yaw), math.sin(yaw)
+    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+                     [-sp, cp * sr, cp * cr]])
+
+
+def euler_from_matrix(rotation: np.ndarray) -> tuple[float, float, float]:
+    """Return fixed-axis (roll, pitch, yaw) in rad of a 3x3 rotation (see rotation_matrix)."""
+    pitch = math.asin(max(-1.0, min(1.0, -float(rotation[2, 0]))))
+    if abs(float(rotation[2, 0])) < 1.0 - 1e-12:
+        roll = math.atan2(float(rotation[2, 1]), float(rotation[2, 2]))
+        yaw = math.atan2(float(rotation[1, 0]), float(rotation[0, 0]))
+    else:  # gimbal lock: the yaw carries the whole rotation about the vertical
+        roll = 0.0
+        yaw = math.atan2(-float(rotation[0, 1]), float(rotation[1, 1]))
+    return (roll + 0.0, pitch + 0.0, wrap_angle(yaw) + 0.0)
 
 
 def triangulate(shape: Shape, tolerance: float = MESH_TOLERANCE
@@ -250,7 +311,19 @@ def triangulate(shape: Shape, tolerance: float = MESH_TOLERANCE
         return _box_mesh(*(0.5 * np.asarray(shape.size, dtype=float)))
     if shape.kind == 'cylinder':
         return _cylinder_mesh(shape.radius, shape.length, tolerance)
-    return _sphere_mesh(shape.radius, tolerance)
+    if shape.kind == 'sphere':
+        return _sphere_mesh(shape.radius, tolerance)
+    if shape.kind == 'ellipsoid':
+        vertices, faces = _sphere_mesh(1.0, tolerance / max(0.5 * max(shape.size), 1e-9))
+        return vertices * (0.5 * np.asarray(shape.size, dtype=float)), faces
+    if shape.kind == 'capsule':
+        vertices, faces = _sphere_mesh(shape.radius, tolerance)
+        # The sphere's halves pulled apart by the cylinder's length: the band of triangles
+        # across the equator stretches into the cylinder's wall.
+        offset = np.where(vertices[:, 2:] >= 0.0, 0.5, -0.5) * shape.length
+        vertices = vertices + offset * [0.0, 0.0, 1.0]
+        return vertices, faces
+    return np.asarray(shape.mesh.vertices, dtype=float), np.asarray(shape.mesh.faces)
 
 
 def _box_mesh(half_x: float, half_y: float, half_z: float) -> tuple[np.ndarray, np.ndarray]:

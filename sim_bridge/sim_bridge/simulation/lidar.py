@@ -38,7 +38,10 @@ THREADED_FROM_BEAMS = 100
 #: Thickness (m) of a sized floor, a thin box whose top face is z = 0.
 FLOOR_THICKNESS = 0.01
 SHAPE_COLOURS = {'box': (0.80, 0.50, 0.20, 1.0), 'cylinder': (0.20, 0.60, 0.30, 1.0),
-                 'sphere': (0.70, 0.20, 0.20, 1.0)}
+                 'sphere': (0.70, 0.20, 0.20, 1.0), 'mesh': (0.55, 0.55, 0.65, 1.0)}
+#: Kinds pybullet has a primitive of (given as primitives when ``meshes`` is off); the others
+#: are always given as triangle meshes.
+PRIMITIVE_KINDS = ('box', 'cylinder', 'sphere')
 FLOOR_COLOUR = (0.85, 0.85, 0.85, 1.0)
 _FRACTION = itemgetter(2)
 
@@ -116,7 +119,7 @@ def build_scene(client: int, shapes: tuple[Shape, ...] | list[Shape], *,
     """
     bodies = [_floor(client, floor_size, visuals)]
     for shape in shapes:
-        if meshes:
+        if meshes or shape.kind not in PRIMITIVE_KINDS:
             vertices, faces = triangulate(shape, tolerance)
             collision = pybullet.createCollisionShape(
                 pybullet.GEOM_MESH, vertices=vertices.tolist(), indices=faces.ravel().tolist(),
@@ -125,14 +128,19 @@ def build_scene(client: int, shapes: tuple[Shape, ...] | list[Shape], *,
             collision = pybullet.createCollisionShape(physicsClientId=client,
                                                       **_primitive(shape, 'height'))
         visual = -1
-        if visuals:
+        if visuals and shape.kind in PRIMITIVE_KINDS:
             visual = pybullet.createVisualShape(rgbaColor=SHAPE_COLOURS[shape.kind],
                                                 physicsClientId=client,
                                                 **_primitive(shape, 'length'))
+        elif visuals:
+            visual = pybullet.createVisualShape(
+                pybullet.GEOM_MESH, vertices=vertices.tolist(), indices=faces.ravel().tolist(),
+                rgbaColor=SHAPE_COLOURS['mesh'], physicsClientId=client)
         bodies.append(pybullet.createMultiBody(
             baseMass=0.0, baseCollisionShapeIndex=collision, baseVisualShapeIndex=visual,
             basePosition=(shape.x, shape.y, shape.z),
-            baseOrientation=pybullet.getQuaternionFromEuler((0.0, 0.0, shape.yaw)),
+            baseOrientation=pybullet.getQuaternionFromEuler((shape.roll, shape.pitch,
+                                                             shape.yaw)),
             physicsClientId=client))
     # Bullet fills its broadphase bounding boxes lazily; rays only find bodies it has updated.
     pybullet.performCollisionDetection(physicsClientId=client)

@@ -47,6 +47,32 @@ class DriveLimits:
                                  f'got {value!r}')
 
 
+@dataclass(frozen=True)
+class DiffDriveConfig:
+    """
+    A model's differential-drive plugin, as Gazebo reads it.
+
+    Gazebo Sim's DiffDrive system or Classic's ``libgazebo_ros_diff_drive.so``; what the plugin
+    leaves unset is Gazebo's default. ``wheel_separation`` and ``wheel_radius`` (m, None when
+    not given); ``limits`` (the plugin's velocity and acceleration limits,
+    :class:`DriveLimits`); the command and odometry topics, the odometry frame and the robot's
+    base frame (its child); ``odometry_rate`` (Hz); ``publish_tf`` whether it broadcasts
+    odom -> base. ``command_timeout`` (s): with no new command for longer, the robot stops;
+    None (Gazebo's DiffDrive) keeps the last command.
+    """
+
+    wheel_separation: float | None = None
+    wheel_radius: float | None = None
+    limits: DriveLimits = DriveLimits()
+    command_topic: str = 'cmd_vel'
+    odometry_topic: str = 'odom'
+    odometry_frame: str = 'odom'
+    base_frame: str = 'base_link'
+    odometry_rate: float = 50.0
+    publish_tf: bool = True
+    command_timeout: float | None = None
+
+
 def integrate_arc(pose: Pose, linear: float, angular: float, dt: float) -> Pose:
     """
     Return the pose (x m, y m, yaw rad) after driving at constant (v m/s, w rad/s) for dt s.

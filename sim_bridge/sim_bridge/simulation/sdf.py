@@ -29,6 +29,7 @@ from pathlib import Path
 import xml.etree.ElementTree as ElementTree
 
 from sim_bridge.simulation.geometry import compose_pose, Footprint, Shape
+from sim_bridge.simulation.robot import DiffDriveConfig
 
 LIDAR_SENSOR_TYPES = ('ray', 'gpu_ray', 'lidar', 'gpu_lidar')
 NOISE_TYPES = ('gaussian', 'none')
@@ -130,6 +131,8 @@ class Model:
     shapes: tuple[Shape, ...]
     lidar: LidarConfig | None = None
     static: bool = False
+    #: The model's diff-drive plugin, None when it has none.
+    drive: DiffDriveConfig | None = None
     footprints: tuple[Footprint, ...] = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
