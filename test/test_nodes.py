@@ -20,11 +20,11 @@ import pytest
 import rclpy
 from rclpy.clock import Clock, ClockType
 from rclpy.exceptions import InvalidParameterTypeException
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 from rclpy.time import Time
+from rclpy.utilities import get_default_context
 from rosgraph_msgs.msg import Clock as ClockMsg
 from scan_pkg.closest_obstacle import ClosestObstacle
 from scan_pkg.scan_ahead import ScanAhead
@@ -33,7 +33,7 @@ from scan_pkg.wall_follow import WallFollow
 from scan_pkg.wanderbot import Wanderbot
 from sensor_msgs.msg import LaserScan
 from sim_bridge.run_environment import run_environment
-from sim_bridge.stepping import spin_until_idle
+from sim_bridge.stepping import spin_until_idle, SteppedExecutor
 
 # The lab's scanner: 36 beams from -1.57 to +1.57 rad; beams 17 and 18 are the two nearest
 # straight ahead (+-2.6 deg), beam 0 points right (-90 deg) and beam 35 left (+90 deg).
@@ -199,7 +199,7 @@ class Session:
         """Call rclpy.init with ``--ros-args ros_args``, no signal handlers (pytest's own)."""
         rclpy.init(args=['--ros-args', *ros_args],
                    signal_handler_options=SignalHandlerOptions.NO)
-        self.executor = SingleThreadedExecutor()
+        self.executor = SteppedExecutor(get_default_context())
 
     def add(self, node: Node) -> Node:
         """Spin ``node`` with the others and destroy it at the end; return it."""

@@ -22,11 +22,11 @@ from rcl_interfaces.msg import Log
 import rclpy
 from rclpy.clock import ClockType
 from rclpy.exceptions import InvalidParameterTypeException
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
 from rclpy.qos import (DurabilityPolicy, qos_profile_sensor_data, QoSProfile,
                        ReliabilityPolicy)
 from rclpy.time import Time
+from rclpy.utilities import get_default_context
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import LaserScan
 from sim_bridge import bridge as bridge_module
@@ -35,7 +35,7 @@ from sim_bridge.paths import find_world
 from sim_bridge.simulation.robot import DriveLimits
 from sim_bridge.simulation.simulator import Simulator
 from sim_bridge.simulation.world import World
-from sim_bridge.stepping import spin_until_idle
+from sim_bridge.stepping import spin_until_idle, SteppedExecutor
 import yaml
 
 NANOSECONDS_PER_SECOND = 10 ** 9
@@ -51,7 +51,7 @@ class Session:
     """rclpy initialised, an executor, and the nodes a test starts in it."""
 
     def __init__(self):
-        self.executor = SingleThreadedExecutor()
+        self.executor = SteppedExecutor(get_default_context())
         self.nodes = []
         self.bridges = []
 
