@@ -26,7 +26,7 @@ from operator import itemgetter
 import numpy as np
 import pybullet
 
-from sim_bridge.simulation.geometry import MESH_TOLERANCE, Shape, triangulate
+from sim_bridge.simulation.geometry import MESH_TOLERANCE, rotation_matrix, Shape, triangulate
 from sim_bridge.simulation.sdf import LidarConfig
 
 #: Rays per ``rayTestBatch`` call. pybullet refuses more than MAX_RAY_INTERSECTION_BATCH_SIZE
@@ -183,17 +183,7 @@ def beam_directions(config: LidarConfig) -> np.ndarray:
     angles = config.min_angle + config.angle_increment * np.arange(config.beams)
     in_laser = np.column_stack((np.cos(angles), np.sin(angles), np.zeros(config.beams)))
     roll, pitch, yaw = config.pose[3:]
-    return in_laser @ _rotation(roll, pitch, yaw).T
-
-
-def _rotation(roll: float, pitch: float, yaw: float) -> np.ndarray:
-    """Return SDF's roll-pitch-yaw rotation matrix, Rz(yaw) Ry(pitch) Rx(roll)."""
-    cr, sr = math.cos(roll), math.sin(roll)
-    cp, sp = math.cos(pitch), math.sin(pitch)
-    cy, sy = math.cos(yaw), math.sin(yaw)
-    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-                     [-sp, cp * sr, cp * cr]])
+    return in_laser @ rotation_matrix(roll, pitch, yaw).T
 
 
 class Lidar:
