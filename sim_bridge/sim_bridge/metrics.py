@@ -231,9 +231,7 @@ def offset_path_length(footprints: Sequence[Footprint], distance: float,
     that takes more than OFFSET_GRID_SIDE points along a side; the longest line is the outer
     loop.
     """
-    reach = distance + max(
-        max(footprint.radius, math.hypot(footprint.half_x, footprint.half_y))
-        for footprint in footprints)
+    reach = distance + max(footprint.reach() for footprint in footprints)
     extent = 2.0 * reach + max(max(f.x for f in footprints) - min(f.x for f in footprints),
                                max(f.y for f in footprints) - min(f.y for f in footprints))
     resolution = max(resolution, extent / (OFFSET_GRID_SIDE - 4))
@@ -255,7 +253,10 @@ def compute_metrics(trace: Trace, world: Any, *, setpoint: float | None = None,
     """
     Score a run; return a JSON-serialisable dict (plain floats and ints, None for no value).
 
-    ``world`` is the run's ``World`` (obstacles, target, bounds); ``setpoint`` (m) the wall
+    ``world`` is the run's ``World`` (obstacles, target, bounds); every score reads what the
+    robot could hit, the world's slice through its height band (``World.footprints``), and the
+    target's part of it (or, when the target lies wholly above or below the robot, its whole
+    outline, the only one a robot could circle); ``setpoint`` (m) the wall
     distance the node aims for, if it has one; ``wall_time_s`` (s) how long the run took;
     ``node_errors`` the failures to report, each a mapping with ``node``, ``error`` and
     optionally ``traceback``.
@@ -267,12 +268,14 @@ def compute_metrics(trace: Trace, world: Any, *, setpoint: float | None = None,
     laps, lap_times = 0, []
     wall_distance = distance_stats(np.empty(0), None)
     if world.target is not None and len(time):
-        target = world.obstacle(world.target).footprints
-        # Each footprint's centre lies inside the target, where the robot's centre never goes.
+        target = (world.obstacle_footprints(world.target)
+                  or world.obstacle(world.target).footprints)
+        # Each footprint's centre lies inside the target, where the robot's centre never goes
+        # (a polygon's centre is a point inside it).
         laps, lap_times = laps_around(time, x, y, [(fp.x, fp.y) for fp in target])
         wall_distance = distance_stats(signed_distance(np.column_stack((x, y)), target),
                                        setpoint)
-    obstacles = [footprint for obstacle in world.obstacles for footprint in obstacle.footprints]
+    obstacles = world.footprints()
     return {
         'sim_time_s': sim_time,
         'wall_time_s': finite_or_none(wall_time_s),
