@@ -53,8 +53,9 @@ def plot_trajectory(trace: Trace, world: Any, path: str | os.PathLike, *,
 
     ``world`` is the run's ``World``: its obstacles are drawn as what the robot could hit,
     their slice through its height band (a table whose top is above the robot is its legs),
-    the target highlighted, its bounds dashed; the robot as its outline at start and end. The path is coloured by sim time (s); start, end and
-    each collision are marked; a few lidar scans show what the robot saw.
+    the target highlighted, its bounds dashed. The path is coloured by sim time (s); start
+    and end are marked with the robot's outline there, each collision with a cross; a few
+    lidar scans show what the robot saw.
     """
     figure = Figure(figsize=(FIGURE_WIDTH, FIGURE_WIDTH), dpi=120, layout='constrained')
     axes = figure.add_subplot()

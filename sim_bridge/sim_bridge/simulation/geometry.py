@@ -150,7 +150,7 @@ class Footprint:
 
     def geometry(self) -> BaseGeometry:
         """
-        Return the outline as a shapely geometry (m).
+        Return the outline as a shapely Polygon or MultiPolygon (m).
 
         A rectangle is exact; a circle a polygon of 4 * :data:`CIRCLE_QUARTER_SEGMENTS` vertices
         on the circle (for set operations; distances to circles stay analytic elsewhere).

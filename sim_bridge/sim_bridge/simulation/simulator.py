@@ -126,8 +126,7 @@ class Simulator:
         self.bodies = build_scene(client, world.shapes(), floor_size=world.floor_size,
                                   meshes=collision_meshes, visuals=gui)
         self._lidar = Lidar(client, config, np.random.default_rng(seed), threads=ray_threads)
-        self.viewer = (Viewer(client, self.robot_radius, max(world.robot.height, 0.05),
-                              draw_rays) if gui else None)
+        self.viewer = Viewer(client, world.robot.shapes, draw_rays) if gui else None
         if self.viewer is not None:
             self.viewer.show_robot(self._drive.pose)
 
