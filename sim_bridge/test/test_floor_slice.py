@@ -6,13 +6,13 @@ import math
 import numpy as np
 import pytest
 import shapely
-import trimesh
 
 from sim_bridge.simulation.floor_slice import FLOOR_CLEARANCE, FloorSlice, height_band
 from sim_bridge.simulation.geometry import Mesh, Shape, slice_footprints
 from sim_bridge.simulation.robot import DriveLimits
 from sim_bridge.simulation.simulator import Simulator
 from sim_bridge.simulation.world import Obstacle, World, WorldError
+import trimesh
 
 INSTANT = DriveLimits(max_linear_accel=math.inf, max_angular_accel=math.inf)
 # A robot 0.2 m tall: one upright cylinder of radius 0.15 m about its origin.

@@ -6,11 +6,11 @@ import math
 import numpy as np
 import pybullet
 import pytest
-import trimesh
 
 from sim_bridge.simulation.geometry import Mesh, Shape
 from sim_bridge.simulation.lidar import beam_directions, build_scene, cast_rays, Lidar
 from sim_bridge.simulation.sdf import LidarConfig
+import trimesh
 
 NOISELESS = LidarConfig(noise_stddev=0.0)
 # A 4 m wall across +x at x = 2 (its near face), a post on the left, a ball behind.

@@ -3,8 +3,8 @@
 from dataclasses import replace
 import math
 
-import numpy as np
 from matplotlib.patches import Polygon
+import numpy as np
 import pytest
 
 from sim_bridge.plot import plot_trajectory, scan_hits, SCANS_DRAWN, spread_evenly
