@@ -3,7 +3,9 @@ Score a run from its trace: laps, wall distance, turns, stationary time, coverag
 
 Each score is a plain function of numpy arrays (units in its docstring); ``compute_metrics``
 assembles them into the JSON-ready dict the runner writes as ``metrics.json`` and the grader's
-criteria read. Pure: numpy and contourpy only, no rclpy, no pybullet.
+criteria read. The world's obstacles count as the robot could hit them: their slice through the
+robot's height band (``World.footprints``). Pure: numpy, contourpy and shapely (through the
+footprints), no rclpy, no pybullet.
 """
 
 import math
@@ -196,8 +198,9 @@ def coverage(x: np.ndarray, y: np.ndarray, bounds: tuple[float, float, float, fl
     Return the fraction of free grid cells the robot's centre visited, or None if none is free.
 
     The grid of ``cell``-sided squares (m) starts at the lower corner of ``bounds`` (xmin, ymin,
-    xmax, ymax, m); a cell is free when its centre lies farther than ``robot_radius`` (m) from
-    every obstacle footprint, i.e. the robot could stand there. Bounds wider than
+    xmax, ymax, m); a cell is free when its centre lies farther than ``robot_radius`` (m, the
+    radius of the circle about the robot's origin holding its outline) from every obstacle
+    footprint, i.e. the robot could stand there, whatever its heading. Bounds wider than
     MAX_GRID_SIDE cells get larger cells, as many as fit along their longer side.
     """
     xmin, ymin, xmax, ymax = bounds
