@@ -161,3 +161,10 @@ def test_the_robots_outline_turns_and_moves_with_its_pose():
     assert len(rings) == 3 and all(np.allclose(ring[0], ring[-1]) for ring in rings)
     assert shapely.MultiPoint(np.vstack(rings)).bounds == pytest.approx(
         (1.0 - 0.153, 2.0 - 0.1965, 1.0 + 0.153, 2.0 + 0.0685), abs=1e-4)
+
+
+def test_a_robot_flatter_than_the_floor_clearance_is_a_clear_error():
+    mat = (Shape('box', 0.0, 0.0, 0.001, size=(0.3, 0.3, 0.002)),)
+    with pytest.raises(WorldError, match="robot: 'model': 'lab_robot' .* no collision shape "
+                       'higher than 0.005 m'):
+        world_of(mat, {})

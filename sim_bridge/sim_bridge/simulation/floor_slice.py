@@ -52,7 +52,7 @@ class FloorSlice:
     def __init__(self, robot_shapes: Sequence[Shape],
                  obstacles: Sequence[tuple[str, Sequence[Shape]]]) -> None:
         if not robot_shapes:
-            raise ValueError('a robot needs at least one collision shape for its outline')
+            raise ValueError('the robot has no collision shape to give it an outline')
         self.band = height_band(robot_shapes)
         pieces = [(name, footprint) for name, shapes in obstacles for shape in shapes
                   for footprint in slice_footprints(shape, *self.band)]
@@ -61,6 +61,9 @@ class FloorSlice:
         self.obstacles = FootprintSet(self.footprints)
         outline = [footprint for shape in robot_shapes
                    for footprint in slice_footprints(shape, *self.band)]
+        if not outline:
+            raise ValueError(f'the robot has no collision shape higher than {FLOOR_CLEARANCE} m '
+                             'above the floor to bump into anything with')
         self.round = all(footprint.kind == 'circle' and footprint.x == 0.0
                          and footprint.y == 0.0 for footprint in outline)
         if self.round:

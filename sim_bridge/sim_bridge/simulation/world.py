@@ -210,7 +210,7 @@ class World:
     @cached_property
     def floor_slice(self) -> FloorSlice:
         """Return the world through the robot's height band, and the robot's outline."""
-        return _floor_slice(self.robot, self.obstacles)
+        return _floor_slice(self._label(), self.robot, self.obstacles)
 
     def footprints(self) -> tuple[Footprint, ...]:
         """Return the outlines the robot can hit (its band's slice), in obstacle order."""
@@ -261,8 +261,13 @@ def _display_path(path: Path) -> str:
         return str(path)
 
 
-def _floor_slice(robot: Model, obstacles: tuple[Obstacle, ...]) -> FloorSlice:
-    return FloorSlice(robot.shapes, [(obstacle.name, obstacle.shapes) for obstacle in obstacles])
+def _floor_slice(label: str, robot: Model, obstacles: tuple[Obstacle, ...]) -> FloorSlice:
+    try:
+        return FloorSlice(robot.shapes,
+                          [(obstacle.name, obstacle.shapes) for obstacle in obstacles])
+    except ValueError as error:
+        raise WorldError(label, 'robot', 'model', f"'{robot.name}' ({robot.path}): {error}"
+                         ) from None
 
 
 def _check_robot_clear(label: str, pose: tuple[float, float, float],
@@ -319,7 +324,8 @@ class _Parser:
             if target not in names:
                 raise self.fail(None, 'target', f"names no obstacle ('{target}'); obstacles: "
                                 f"{', '.join(names) or 'none'}")
-        _check_robot_clear(self.label, robot_start, _floor_slice(robot, tuple(obstacles)))
+        _check_robot_clear(self.label, robot_start,
+                           _floor_slice(self.label, robot, tuple(obstacles)))
         if 'bounds' in data:
             bounds = self.bounds(data['bounds'])
         else:
