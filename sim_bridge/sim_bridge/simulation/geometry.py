@@ -74,7 +74,7 @@ class Footprint:
     radius: float = 0.0
     half_x: float = 0.0
     half_y: float = 0.0
-    polygon: BaseGeometry | None = field(default=None, compare=False, repr=False)
+    polygon: BaseGeometry | None = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
         if self.kind not in FOOTPRINT_KINDS:
