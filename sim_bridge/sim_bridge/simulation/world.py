@@ -68,9 +68,11 @@ the field, e.g.
 
 What the simulator sees: every obstacle is one or more :class:`~.geometry.Shape`
 primitives (walls and cubes are boxes); the lidar sees their 3-D shapes, and the robot
-collides with what lies in its height band, from just above the floor to its top: the slice
-of the world of :class:`~.floor_slice.FloorSlice` (a ball's overhang, a table above the
-robot's top but its legs, the robot's outline from its own collision shapes).
+collides with what lies in its height band, from just above the floor to its top
+(:class:`~.floor_slice.FloorSlice`): its outline, from its own collision shapes, against the
+obstacles' parts in the band (of a table whose top is above the robot, only the legs; of a
+ball, its widest section below the robot's top). "The robot must start clear" means clear in
+that slice.
 """
 
 from collections.abc import Mapping
@@ -273,10 +275,10 @@ def _floor_slice(label: str, robot: Model, obstacles: tuple[Obstacle, ...]) -> F
 def _check_robot_clear(label: str, pose: tuple[float, float, float],
                        floor_slice: FloorSlice) -> None:
     """Fail unless the robot's outline at ``pose`` is clear of the obstacles in its band."""
-    gap, index, clear = floor_slice.probe(pose)
+    _, index, clear = floor_slice.probe(pose)
     if not clear:
         outline = (f'radius {floor_slice.robot_radius:g} m' if floor_slice.round
-                   else f'outline {floor_slice.robot_radius:g} m about its centre')
+                   else f'outline reaching {floor_slice.robot_radius:g} m from its origin')
         raise WorldError(label, 'robot', 'pose',
                          f'the robot ({outline}) at ({pose[0]:g}, {pose[1]:g}) '
                          f"overlaps obstacle '{floor_slice.owners[index]}'")
