@@ -3,7 +3,9 @@ Score a run from its trace: laps, wall distance, turns, stationary time, coverag
 
 Each score is a plain function of numpy arrays (units in its docstring); ``compute_metrics``
 assembles them into the JSON-ready dict the runner writes as ``metrics.json`` and the grader's
-criteria read. Pure: numpy and contourpy only, no rclpy, no pybullet.
+criteria read. The world's obstacles count as the robot could hit them: their slice through the
+robot's height band (``World.footprints``). Pure: numpy, contourpy and shapely (through the
+footprints), no rclpy, no pybullet.
 """
 
 import math
@@ -196,8 +198,9 @@ def coverage(x: np.ndarray, y: np.ndarray, bounds: tuple[float, float, float, fl
     Return the fraction of free grid cells the robot's centre visited, or None if none is free.
 
     The grid of ``cell``-sided squares (m) starts at the lower corner of ``bounds`` (xmin, ymin,
-    xmax, ymax, m); a cell is free when its centre lies farther than ``robot_radius`` (m) from
-    every obstacle footprint, i.e. the robot could stand there. Bounds wider than
+    xmax, ymax, m); a cell is free when its centre lies farther than ``robot_radius`` (m, the
+    radius of the circle about the robot's origin holding its outline) from every obstacle
+    footprint, i.e. the robot could stand there, whatever its heading. Bounds wider than
     MAX_GRID_SIDE cells get larger cells, as many as fit along their longer side.
     """
     xmin, ymin, xmax, ymax = bounds
@@ -231,9 +234,7 @@ def offset_path_length(footprints: Sequence[Footprint], distance: float,
     that takes more than OFFSET_GRID_SIDE points along a side; the longest line is the outer
     loop.
     """
-    reach = distance + max(
-        max(footprint.radius, math.hypot(footprint.half_x, footprint.half_y))
-        for footprint in footprints)
+    reach = distance + max(footprint.reach() for footprint in footprints)
     extent = 2.0 * reach + max(max(f.x for f in footprints) - min(f.x for f in footprints),
                                max(f.y for f in footprints) - min(f.y for f in footprints))
     resolution = max(resolution, extent / (OFFSET_GRID_SIDE - 4))
@@ -255,7 +256,10 @@ def compute_metrics(trace: Trace, world: Any, *, setpoint: float | None = None,
     """
     Score a run; return a JSON-serialisable dict (plain floats and ints, None for no value).
 
-    ``world`` is the run's ``World`` (obstacles, target, bounds); ``setpoint`` (m) the wall
+    ``world`` is the run's ``World`` (obstacles, target, bounds); every score reads what the
+    robot could hit, the world's slice through its height band (``World.footprints``), and the
+    target's part of it (or, when the target lies wholly above or below the robot, its whole
+    outline, the only one a robot could circle); ``setpoint`` (m) the wall
     distance the node aims for, if it has one; ``wall_time_s`` (s) how long the run took;
     ``node_errors`` the failures to report, each a mapping with ``node``, ``error`` and
     optionally ``traceback``.
@@ -267,12 +271,14 @@ def compute_metrics(trace: Trace, world: Any, *, setpoint: float | None = None,
     laps, lap_times = 0, []
     wall_distance = distance_stats(np.empty(0), None)
     if world.target is not None and len(time):
-        target = world.obstacle(world.target).footprints
-        # Each footprint's centre lies inside the target, where the robot's centre never goes.
+        target = (world.obstacle_footprints(world.target)
+                  or world.obstacle(world.target).footprints)
+        # Each footprint's centre lies inside the target, where the robot's centre never goes
+        # (a polygon's centre is a point inside it).
         laps, lap_times = laps_around(time, x, y, [(fp.x, fp.y) for fp in target])
         wall_distance = distance_stats(signed_distance(np.column_stack((x, y)), target),
                                        setpoint)
-    obstacles = [footprint for obstacle in world.obstacles for footprint in obstacle.footprints]
+    obstacles = world.footprints()
     return {
         'sim_time_s': sim_time,
         'wall_time_s': finite_or_none(wall_time_s),

@@ -51,9 +51,11 @@ def plot_trajectory(trace: Trace, world: Any, path: str | os.PathLike, *,
     """
     Write a top-down PNG of the run to ``path`` and return the figure.
 
-    ``world`` is the run's ``World``: its obstacles are drawn as their floor footprints, the
-    target highlighted, its bounds dashed. The path is coloured by sim time (s); start, end and
-    each collision are marked; a few lidar scans show what the robot saw.
+    ``world`` is the run's ``World``: its obstacles are drawn as what the robot could hit,
+    their slice through its height band (a table whose top is above the robot is its legs),
+    the target highlighted, its bounds dashed. The path is coloured by sim time (s); start
+    and end are marked with the robot's outline there, each collision with a cross; a few
+    lidar scans show what the robot saw.
     """
     figure = Figure(figsize=(FIGURE_WIDTH, FIGURE_WIDTH), dpi=120, layout='constrained')
     axes = figure.add_subplot()
@@ -63,7 +65,7 @@ def plot_trajectory(trace: Trace, world: Any, path: str | os.PathLike, *,
     if len(time):
         legend += _draw_scans(axes, trace.scans, colour_scale)
         _draw_path(figure, axes, time, x, y, colour_scale)
-        legend += _draw_robot_ends(axes, x, y, trace.robot_radius)
+        legend += _draw_robot_ends(axes, world, x, y, trace.array('yaw'))
     if trace.collisions:
         axes.plot([event.x for event in trace.collisions], [event.y for event in trace.collisions],
                   'x', color='red', markersize=11, markeredgewidth=2.5, zorder=6)
@@ -90,13 +92,12 @@ def _draw_world(axes, world) -> list:
     xmin, ymin, xmax, ymax = world.bounds
     axes.add_patch(Rectangle((xmin, ymin), xmax - xmin, ymax - ymin, fill=False,
                              linestyle='--', linewidth=0.8, edgecolor='#bdbdbd'))
-    for obstacle in world.obstacles:
-        is_target = obstacle.name == world.target
-        for footprint in obstacle.footprints:
-            axes.add_patch(Polygon(footprint.outline(), closed=True, zorder=2,
-                                   facecolor=TARGET_COLOUR if is_target else OBSTACLE_COLOUR,
-                                   edgecolor='#c0631a' if is_target else '#616161',
-                                   linewidth=1.5 if is_target else 0.6))
+    for footprint, owner in zip(world.footprints(), world.footprint_owners()):
+        is_target = owner == world.target
+        axes.add_patch(Polygon(footprint.outline(), closed=True, zorder=2,
+                               facecolor=TARGET_COLOUR if is_target else OBSTACLE_COLOUR,
+                               edgecolor='#c0631a' if is_target else '#616161',
+                               linewidth=1.5 if is_target else 0.6))
     legend = []
     if any(obstacle.name != world.target for obstacle in world.obstacles):
         legend.append(Rectangle((0, 0), 1, 1, facecolor=OBSTACLE_COLOUR, label='obstacle'))
@@ -121,14 +122,14 @@ def _draw_path(figure, axes, time, x, y, colour_scale) -> None:
     figure.colorbar(path, ax=axes, label='time (s)', shrink=0.8)
 
 
-def _draw_robot_ends(axes, x, y, robot_radius) -> list:
+def _draw_robot_ends(axes, world, x, y, yaw) -> list:
     marks = []
-    ends = (((x[0], y[0]), '#2e7d32', 'o', 'start'), ((x[-1], y[-1]), '#c62828', 's', 'end'))
-    for (px, py), colour, marker, label in ends:
-        angles = np.linspace(0.0, 2.0 * math.pi, 40)
-        axes.plot(px + robot_radius * np.cos(angles), py + robot_radius * np.sin(angles),
-                  color=colour, linewidth=1.0, zorder=5)
-        axes.plot(px, py, marker, color=colour, markersize=7, zorder=5)
+    ends = (((x[0], y[0], yaw[0]), '#2e7d32', 'o', 'start'),
+            ((x[-1], y[-1], yaw[-1]), '#c62828', 's', 'end'))
+    for pose, colour, marker, label in ends:
+        for ring in world.floor_slice.robot_outlines(pose):
+            axes.plot(ring[:, 0], ring[:, 1], color=colour, linewidth=1.0, zorder=5)
+        axes.plot(pose[0], pose[1], marker, color=colour, markersize=7, zorder=5)
         marks.append(Line2D([], [], linestyle='none', marker=marker, color=colour, label=label))
     return marks
 

@@ -4,10 +4,11 @@ import math
 
 import numpy as np
 import pytest
+import shapely
 
 from sim_bridge.simulation.geometry import (
-    compose_pose, Footprint, FootprintSet, MESH_TOLERANCE, Shape, signed_distance, triangulate,
-    wrap_angle)
+    compose_pose, Footprint, FootprintSet, MESH_TOLERANCE, Shape, signed_distance,
+    slice_footprints, triangulate, wrap_angle)
 
 
 def test_wrap_angle_maps_into_minus_pi_to_pi():
@@ -135,3 +136,35 @@ def test_cylinder_mesh_stays_within_tolerance_of_the_cylinder(radius):
     assert np.max(np.abs(error)) <= MESH_TOLERANCE
     caps = np.hypot(points[~side, 0], points[~side, 1])
     assert np.max(caps) <= radius + MESH_TOLERANCE
+
+
+def test_polygon_footprints_measure_like_the_analytic_ones():
+    # An L-shaped polygon: its distances, bounds and reach, alone and in a set with a circle.
+    ell = Footprint.from_polygon(shapely.Polygon([(0, 0), (2, 0), (2, 1), (1, 1), (1, 2),
+                                                  (0, 2)]))
+    assert ell.distance(0.5, 0.5) == pytest.approx(-0.5)
+    assert ell.distance(1.5, 1.5) == pytest.approx(0.5)
+    assert ell.distance(3.0, 0.5) == pytest.approx(1.0)
+    assert ell.bounds() == (0.0, 0.0, 2.0, 2.0) and len(ell.outline()) == 6
+    assert ell.distance(ell.x, ell.y) < 0.0
+    assert ell.reach() == pytest.approx(max(math.hypot(px - ell.x, py - ell.y)
+                                            for px, py in ell.outline()))
+    footprints = FootprintSet([Footprint('circle', 5.0, 0.0, radius=1.0), ell])
+    points = np.random.default_rng(3).uniform(-1.0, 7.0, (200, 2))
+    vectorised = footprints.distance(points)
+    scalar = [footprints.nearest(x, y) for x, y in points]
+    assert vectorised == pytest.approx([distance for distance, _ in scalar])
+    assert {index for _, index in scalar} == {0, 1}
+
+
+def test_a_rotated_shape_projects_to_its_polygon():
+    # A cylinder rolled onto its side projects to a rectangle (within the mesh tolerance).
+    wheel = Shape('cylinder', 1.0, 2.0, 0.1, radius=0.1, length=0.04, roll=0.5 * math.pi)
+    footprint = wheel.footprint()
+    assert footprint.kind == 'polygon'
+    assert footprint.bounds() == pytest.approx((0.9, 1.98, 1.1, 2.02), abs=3e-4)
+    # Between 0.15 and 0.3 m only its top part is left: a narrower rectangle.
+    (top,) = slice_footprints(wheel, 0.15, 0.3)
+    half = math.sqrt(0.1 ** 2 - 0.05 ** 2)
+    assert top.bounds() == pytest.approx((1.0 - half, 1.98, 1.0 + half, 2.02), abs=3e-4)
+    assert slice_footprints(wheel, 0.25, 0.3) == ()

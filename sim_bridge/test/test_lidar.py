@@ -7,9 +7,10 @@ import numpy as np
 import pybullet
 import pytest
 
-from sim_bridge.simulation.geometry import Shape
+from sim_bridge.simulation.geometry import Mesh, Shape
 from sim_bridge.simulation.lidar import beam_directions, build_scene, cast_rays, Lidar
 from sim_bridge.simulation.sdf import LidarConfig
+import trimesh
 
 NOISELESS = LidarConfig(noise_stddev=0.0)
 # A 4 m wall across +x at x = 2 (its near face), a post on the left, a ball behind.
@@ -250,3 +251,19 @@ def test_pybullet_threads_split_a_dense_scan_without_changing_it():
             scans[threads] = sim.scan().ranges
             assert sim._lidar.threads == (0 if threads is None else threads)
     assert np.array_equal(scans[1], scans[0]) and np.array_equal(scans[1], scans[None])
+
+
+def test_a_rolled_cylinder_and_a_mesh_are_seen_where_their_surfaces_are(client):
+    # A wheel-like cylinder rolled onto its side (axis along y) ahead, and a trimesh cone
+    # standing on its apex on the left: at the laser's height z its section has radius z/2.
+    cone = trimesh.creation.cone(0.5, 1.0, sections=256)
+    cone.apply_transform(trimesh.transformations.rotation_matrix(math.pi, (1.0, 0.0, 0.0)))
+    cone.apply_translation((0.0, 0.0, 1.0))
+    build_scene(client, (Shape('cylinder', 2.0, 0.0, 0.3, radius=0.3, length=0.2,
+                               roll=0.5 * math.pi),
+                         Shape('mesh', 0.0, 2.0, 0.0, mesh=Mesh(cone.vertices, cone.faces))))
+    starts = np.array([[0.0, 0.0, 0.3], [0.0, 0.0, 0.5], [0.0, 0.0, 0.4], [0.0, 0.0, 0.8]])
+    ends = starts + [[9.0, 0.0, 0.0], [9.0, 0.0, 0.0], [0.0, 9.0, 0.0], [0.0, 9.0, 0.0]]
+    distances = cast_rays(client, starts, ends)
+    wheel_front = 2.0 - math.sqrt(0.3 ** 2 - 0.2 ** 2)
+    assert distances == pytest.approx([1.7, wheel_front, 1.8, 1.6], abs=1e-3)

@@ -1,5 +1,6 @@
 """Scores of synthetic runs whose laps, distances, turns and pauses are known by construction."""
 
+from dataclasses import replace
 import json
 import math
 import tracemalloc
@@ -10,8 +11,8 @@ import pytest
 from sim_bridge.metrics import (compute_metrics, coverage, laps_around, longest_stationary,
                                 METRIC_KINDS, offset_path_length, stop_and_turn_angles)
 from sim_bridge.run_trace import CollisionEvent, Trace
-from sim_bridge.simulation.geometry import Footprint, signed_distance
-from sim_bridge.simulation.world import World
+from sim_bridge.simulation.geometry import Footprint, Shape, signed_distance
+from sim_bridge.simulation.world import Obstacle, World
 
 STEP = 0.01  # s, the runner's physics step
 
@@ -429,3 +430,37 @@ def test_node_errors_keep_their_traceback_and_nothing_else():
     assert metrics['node_errors'] == [
         {'node': 'wander', 'error': 'boom', 'traceback': 'Traceback ...'},
         {'node': 'other', 'error': 'bang'}]
+
+
+def table_world(top_height: float) -> World:
+    """Return a world whose target is a 1.2 x 1.0 m table at the origin, top at top_height."""
+    world = make_world([{'name': 'table', 'type': 'cube', 'size': [0.1, 0.1, 0.1],
+                         'pose': [3.0, 3.0]}], 'table', (-1.0, -1.0, 1.0, 1.0), (-3.0, 0.0, 0.0))
+    legs = tuple(Shape('box', sx * 0.55, sy * 0.45, 0.5 * top_height,
+                       size=(0.05, 0.05, top_height)) for sx in (-1, 1) for sy in (-1, 1))
+    top = Shape('box', 0.0, 0.0, top_height + 0.02, size=(1.2, 1.0, 0.04))
+    return replace(world, obstacles=(Obstacle('table', 'model', legs + (top,), (0.0, 0.0, 0.0)),))
+
+
+def test_metrics_read_what_the_robot_could_hit_its_bands_slice():
+    # The lab robot (0.15 m tall) drives under a table whose top is at 0.7 m, round the
+    # inside of its legs, then 2.25 times round the outside: the legs are what it can hit.
+    high = table_world(0.7)
+    inside_x, inside_y = circle_path(1, radius=0.25 * math.sqrt(2.0), centre=(0.0, 0.0),
+                                     start_angle=0.25 * math.pi)
+    outside_x, outside_y = circle_path(2.25, radius=1.0, centre=(0.0, 0.0))
+    trace = make_trace(np.concatenate((inside_x, outside_x)),
+                       np.concatenate((inside_y, outside_y)), robot_radius=0.15)
+    metrics = metrics_of(trace, high, setpoint=0.3)
+    assert metrics['laps'] == 2
+    # Free are the 16 cells of the 2 x 2 m bounds (no centre within 0.15 m of a leg); the
+    # inner circle visits the 4 under the top, the outer 12 others.
+    assert metrics['coverage'] == 1.0
+    assert coverage(inside_x, inside_y, high.bounds, high.footprints(), 0.15) == 0.25
+    # The wall distance is to the legs' outline: the nearest leg is 0.3 m from the inner
+    # circle's first point, (0.25, 0.25).
+    assert signed_distance(np.array([[0.25, 0.25]]), high.obstacle_footprints('table'))[0] == \
+        pytest.approx(math.hypot(0.275, 0.175))
+    # A top at 0.1 m is in the band: the table's whole outline, under which no cell is free.
+    low = table_world(0.1)
+    assert coverage(inside_x, inside_y, low.bounds, low.footprints(), 0.15) == 0.0

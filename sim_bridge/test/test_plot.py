@@ -1,13 +1,16 @@
 """The trajectory plot: a real PNG whose axes show the whole run and mark what happened."""
 
+from dataclasses import replace
 import math
 
+from matplotlib.patches import Polygon
 import numpy as np
 import pytest
 
 from sim_bridge.plot import plot_trajectory, scan_hits, SCANS_DRAWN, spread_evenly
 from sim_bridge.run_trace import CollisionEvent, ScanSnapshot, Trace
-from sim_bridge.simulation.world import World
+from sim_bridge.simulation.geometry import Shape
+from sim_bridge.simulation.world import Obstacle, World
 
 PNG_SIGNATURE = b'\x89PNG\r\n\x1a\n'
 
@@ -81,3 +84,24 @@ def test_scan_hits_are_placed_in_the_world_frame_and_skip_no_returns():
 def test_spread_evenly_keeps_first_and_last():
     assert spread_evenly(list(range(10)), 4) == [0, 3, 6, 9]
     assert spread_evenly([1, 2], 4) == [1, 2]
+
+
+def test_plot_draws_what_the_robot_could_hit_and_the_robots_outline(tmp_path, trace, world):
+    # A table at (2, -2) whose top (0.7 m) is above the lab robot: the plot shows its four
+    # legs, not the top. The robot is a 0.4 x 0.2 m box: its outline, turned by the yaw.
+    legs = tuple(Shape('box', 2.0 + sx * 0.4, -2.0 + sy * 0.3, 0.35, size=(0.05, 0.05, 0.7))
+                 for sx in (-1, 1) for sy in (-1, 1))
+    top = Shape('box', 2.0, -2.0, 0.72, size=(1.0, 0.8, 0.04))
+    robot = replace(world.robot, shapes=(Shape('box', 0.0, 0.0, 0.1, size=(0.4, 0.2, 0.2)),))
+    world = replace(world, robot=robot, obstacles=world.obstacles + (
+        Obstacle('table', 'model', legs + (top,), (2.0, -2.0, 0.0)),))
+    axes = plot_trajectory(trace, world, tmp_path / 'trajectory.png').axes[0]
+    outlines = [patch.get_xy() for patch in axes.patches if isinstance(patch, Polygon)]
+    table_legs = [xy for xy in outlines if np.all(np.abs(xy - (2.0, -2.0)).max(axis=0) < 0.5)]
+    assert len(table_legs) == 4
+    assert all(np.ptp(xy, axis=0) == pytest.approx((0.05, 0.05)) for xy in table_legs)
+    # At the start (1.3, 0) heading -y the robot's 0.4 m length lies along y.
+    start = [line.get_xydata() for line in axes.lines if line.get_color() == '#2e7d32'
+             and line.get_marker() in ('None', '')]
+    assert np.ptp(start[0], axis=0) == pytest.approx((0.2, 0.4))
+    assert 0.5 * (start[0].min(axis=0) + start[0].max(axis=0)) == pytest.approx((1.3, 0.0))

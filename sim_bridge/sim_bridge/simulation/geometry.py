@@ -3,26 +3,40 @@ Plain geometry of the simulated world: 3-D primitives, their 2-D floor outlines,
 
 A :class:`Shape` is a collision primitive (box, cylinder, sphere, capsule, ellipsoid) or a
 triangle :class:`Mesh`, placed by its centre and a rotation (roll, pitch, yaw: SDF's fixed-axis
-X-Y-Z, REP-103). Its :class:`Footprint` is its vertical projection on the floor: what a round
-robot driving on the floor can bump into.
+X-Y-Z, REP-103). :func:`slice_footprints` gives the vertical projection on the floor of the
+part of a shape between two heights, the outline a robot driving through that height band
+can bump into, as :class:`Footprint` s: an exact circle or rectangle for an upright box,
+cylinder or sphere, else shapely polygons of the triangulated shape clipped to the band
+(trimesh clips, shapely unites). :meth:`Shape.footprint` is the projection of the whole shape.
 :func:`signed_distance` and :class:`FootprintSet` measure how far points are from footprints;
-:func:`triangulate` turns a shape into a triangle mesh for the ray caster.
+:func:`triangulate` turns a shape into a triangle mesh for the ray caster and the slicer.
 
-Everything here is pure Python and numpy. Units: m and rad; angles counter-clockwise (REP-103).
+Units: m and rad; angles counter-clockwise (REP-103).
 """
 
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
+from functools import reduce
 import math
 
 import numpy as np
+import shapely
+from shapely.geometry.base import BaseGeometry
+import trimesh
+from trimesh.intersections import mesh_plane
 
 SHAPE_KINDS = ('box', 'cylinder', 'sphere', 'capsule', 'ellipsoid', 'mesh')
-FOOTPRINT_KINDS = ('circle', 'box')
+FOOTPRINT_KINDS = ('circle', 'box', 'polygon')
 #: Largest distance (m) between a triangulated surface and the true one (see :func:`triangulate`).
 MESH_TOLERANCE = 2e-4
 #: Cap on the segments around a round mesh, so huge radii stay affordable.
 MAX_MESH_SEGMENTS = 720
+#: Smallest projected area (m^2) of a triangle that counts in a slice: a wall standing on edge
+#: projects to a line, which only adds noise to the union.
+MIN_TRIANGLE_AREA = 1e-12
+#: Segments per quarter circle of a circle footprint turned into a polygon (see
+#: :meth:`Footprint.geometry`): 0.03 mm off a 0.1 m radius.
+CIRCLE_QUARTER_SEGMENTS = 32
 
 
 def wrap_angle(angle: float) -> float:
@@ -45,10 +59,12 @@ def compose_pose(parent: tuple[float, float, float, float],
 @dataclass(frozen=True)
 class Footprint:
     """
-    A 2-D outline on the floor in the world frame: a circle or a rotated rectangle.
+    A 2-D outline on the floor in the world frame: a circle, a rotated rectangle or a polygon.
 
     ``x``, ``y`` (m) is the centre and ``yaw`` (rad) the rectangle's rotation; ``radius`` (m)
-    sizes a circle, ``half_x`` and ``half_y`` (m) a rectangle along its own axes.
+    sizes a circle, ``half_x`` and ``half_y`` (m) a rectangle along its own axes. A 'polygon'
+    is the shapely ``polygon`` (m; a Polygon, maybe with holes, or for the projection of a
+    whole mesh a MultiPolygon) and its ``x``, ``y`` a point inside it.
     """
 
     kind: str
@@ -58,10 +74,19 @@ class Footprint:
     radius: float = 0.0
     half_x: float = 0.0
     half_y: float = 0.0
+    polygon: BaseGeometry | None = field(default=None, repr=False)
 
     def __post_init__(self) -> None:
         if self.kind not in FOOTPRINT_KINDS:
             raise ValueError(f'footprint kind must be one of {FOOTPRINT_KINDS}, not {self.kind!r}')
+        if (self.kind == 'polygon') != (self.polygon is not None):
+            raise ValueError('a polygon footprint, and only one, has a polygon')
+
+    @classmethod
+    def from_polygon(cls, polygon: BaseGeometry) -> 'Footprint':
+        """Return the footprint of a shapely (Multi)Polygon (m), centred on a point inside it."""
+        inside = polygon.representative_point()
+        return cls('polygon', inside.x, inside.y, polygon=polygon)
 
     def distance(self, x: float, y: float) -> float:
         """Return the signed distance from the point (x, y) to the edge (m); negative inside."""
@@ -69,6 +94,8 @@ class Footprint:
         dy = y - self.y
         if self.kind == 'circle':
             return math.hypot(dx, dy) - self.radius
+        if self.kind == 'polygon':
+            return float(_polygon_distance(self.polygon, np.array([[x, y]]))[0])
         cos_yaw = math.cos(self.yaw)
         sin_yaw = math.sin(self.yaw)
         return _box_distance(cos_yaw * dx + sin_yaw * dy, cos_yaw * dy - sin_yaw * dx,
@@ -76,6 +103,8 @@ class Footprint:
 
     def bounds(self) -> tuple[float, float, float, float]:
         """Return the axis-aligned bounding box (xmin, ymin, xmax, ymax) in m."""
+        if self.kind == 'polygon':
+            return tuple(float(value) for value in self.polygon.bounds)
         if self.kind == 'circle':
             extent_x = extent_y = self.radius
         else:
@@ -89,8 +118,15 @@ class Footprint:
         """
         Return the closed outline as a (K, 2) array of points (m), e.g. for plotting.
 
-        A circle gets ``segments`` points; a rectangle its four corners (counter-clockwise).
+        A circle gets ``segments`` points; a rectangle its four corners (counter-clockwise); a
+        polygon its outer ring (a MultiPolygon, the whole projection of a mesh, its convex
+        hull's).
         """
+        if self.kind == 'polygon':
+            polygon = self.polygon
+            if polygon.geom_type != 'Polygon':
+                polygon = polygon.convex_hull
+            return np.asarray(polygon.exterior.coords)[:-1]
         if self.kind == 'circle':
             angles = np.linspace(0.0, 2.0 * math.pi, segments, endpoint=False)
             return np.column_stack((self.x + self.radius * np.cos(angles),
@@ -101,6 +137,36 @@ class Footprint:
         sin_yaw = math.sin(self.yaw)
         rotation = np.array([[cos_yaw, -sin_yaw], [sin_yaw, cos_yaw]])
         return corners @ rotation.T + (self.x, self.y)
+
+    def reach(self) -> float:
+        """Return the largest distance (m) from the centre (x, y) to the outline."""
+        if self.kind == 'circle':
+            return self.radius
+        if self.kind == 'box':
+            return math.hypot(self.half_x, self.half_y)
+        corners = shapely.get_coordinates(self.polygon.exterior if self.polygon.geom_type ==
+                                          'Polygon' else self.polygon)
+        return float(np.hypot(corners[:, 0] - self.x, corners[:, 1] - self.y).max())
+
+    def geometry(self) -> BaseGeometry:
+        """
+        Return the outline as a shapely Polygon or MultiPolygon (m).
+
+        A rectangle is exact; a circle a polygon of 4 * :data:`CIRCLE_QUARTER_SEGMENTS` vertices
+        on the circle (for set operations; distances to circles stay analytic elsewhere).
+        """
+        if self.kind == 'polygon':
+            return self.polygon
+        if self.kind == 'circle':
+            return shapely.Point(self.x, self.y).buffer(self.radius, CIRCLE_QUARTER_SEGMENTS)
+        return shapely.Polygon(self.outline())
+
+
+def _polygon_distance(polygon: BaseGeometry, points: np.ndarray) -> np.ndarray:
+    """Return the signed distances (m) of (N, 2) points (m) to a polygon's edge; < 0 inside."""
+    distance = shapely.distance(polygon.boundary, shapely.points(points))
+    inside = shapely.contains_xy(polygon, points[:, 0], points[:, 1])
+    return np.where(inside, -distance, distance)
 
 
 def _box_distance(local_x: float, local_y: float, half_x: float, half_y: float) -> float:
@@ -137,6 +203,13 @@ class FootprintSet:
         self._boxes = [(index, fp.x, fp.y, math.cos(fp.yaw), math.sin(fp.yaw),
                         fp.half_x, fp.half_y)
                        for index, fp in enumerate(self.footprints) if fp.kind == 'box']
+        polygons = [(index, fp.polygon)
+                    for index, fp in enumerate(self.footprints) if fp.kind == 'polygon']
+        self._polygon_indices = [index for index, _ in polygons]
+        self._polygons = np.array([polygon for _, polygon in polygons], dtype=object)
+        self._boundaries = shapely.boundary(self._polygons)
+        shapely.prepare(self._polygons)
+        shapely.prepare(self._boundaries)
 
     def __len__(self) -> int:
         return len(self.footprints)
@@ -168,6 +241,13 @@ class FootprintSet:
             if distance < best:
                 best = distance
                 best_index = index
+        if self._polygon_indices:
+            distances = shapely.distance(self._boundaries, shapely.Point(x, y))
+            distances[shapely.contains_xy(self._polygons, x, y)] *= -1.0
+            nearest = int(np.argmin(distances))
+            if distances[nearest] < best:
+                best = float(distances[nearest])
+                best_index = self._polygon_indices[nearest]
         return best, best_index
 
     def distance(self, points: np.ndarray) -> np.ndarray:
@@ -184,6 +264,8 @@ class FootprintSet:
             outside = np.hypot(np.maximum(over_x, 0.0), np.maximum(over_y, 0.0))
             inside = np.minimum(np.maximum(over_x, over_y), 0.0)
             np.minimum(best, outside + inside, out=best)
+        for polygon in self._polygons:
+            np.minimum(best, _polygon_distance(polygon, points), out=best)
         return best
 
 
@@ -265,14 +347,24 @@ class Shape:
                        z=float(position[2]), roll=roll, pitch=pitch, yaw=yaw)
 
     def footprint(self) -> Footprint:
-        """Return the vertical projection on the floor of an upright box, cylinder or sphere."""
-        if not self.upright or self.kind not in ('box', 'cylinder', 'sphere'):
-            raise ValueError(f'no floor outline for a {self.kind} rotated by roll {self.roll}, '
-                             f'pitch {self.pitch}')
-        if self.kind == 'box':
+        """
+        Return the vertical projection of the whole shape on the floor.
+
+        Exact for an upright box, cylinder or sphere, else a polygon (see
+        :func:`slice_footprints`; several parts of a mesh make one MultiPolygon footprint).
+        """
+        if self.upright and self.kind == 'box':
             return Footprint('box', self.x, self.y, self.yaw,
                              half_x=0.5 * self.size[0], half_y=0.5 * self.size[1])
-        return Footprint('circle', self.x, self.y, radius=self.radius)
+        if self.upright and self.kind in ('cylinder', 'sphere'):
+            return Footprint('circle', self.x, self.y, radius=self.radius)
+        return Footprint.from_polygon(slice_polygon(self, -math.inf, math.inf))
+
+    def world_mesh(self, tolerance: float = MESH_TOLERANCE) -> trimesh.Trimesh:
+        """Return the shape's triangle mesh (see :func:`triangulate`) placed in the world (m)."""
+        vertices, faces = triangulate(self, tolerance)
+        return trimesh.Trimesh(vertices @ self.rotation().T + (self.x, self.y, self.z), faces,
+                               process=False)
 
 
 def rotation_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
@@ -399,3 +491,108 @@ def _sphere_mesh(radius: float, tolerance: float) -> tuple[np.ndarray, np.ndarra
         faces.append(np.column_stack((upper + column, lower + column, lower + following)))
         faces.append(np.column_stack((upper + column, lower + following, upper + following)))
     return vertices, np.vstack(faces)
+
+
+def slice_footprints(shape: Shape, low: float, high: float) -> tuple[Footprint, ...]:
+    """
+    Return the vertical projection of the part of ``shape`` between heights low and high (m).
+
+    Empty when the shape lies wholly below or above the band (touching it does not count).
+    An upright box or cylinder crossing the band projects to its whole footprint, an upright
+    sphere to the circle of its widest section in the band: exact, and as fast as before.
+    Any other shape is triangulated (within :data:`MESH_TOLERANCE`) and sliced by
+    :func:`slice_polygon`: one polygon footprint per separate part (a table's legs).
+    """
+    bottom, top = shape.z_range()
+    if top <= low or bottom >= high:
+        return ()
+    if shape.upright and shape.kind in ('box', 'cylinder'):
+        return (shape.footprint(),)
+    if shape.upright and shape.kind == 'sphere':
+        offset = shape.z - min(max(shape.z, low), high)
+        return (Footprint('circle', shape.x, shape.y,
+                          radius=math.sqrt(max(shape.radius ** 2 - offset ** 2, 0.0))),)
+    return tuple(Footprint.from_polygon(part)
+                 for part in shapely.get_parts(slice_polygon(shape, low, high))
+                 if not part.is_empty)
+
+
+def slice_polygon(shape: Shape, low: float, high: float) -> BaseGeometry:
+    """
+    Return the vertical projection of the part of ``shape`` between low and high (m), in m.
+
+    The shape's triangles are clipped to the band and projected on the floor. A primitive is
+    convex, so its slice is the convex hull of the clipped triangles' corners. A mesh's is the
+    union (shapely) of its projected triangles and of its sections at the band's limits, a
+    section holding what lies inside a closed mesh (a leg's walls stand on edge and project to
+    lines: the section is its area). An empty geometry when nothing is in the band.
+    """
+    mesh = shape.world_mesh()
+    pieces = _clip_triangles(mesh.triangles, low, high)
+    if not pieces:
+        return shapely.Polygon()
+    if shape.kind != 'mesh':
+        return shapely.MultiPoint(np.vstack(pieces)[:, :2]).convex_hull
+    parts = [shapely.Polygon(piece[:, :2]) for piece in pieces
+             if _area(piece[:, :2]) > MIN_TRIANGLE_AREA]
+    parts += [_section(mesh, height) for height in (low, high) if math.isfinite(height)]
+    return shapely.union_all(parts)
+
+
+def _area(points: np.ndarray) -> float:
+    """Return the area (m^2) of a polygon given by its (K, 2) corners (m)."""
+    x, y = points[:, 0], points[:, 1]
+    return 0.5 * abs(float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))
+
+
+def _clip_triangles(triangles: np.ndarray, low: float, high: float) -> list[np.ndarray]:
+    """
+    Return the parts of (N, 3, 3) triangles (m) between heights low and high (m).
+
+    Each part is a (K, 3) convex polygon. Triangles wholly inside are kept as they are,
+    those wholly outside dropped; only the few crossing a limit are clipped (Sutherland-Hodgman
+    against each plane).
+    """
+    heights = triangles[:, :, 2]
+    inside = (heights.min(axis=1) >= low) & (heights.max(axis=1) <= high)
+    crossing = ~inside & (heights.max(axis=1) > low) & (heights.min(axis=1) < high)
+    pieces = list(triangles[inside])
+    for triangle in triangles[crossing]:
+        polygon = list(triangle)
+        for limit, side in ((low, 1.0), (high, -1.0)):
+            polygon = _clip_polygon(polygon, limit, side)
+        if len(polygon) >= 3:
+            pieces.append(np.array(polygon))
+    return pieces
+
+
+def _clip_polygon(polygon: list, limit: float, side: float) -> list:
+    """Return the part of a convex 3-D polygon where side * (z - limit) >= 0 (m)."""
+    if not math.isfinite(limit):
+        return polygon
+    kept = []
+    for start, end in zip(polygon, polygon[1:] + polygon[:1]):
+        start_over = side * (start[2] - limit)
+        end_over = side * (end[2] - limit)
+        if start_over >= 0.0:
+            kept.append(start)
+        if (start_over >= 0.0) != (end_over >= 0.0):
+            kept.append(start + (end - start) * (start_over / (start_over - end_over)))
+    return kept
+
+
+def _section(mesh: trimesh.Trimesh, height: float) -> BaseGeometry:
+    """
+    Return the area (m) a mesh encloses at ``height`` (m): its section, even-odd filled.
+
+    The cut's segments are joined into rings; nested rings alternate inside and outside (a
+    pipe's section is a ring). Open chains (a mesh that is not closed) enclose nothing.
+    """
+    segments = mesh_plane(mesh, (0.0, 0.0, 1.0), (0.0, 0.0, height))
+    if not len(segments):
+        return shapely.Polygon()
+    lines = shapely.set_precision(shapely.MultiLineString(list(segments[:, :, :2])),
+                                  MESH_TOLERANCE * 1e-3)
+    rings = [shapely.Polygon(line.coords) for line in shapely.get_parts(shapely.line_merge(lines))
+             if line.is_closed and len(line.coords) > 3]
+    return reduce(shapely.symmetric_difference, rings, shapely.Polygon())

@@ -1,5 +1,5 @@
 """
-The simulator: a world, a differential-drive robot with a round footprint, and its lidar.
+The simulator: a world, a differential-drive robot, and its lidar.
 
 Pure (no rclpy): the ROS 2 bridge node (live or stepped by the runner) drives it by calling
 :meth:`Simulator.set_command`, :meth:`Simulator.step` and :meth:`Simulator.scan` on simulated
@@ -7,15 +7,19 @@ time. One pybullet client in DIRECT mode per simulator (the GUI on request), so 
 simulators coexist in one process; the lidar noise comes from a generator seeded by ``seed``,
 the only randomness, so one seed makes a run bit-identical.
 
-Collisions are checked analytically on the floor: the robot's circle against the obstacles'
-footprints (:class:`~.geometry.FootprintSet`, about a microsecond per check in a lab
-world, which also gives the clearance; pybullet's getClosestPoints takes some 20 times longer,
-see ``test/bench/bench_simulator.py``). A motion that would
-make them overlap stops where they touch, to within :data:`CONTACT_RESOLUTION` (the robot keeps
-turning, which a round robot can do in contact); its forward speed drops to 0. Each new contact
-is logged once as a :class:`Collision`: contact starts when the robot is blocked or comes within
-:data:`CONTACT_DISTANCE` of an obstacle and ends when it is more than :data:`RELEASE_DISTANCE`
-away again.
+Collisions are checked on the floor, in the slice of the 3-D world through the robot's height
+band (:class:`~.floor_slice.FloorSlice`): the robot's outline against the obstacles' outlines
+in that band. A round robot (the lab robot) is a circle against circles and rectangles,
+analytically (:class:`~.geometry.FootprintSet`, about a microsecond per check in a lab world,
+which also gives the clearance; pybullet's getClosestPoints takes some 20 times longer, see
+``test/bench/bench_simulator.py``); any other robot is its shapely polygon, tested only when
+an obstacle is within its circumscribed circle. A motion that would make them overlap stops
+where they touch, to within :data:`CONTACT_RESOLUTION`; its speed drops to 0. A round robot
+keeps turning, which it can do in contact; any other robot stops turning too (turning can
+push its corners into an obstacle: the motion is checked at intermediate poses, turn
+included). Each new contact is logged once as a :class:`Collision`: contact starts when the
+robot is blocked or comes within :data:`CONTACT_DISTANCE` of an obstacle and ends when it is
+more than :data:`RELEASE_DISTANCE` away again.
 """
 
 from dataclasses import dataclass, replace
@@ -26,7 +30,7 @@ import weakref
 import numpy as np
 import pybullet
 
-from sim_bridge.simulation.geometry import FootprintSet, wrap_angle
+from sim_bridge.simulation.geometry import wrap_angle
 from sim_bridge.simulation.lidar import build_scene, LaserScanData, Lidar
 from sim_bridge.simulation.robot import DiffDrive, DriveLimits, integrate_arc
 from sim_bridge.simulation.sdf import LidarConfig
@@ -37,8 +41,9 @@ from sim_bridge.simulation.world import World
 CONTACT_DISTANCE = 1e-3
 #: Body-to-obstacle distance (m) the robot must exceed before a new contact counts again.
 RELEASE_DISTANCE = 1e-2
-#: Longest move (as a fraction of the robot radius) between two collision checks, so that the
-#: robot cannot jump over a thin wall in one step.
+#: Longest move of any point of the robot (as a fraction of the radius of the largest circle
+#: inside its outline) between two collision checks, so that the robot cannot jump over a
+#: thin wall in one step.
 MAX_MOVE_PER_CHECK = 0.5
 #: How close (m) a blocked robot is brought to the obstacle it would otherwise penetrate.
 CONTACT_RESOLUTION = 1e-6
@@ -99,18 +104,19 @@ class Simulator:
         #: :class:`~sim_bridge.run_trace.Trace`.
         self.trajectory: list[tuple[float, ...]] | None = None
         self.command_timeout = command_timeout
-        self.robot_radius = world.robot.radius
+        self._floor = world.floor_slice
+        #: Radius (m) of the circle about the robot's origin holding its outline.
+        self.robot_radius = self._floor.robot_radius
         self.limits = limits or DriveLimits()
         self.seed = seed
         self.gui = gui
         self.collisions: list[Collision] = []
         self._drive = DiffDrive(world.robot_start, self.limits)
-        self._footprints = FootprintSet(world.footprints())
         self._owners = world.footprint_owners()
         self._time_ns = 0
         self._command_time_ns = 0
         self._in_contact = False
-        self._clearance = self._footprints.nearest(*world.robot_start[:2])[0] - self.robot_radius
+        self._clearance = self._floor.clearance(world.robot_start)[0]
         client = pybullet.connect(pybullet.GUI if gui else pybullet.DIRECT)
         if client < 0:
             raise RuntimeError('cannot start pybullet' + (
@@ -120,8 +126,7 @@ class Simulator:
         self.bodies = build_scene(client, world.shapes(), floor_size=world.floor_size,
                                   meshes=collision_meshes, visuals=gui)
         self._lidar = Lidar(client, config, np.random.default_rng(seed), threads=ray_threads)
-        self.viewer = (Viewer(client, self.robot_radius, max(world.robot.height, 0.05),
-                              draw_rays) if gui else None)
+        self.viewer = Viewer(client, world.robot.shapes, draw_rays) if gui else None
         if self.viewer is not None:
             self.viewer.show_robot(self._drive.pose)
 
@@ -172,13 +177,13 @@ class Simulator:
         if self.command_timeout is not None and \
                 self._time_ns - self._command_time_ns > self.command_timeout * 1e9:
             self._drive.set_command(0.0, 0.0)
-        pose, blocked_after, (distance, index) = self._move(dt)
+        pose, blocked_after, (gap, index) = self._move(dt)
         self._drive.pose = pose
         if blocked_after is not None:
             self._drive.halt()
         contact_time = self.time + (dt if blocked_after is None else blocked_after)
         self._time_ns += round(dt * 1e9)
-        self._clearance = distance - self.robot_radius
+        self._clearance = gap
         if blocked_after is not None or self._clearance <= CONTACT_DISTANCE:
             if not self._in_contact:
                 self.collisions.append(Collision(contact_time, pose[0], pose[1],
@@ -196,59 +201,68 @@ class Simulator:
         """
         Return the robot's pose after dt (s) of driving, when (s) it was blocked, or None.
 
-        And the nearest obstacle to that pose (``FootprintSet.nearest``). The move is checked
+        And (gap m, index) of the nearest obstacle footprint to that pose. The move is checked
         in pieces short enough not to jump over a thin wall.
         """
         linear, angular = self._drive.accelerate(dt)
         pose = self._drive.pose
-        radius = self.robot_radius
-        nearest = self._footprints.nearest
-        pieces = max(1, math.ceil(abs(linear) * dt / (MAX_MOVE_PER_CHECK * radius)))
+        floor = self._floor
+        speed = self._point_speed(linear, angular)
+        pieces = max(1, math.ceil(speed * dt / (MAX_MOVE_PER_CHECK * floor.inscribed_radius)))
         piece = dt / pieces
         for index in range(pieces):
             candidate = integrate_arc(pose, linear, angular, piece)
-            obstacle = nearest(candidate[0], candidate[1])
-            if obstacle[0] >= radius:
+            gap, nearest, clear = floor.probe(candidate)
+            if clear:
                 pose = candidate
                 continue
             free = self._last_free_fraction(pose, linear, angular, piece)
             stop = integrate_arc(pose, linear, angular, free * piece)
             blocked_after = (index + free) * piece
-            # A round robot turns freely in contact: it keeps turning for the rest of the step.
-            yaw = wrap_angle(stop[2] + angular * (dt - blocked_after))
-            return (stop[0], stop[1], yaw), blocked_after, nearest(stop[0], stop[1])
-        return pose, None, obstacle
+            if floor.round:
+                # A round robot turns freely in contact: it keeps turning for the rest of the
+                # step.
+                stop = (stop[0], stop[1], wrap_angle(stop[2] + angular * (dt - blocked_after)))
+            return stop, blocked_after, floor.clearance(stop)
+        if not floor.round:
+            gap, nearest = floor.clearance(pose)
+        return pose, None, (gap, nearest)
+
+    def _point_speed(self, linear: float, angular: float) -> float:
+        """Return the top speed (m/s) of any point of the robot's outline at (v, w)."""
+        if self._floor.round:
+            return abs(linear)
+        return abs(linear) + self._floor.robot_radius * abs(angular)
 
     def _last_free_fraction(self, pose: tuple[float, float, float], linear: float,
                             angular: float, dt: float) -> float:
         """
         Return the largest fraction of the move (pose, v, w, dt) that keeps the robot free.
 
-        Conservative advancement first: the centre moves no farther than the arc length, so
-        advancing by the current gap never overshoots the contact (exact in one or two steps
-        head-on, and free when already touching); bisection finishes grazing approaches.
+        Conservative advancement first: no point of the robot moves farther than its top speed
+        times dt, so advancing by the current gap never overshoots the contact (exact in one
+        or two steps head-on, and free when already touching); bisection finishes grazing
+        approaches.
         """
-        nearest = self._footprints.nearest
-        radius = self.robot_radius
-        length = abs(linear) * dt
+        probe = self._floor.probe
+        length = self._point_speed(linear, angular) * dt
         free = 0.0
-        gap = nearest(pose[0], pose[1])[0] - radius
+        gap = probe(pose)[0]
         for _ in range(CONTACT_ADVANCES):
             if gap <= CONTACT_RESOLUTION:
                 return free
             trial_fraction = free + gap / length
             if trial_fraction >= 1.0:
                 break
-            trial = integrate_arc(pose, linear, angular, trial_fraction * dt)
-            trial_gap = nearest(trial[0], trial[1])[0] - radius
-            if trial_gap < 0.0:
+            trial_gap, _, clear = probe(integrate_arc(pose, linear, angular,
+                                                      trial_fraction * dt))
+            if not clear:
                 break
             free, gap = trial_fraction, trial_gap
         blocked = 1.0
         while (blocked - free) * length > CONTACT_RESOLUTION:
             middle = 0.5 * (free + blocked)
-            trial = integrate_arc(pose, linear, angular, middle * dt)
-            if nearest(trial[0], trial[1])[0] >= radius:
+            if probe(integrate_arc(pose, linear, angular, middle * dt))[2]:
                 free = middle
             else:
                 blocked = middle

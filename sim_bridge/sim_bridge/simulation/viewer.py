@@ -1,15 +1,19 @@
 """
 The pybullet window of a simulator run with ``gui``: drawing only, no physics.
 
-A visual-only robot body (rays pass through it) follows the simulated pose, a top-down camera
+A visual-only robot body (rays pass through it), the robot's collision shapes as one triangle
+mesh (any shape: rolled wheels, meshes), follows the simulated pose, a top-down camera
 follows the robot, and the lidar's rays can be drawn as lines: green to a hit, grey for no
 return.
 """
 
+from collections.abc import Sequence
 import math
 
 import numpy as np
 import pybullet
+
+from sim_bridge.simulation.geometry import Shape, triangulate
 
 ROBOT_COLOUR = (0.1, 0.3, 0.8, 1.0)
 HIT_COLOUR = (0.1, 0.7, 0.1)
@@ -27,23 +31,34 @@ def drawn_beams(beams: int) -> np.ndarray:
     return np.arange(0, beams, max(1, math.ceil(beams / MAX_DRAWN_RAYS)))
 
 
+def robot_mesh(shapes: Sequence[Shape]) -> tuple[np.ndarray, np.ndarray]:
+    """Return one triangle mesh, (V, 3) vertices (m) and (F, 3) indices, of all ``shapes``."""
+    vertices, faces, count = [], [], 0
+    for shape in shapes:
+        shape_vertices, shape_faces = triangulate(shape)
+        vertices.append(shape_vertices @ shape.rotation().T + (shape.x, shape.y, shape.z))
+        faces.append(shape_faces + count)
+        count += len(shape_vertices)
+    return np.vstack(vertices), np.vstack(faces)
+
+
 class Viewer:
     """
-    Show a robot of ``radius`` and ``height`` (m) in the pybullet window of ``client``.
+    Show a robot of collision ``shapes`` (its base frame, m) in the pybullet window of ``client``.
 
     ``draw_rays`` draws each scan handed to :meth:`show_scan`.
     """
 
-    def __init__(self, client: int, radius: float, height: float, draw_rays: bool = False):
+    def __init__(self, client: int, shapes: Sequence[Shape], draw_rays: bool = False):
         self.client = client
         self.draw_rays = draw_rays
         # The side panels (pybullet's synthetic camera previews) only hide the world.
         pybullet.configureDebugVisualizer(pybullet.COV_ENABLE_GUI, 0, physicsClientId=client)
         self.ray_items: list[int] = []
-        visual = pybullet.createVisualShape(pybullet.GEOM_CYLINDER, radius=radius,
-                                            length=height, rgbaColor=ROBOT_COLOUR,
-                                            visualFramePosition=(0.0, 0.0, 0.5 * height),
-                                            physicsClientId=client)
+        vertices, faces = robot_mesh(shapes)
+        visual = pybullet.createVisualShape(pybullet.GEOM_MESH, vertices=vertices.tolist(),
+                                            indices=faces.ravel().tolist(),
+                                            rgbaColor=ROBOT_COLOUR, physicsClientId=client)
         self.robot_body = pybullet.createMultiBody(0.0, -1, visual, physicsClientId=client)
 
     def show_robot(self, pose: tuple[float, float, float]) -> None:

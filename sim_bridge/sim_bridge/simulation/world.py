@@ -67,19 +67,24 @@ the field, e.g.
 [1, -1, 1]``.
 
 What the simulator sees: every obstacle is one or more :class:`~.geometry.Shape`
-primitives (walls and cubes are boxes); the robot collides with their floor outlines
-(:class:`~.geometry.Footprint`, the vertical projection, whatever the height) and the
-lidar sees their 3-D shapes.
+primitives (walls and cubes are boxes); the lidar sees their 3-D shapes, and the robot
+collides with what lies in its height band, from just above the floor to its top
+(:class:`~.floor_slice.FloorSlice`): its outline, from its own collision shapes, against the
+obstacles' parts in the band (of a table whose top is above the robot, only the legs; of a
+ball, its widest section below the robot's top). "The robot must start clear" means clear in
+that slice.
 """
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 import math
 import os
 from pathlib import Path
 from typing import Any
 
 from sim_bridge import paths
+from sim_bridge.simulation.floor_slice import FloorSlice
 from sim_bridge.simulation.geometry import Footprint, Shape, wrap_angle
 from sim_bridge.simulation.sdf import load_model, Model, SdfError
 from sim_bridge.yaml_loader import load_yaml
@@ -127,7 +132,8 @@ class Obstacle:
     One named thing in the world the robot must not hit.
 
     ``kind`` is 'cube', 'cylinder', 'sphere', 'wall' or 'model'; ``shapes`` are its 3-D
-    primitives in the world frame, ``footprints`` their floor outlines; ``pose`` (x, y in m,
+    primitives in the world frame, ``footprints`` their whole vertical projections (what
+    the robot can hit is :meth:`World.footprints`, in its height band); ``pose`` (x, y in m,
     yaw in rad) is where the entry placed it; ``model`` names its model folder, if any.
     """
 
@@ -203,14 +209,24 @@ class World:
         """Return every obstacle's 3-D primitives."""
         return tuple(shape for obstacle in self.obstacles for shape in obstacle.shapes)
 
+    @cached_property
+    def floor_slice(self) -> FloorSlice:
+        """Return the world through the robot's height band, and the robot's outline."""
+        return _floor_slice(self._label(), self.robot, self.obstacles)
+
     def footprints(self) -> tuple[Footprint, ...]:
-        """Return every obstacle's floor outlines, in obstacle order."""
-        return tuple(fp for obstacle in self.obstacles for fp in obstacle.footprints)
+        """Return the outlines the robot can hit (its band's slice), in obstacle order."""
+        return self.floor_slice.footprints
 
     def footprint_owners(self) -> tuple[str, ...]:
         """Return, for each entry of :meth:`footprints`, the name of its obstacle."""
-        return tuple(obstacle.name for obstacle in self.obstacles
-                     for _ in obstacle.footprints)
+        return self.floor_slice.owners
+
+    def obstacle_footprints(self, name: str) -> tuple[Footprint, ...]:
+        """Return the outlines of obstacle ``name`` in the robot's band (maybe none)."""
+        return tuple(footprint for footprint, owner in zip(self.footprints(),
+                                                           self.footprint_owners())
+                     if owner == name)
 
     def with_robot_start(self, x: float, y: float, yaw: float) -> 'World':
         """
@@ -221,7 +237,7 @@ class World:
         pose = (float(x), float(y), wrap_angle(float(yaw)))
         if not all(math.isfinite(value) for value in pose):
             raise WorldError(self._label(), 'robot', 'pose', f'must be finite, got {pose}')
-        _check_robot_clear(self._label(), pose, self.robot.radius, self.obstacles)
+        _check_robot_clear(self._label(), pose, self.floor_slice)
         return replace(self, robot_start=pose)
 
     def mirrored_start(self) -> 'World':
@@ -247,14 +263,25 @@ def _display_path(path: Path) -> str:
         return str(path)
 
 
-def _check_robot_clear(label: str, pose: tuple[float, float, float], radius: float,
-                       obstacles: tuple[Obstacle, ...]) -> None:
-    distance, name = min(((obstacle.distance(pose[0], pose[1]), obstacle.name)
-                          for obstacle in obstacles), default=(math.inf, ''))
-    if distance < radius:
+def _floor_slice(label: str, robot: Model, obstacles: tuple[Obstacle, ...]) -> FloorSlice:
+    try:
+        return FloorSlice(robot.shapes,
+                          [(obstacle.name, obstacle.shapes) for obstacle in obstacles])
+    except ValueError as error:
+        raise WorldError(label, 'robot', 'model', f"'{robot.name}' ({robot.path}): {error}"
+                         ) from None
+
+
+def _check_robot_clear(label: str, pose: tuple[float, float, float],
+                       floor_slice: FloorSlice) -> None:
+    """Fail unless the robot's outline at ``pose`` is clear of the obstacles in its band."""
+    _, index, clear = floor_slice.probe(pose)
+    if not clear:
+        outline = (f'radius {floor_slice.robot_radius:g} m' if floor_slice.round
+                   else f'outline reaching {floor_slice.robot_radius:g} m from its origin')
         raise WorldError(label, 'robot', 'pose',
-                         f'the robot (radius {radius:g} m) at ({pose[0]:g}, {pose[1]:g}) '
-                         f"overlaps obstacle '{name}'")
+                         f'the robot ({outline}) at ({pose[0]:g}, {pose[1]:g}) '
+                         f"overlaps obstacle '{floor_slice.owners[index]}'")
 
 
 class _Parser:
@@ -299,7 +326,8 @@ class _Parser:
             if target not in names:
                 raise self.fail(None, 'target', f"names no obstacle ('{target}'); obstacles: "
                                 f"{', '.join(names) or 'none'}")
-        _check_robot_clear(self.label, robot_start, robot.radius, tuple(obstacles))
+        _check_robot_clear(self.label, robot_start,
+                           _floor_slice(self.label, robot, tuple(obstacles)))
         if 'bounds' in data:
             bounds = self.bounds(data['bounds'])
         else:
