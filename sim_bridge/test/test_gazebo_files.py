@@ -93,8 +93,8 @@ def test_link_and_collision_poses_compose_in_3d_with_relative_to():
     assert ellipsoid.roll == pytest.approx(math.pi / 2)
 
 
-def test_meshes_stl_obj_and_a_dae_in_inches_are_scaled_as_gazebo_scales_them(tmp_path,
-                                                                            monkeypatch):
+def test_meshes_stl_obj_and_a_dae_in_inches_are_scaled_as_gazebo_scales_them(
+        tmp_path, monkeypatch):
     trimesh = pytest.importorskip('trimesh')
     meshes = tmp_path / 'crate' / 'meshes'
     meshes.mkdir(parents=True)
@@ -122,8 +122,8 @@ def test_meshes_stl_obj_and_a_dae_in_inches_are_scaled_as_gazebo_scales_them(tmp
     assert meshes / 'box.stl' in [Path(source) for source in model.sources]
 
 
-def test_nested_models_and_includes_replace_the_included_pose_name_and_static(tmp_path,
-                                                                             monkeypatch):
+def test_nested_models_and_includes_replace_the_included_pose_name_and_static(
+        tmp_path, monkeypatch):
     write_model(tmp_path, 'crate', BOX, pose='5 5 0 0 0 0')
     monkeypatch.setenv('GZ_SIM_RESOURCE_PATH', str(tmp_path))
     outer = sdf_model('outer', (
@@ -231,8 +231,8 @@ def test_world_errors_name_the_file_and_say_what_to_do(tmp_path):
     fuel = tmp_path / 'fuel.world'
     fuel.write_text(WORLD.format(box=BOX, robot='<include><uri>https://fuel.gazebosim.org/1.0/'
                                  'OpenRobotics/models/Tree</uri></include>'))
-    with pytest.raises(WorldError, match=r"fuel.world: <world name=\"default\">/<include>/<uri>"
-                       r".*Tree is a Gazebo Fuel model.*gz fuel download.*GZ_SIM_RESOURCE_PATH"):
+    with pytest.raises(WorldError, match=r'fuel.world: <world name="default">/<include>/<uri>'
+                       r'.*Tree is a Gazebo Fuel model.*gz fuel download.*GZ_SIM_RESOURCE_PATH'):
         World.load(fuel)
     xml_as_yaml = tmp_path / 'lab.yaml'
     xml_as_yaml.write_text(no_robot.read_text())

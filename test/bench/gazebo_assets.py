@@ -16,7 +16,7 @@ from pathlib import Path
 import sys
 
 from sim_bridge import paths
-from sim_bridge.simulation.sdf import describe_ignored, load_model, LidarConfig
+from sim_bridge.simulation.sdf import describe_ignored, LidarConfig, load_model
 from sim_bridge.simulation.world import World
 
 ASSETS = Path(__file__).resolve().parents[3] / 'shared' / 'gazebo_assets'

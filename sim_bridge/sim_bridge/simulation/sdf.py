@@ -70,7 +70,7 @@ class SdfError(ValueError):
 
 
 def compose(parent: Pose6, child: Pose6) -> Pose6:
-    """Return the pose of ``child``, given in ``parent``'s frame, in the parent's parent (m, rad)."""
+    """Return the pose of ``child``, given in ``parent``'s frame, in parent's parent (m, rad)."""
     rotation = rotation_matrix(*parent[3:])
     position = rotation @ np.asarray(child[:3], dtype=float) + parent[:3]
     roll, pitch, yaw = euler_from_matrix(rotation @ rotation_matrix(*child[3:]))
@@ -1061,5 +1061,3 @@ class _Frames:
         else:
             return own
         return compose(base, own)
-
-

@@ -203,8 +203,8 @@ class World:
             raise WorldError(label, None, None, 'holds XML (an SDF world), not YAML: name it '
                              '.world or .sdf')
         if not xml and suffix in ('.world', '.sdf'):
-            raise WorldError(label, None, None, f'holds YAML (a kit world), not SDF XML: name '
-                             f'it .yaml')
+            raise WorldError(label, None, None, 'holds YAML (a kit world), not SDF XML: name '
+                             'it .yaml')
         if xml:
             world = _sdf_world(path, text, label, robot is not None)
         else:
