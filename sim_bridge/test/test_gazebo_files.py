@@ -253,12 +253,29 @@ def test_a_yaml_world_places_a_model_replacing_its_own_pose(tmp_path, monkeypatc
     assert (world.obstacle('c').shapes[0].x, world.obstacle('c').shapes[0].y) == (2.0, 0.0)
 
 
-def test_models_on_the_users_paths_win_over_the_kits_turtlebot3(tmp_path, monkeypatch):
-    theirs = write_model(tmp_path, 'turtlebot3_burger', ROBOT)
-    monkeypatch.setenv('GAZEBO_MODEL_PATH', str(tmp_path))
-    assert paths.find_model('turtlebot3_burger') == theirs
-    monkeypatch.delenv('GAZEBO_MODEL_PATH')
-    monkeypatch.setenv('HOME', str(tmp_path / 'home'))
-    assert paths.find_model('turtlebot3_burger') == paths.models_dir() / 'turtlebot3_burger'
-    folders = paths.model_search_path(tmp_path / 'worlds')
-    assert folders[0] == tmp_path / 'worlds' and folders[-1] == paths.models_dir()
+def test_a_plane_is_the_floor_and_a_polyline_is_extruded():
+    body = ('<link name="l"><collision name="ground"><geometry><plane><normal>0 0 1</normal>'
+            '<size>20 10</size></plane></geometry></collision>'
+            '<collision name="wedge"><geometry><polyline><point>0 0</point><point>2 0</point>'
+            '<point>0 1</point><height>0.5</height></polyline></geometry></collision></link>')
+    model = parse_model(sdf_model('m', body), Path('m.sdf'))
+    assert [(plane.z, plane.size) for plane in model.planes] == [(0.0, (20.0, 10.0))]
+    (wedge,) = model.shapes
+    assert wedge.kind == 'mesh' and extent([wedge]) == pytest.approx((2.0, 1.0, 0.5))
+    tilted = body.replace('<normal>0 0 1</normal>', '<normal>1 0 0</normal>')
+    with pytest.raises(SdfError, match=r'<plane>/<normal>: only a horizontal plane'):
+        parse_model(sdf_model('m', tilted), Path('m.sdf'))
+
+
+def test_a_fuel_model_downloaded_to_gazebos_cache_is_used(tmp_path, monkeypatch):
+    cache = tmp_path / 'fuel'
+    write_model(cache / 'fuel.gazebosim.org' / 'openrobotics' / 'models' / 'crate', '2', BOX)
+    write_model(cache / 'fuel.gazebosim.org' / 'openrobotics' / 'models' / 'crate', '10', BOX,
+                pose='1 0 0 0 0 0')
+    monkeypatch.setenv('GZ_FUEL_CACHE_PATH', str(cache))
+    world = tmp_path / 'w.sdf'
+    world.write_text(WORLD.format(box=BOX, robot=(
+        f'<model name="bot">{ROBOT}</model><include><uri>https://fuel.gazebosim.org/1.0/'
+        'OpenRobotics/models/Crate</uri></include>')))
+    fuel_crate = World.load(world).obstacles[-1]
+    assert fuel_crate.pose[0] == 1.0  # version 10, the newest, with its own pose

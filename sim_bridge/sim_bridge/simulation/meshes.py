@@ -1,11 +1,12 @@
 """
-Read the triangle meshes a model's ``<mesh>`` collisions name: STL, OBJ and COLLADA (DAE).
+Triangle meshes of a model: the files ``<mesh>`` names (STL, OBJ, COLLADA) and extrusions.
 
 trimesh reads every format (DAE through pycollada). A COLLADA file carries its own length unit
 (``<asset><unit meter="0.0254"/>`` for a file drawn in inches) and Gazebo scales the mesh by
 it; trimesh's plain load does not, so :func:`load_mesh` applies it from pycollada's reading of
 the asset. The SDF ``<scale>`` is applied on top. A file is read once per process and kept
-(worlds repeat the same mesh many times).
+(worlds repeat the same mesh many times). :func:`extrude` builds the prism of an SDF
+``<polyline>`` (shapely triangulates the outline).
 """
 
 from functools import lru_cache
@@ -68,3 +69,29 @@ def _collada_unit(path: Path) -> float:
         raise MeshError(f'{path}: cannot read the COLLADA asset: {error}') from None
     unit = document.assetInfo.unitmeter
     return float(unit) if unit else 1.0
+
+
+def extrude(points: list[tuple[float, float]], height: float, source: str) -> Mesh:
+    """
+    Return the prism of a simple polygon (x, y points in m) from z = 0 up to ``height`` (m).
+
+    Raises :class:`MeshError` when the points do not outline a simple polygon of some area.
+    """
+    import shapely
+    outline = shapely.Polygon(points) if len(points) >= 3 else None
+    if outline is None or not outline.is_valid or outline.area <= 0.0:
+        raise MeshError(f'{source}: need at least 3 points outlining a simple polygon')
+    triangles = [np.asarray(triangle.exterior.coords)[:3]
+                 for triangle in shapely.constrained_delaunay_triangles(outline).geoms]
+    pieces = []
+    for triangle in triangles:
+        pieces.append(np.column_stack((triangle[::-1], np.zeros(3))))  # bottom, facing down
+        pieces.append(np.column_stack((triangle, np.full(3, height))))  # top, facing up
+    ring = np.asarray(outline.exterior.coords)
+    for start, end in zip(ring[:-1], ring[1:]):
+        low_start, low_end = (*start, 0.0), (*end, 0.0)
+        high_start, high_end = (*start, height), (*end, height)
+        pieces.append(np.array([low_start, low_end, high_end]))
+        pieces.append(np.array([low_start, high_end, high_start]))
+    vertices = np.vstack(pieces)
+    return Mesh(vertices, np.arange(len(vertices)).reshape(-1, 3), source)

@@ -31,7 +31,8 @@ X-Y-Z, relative to the parent element unless ``relative_to`` says otherwise.
 
 from collections import Counter
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
+from functools import partial
 from functools import cached_property
 import math
 import os
@@ -44,7 +45,7 @@ import numpy as np
 from sim_bridge import paths
 from sim_bridge.simulation.geometry import (euler_from_matrix, Footprint, Mesh,
                                             rotation_matrix, Shape, triangulate)
-from sim_bridge.simulation.meshes import load_mesh, MeshError
+from sim_bridge.simulation.meshes import extrude, load_mesh, MeshError
 from sim_bridge.simulation.robot import DiffDriveConfig, DriveLimits
 
 LIDAR_SENSOR_TYPES = ('ray', 'gpu_ray', 'lidar', 'gpu_lidar')
@@ -382,16 +383,22 @@ def _plugin_kind(plugin: ElementTree.Element) -> str | None:
     return None
 
 
+#: A diff-drive plugin read but for the model's name and canonical link, which name its
+#: default topics and frames in Gazebo Sim.
+DriveReader = Callable[[str, str], DiffDriveConfig]
+
+
 @dataclass
 class _Found:
     """What walking one top-level model (and everything nested in it) collected."""
 
-    shapes: list
-    planes: list
-    lidars: list  # (sensor name, link name, reader, element, where, pose in the model frame)
-    drives: list
-    ignored: list
-    sources: list
+    shapes: list[Shape] = field(default_factory=list)
+    planes: list[Plane] = field(default_factory=list)
+    #: (sensor name, a function reading its LidarConfig in the top model's frame)
+    lidars: list[tuple[str, Callable[[], LidarConfig]]] = field(default_factory=list)
+    drives: list[DriveReader] = field(default_factory=list)
+    ignored: list[Ignored] = field(default_factory=list)
+    sources: list[Path] = field(default_factory=list)
 
 
 #: Builtin stand-ins for the two models every Gazebo world includes, so they work offline.
@@ -441,7 +448,7 @@ class _Reader:
 
     def world(self, element: ElementTree.Element) -> SdfWorld:
         where = _label(element)
-        found = _Found([], [], [], [], [], [self.path])
+        found = _Found(sources=[self.path])
         models: list[PlacedModel] = []
         step = None
         for child in element:
@@ -554,7 +561,7 @@ class _Reader:
         name = element.get('name')
         if not name:
             raise self.error(where, 'the model has no name attribute')
-        found = _Found([], [], [], [], [], [self.path])
+        found = _Found(sources=[self.path])
         self.model(element, where, ZERO_POSE, found)
         lidar = self.pick_lidar(found, lidar_name, where)
         drive = None
@@ -609,8 +616,8 @@ class _Reader:
         found.ignored += model.ignored
         found.sources += model.sources
         if model.lidar is not None:
-            found.lidars.append((model.lidar.frame_id, None, None, model.lidar, where,
-                                 placement))
+            found.lidars.append((model.lidar.frame_id, partial(
+                replace, model.lidar, pose=compose(placement, model.lidar.pose))))
         if model.drive is not None:
             found.drives.append(lambda _name, _link, drive=model.drive: drive)
 
@@ -634,8 +641,8 @@ class _Reader:
             elif child.tag == 'sensor':
                 pose = compose(model_frame, frames.resolve(child, child_where, link=link))
                 if child.get('type') in LIDAR_SENSOR_TYPES:
-                    found.lidars.append((child.get('name') or '', link.get('name') or '',
-                                         self, child, child_where, pose))
+                    found.lidars.append((child.get('name') or '', partial(
+                        self.lidar, child, child_where, pose, link.get('name') or '')))
                 else:
                     found.ignored.append(('sensor', f"{child.get('name')} "
                                                     f"({child.get('type')})"))
@@ -645,18 +652,15 @@ class _Reader:
     def pick_lidar(self, found: _Found, name: str | None, where: str) -> LidarConfig | None:
         """Return the named lidar, or the first with more than one horizontal sample."""
         chosen = None
-        for sensor_name, link_name, reader, element, sensor_where, pose in found.lidars:
-            if isinstance(element, LidarConfig):  # from an included model, read already
-                config = replace(element, pose=compose(pose, element.pose))
-            else:
-                config = reader.lidar(element, sensor_where, pose, link_name)
+        for sensor_name, read in found.lidars:
+            config = read()
             wanted = sensor_name == name if name is not None else config.samples > 1
             if chosen is None and wanted:
                 chosen = config
+            elif config.samples == 1:
+                found.ignored.append(('sensor', f'{sensor_name} (1 beam lidar)'))
             else:
-                found.ignored.append(('sensor', f'{sensor_name} ({config.samples} beam '
-                                                'lidar)' if config.samples == 1 else
-                                      f'{sensor_name} (a second lidar)'))
+                found.ignored.append(('sensor', f'{sensor_name} (lidar not used)'))
         if name is not None and chosen is None:
             names = ', '.join(entry[0] for entry in found.lidars) or 'none'
             raise self.error(where, f"has no lidar sensor named '{name}' (lidars: {names})")
@@ -728,21 +732,18 @@ class _Reader:
 
     def polyline(self, geometry: ElementTree.Element, where: str) -> Mesh:
         """Return the polylines of a geometry extruded upwards from z = 0 as one mesh."""
-        import shapely
-        import trimesh
         parts = []
         for index, polyline in enumerate(geometry.findall('polyline')):
             at = f'{where}[{index}]'
-            height = self.positive(polyline, 'height', at)
             points = [self.numbers(point.text, f'{at}/<point>', 2)
                       for point in polyline.findall('point')]
-            outline = shapely.Polygon(points) if len(points) >= 3 else None
-            if outline is None or not outline.is_valid or outline.area <= 0.0:
-                raise self.error(f'{at}/<point>', 'need at least 3 points outlining a simple '
-                                 'polygon')
-            parts.append(trimesh.creation.extrude_polygon(outline, height))
-        combined = trimesh.util.concatenate(parts)
-        return Mesh(np.asarray(combined.vertices, dtype=float), np.asarray(combined.faces),
+            try:
+                parts.append(extrude(points, self.positive(polyline, 'height', at), at))
+            except MeshError as error:
+                raise self.error(f'{at}/<point>', str(error).removeprefix(f'{at}: ')) from None
+        offsets = np.cumsum([0] + [len(part.vertices) for part in parts[:-1]])
+        return Mesh(np.vstack([part.vertices for part in parts]),
+                    np.vstack([part.faces + offset for part, offset in zip(parts, offsets)]),
                     f'{self.path} polyline')
 
     # The lidar -----------------------------------------------------------------------------
