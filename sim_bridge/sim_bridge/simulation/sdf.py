@@ -32,8 +32,7 @@ X-Y-Z, relative to the parent element unless ``relative_to`` says otherwise.
 from collections import Counter
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field, replace
-from functools import partial
-from functools import cached_property
+from functools import cached_property, partial
 import math
 import os
 from pathlib import Path
