@@ -208,18 +208,21 @@ WORLD = """<?xml version="1.0"?>
 
 def test_an_sdf_world_has_its_floor_physics_step_robot_and_ignored_line(tmp_path):
     path = tmp_path / 'lab.sdf'
-    path.write_text(WORLD.format(box=BOX, robot=f'<model name="bot">{ROBOT}</model>'))
+    joint = '<joint name="j" type="fixed"><parent>chassis</parent><child>chassis</child></joint>'
+    path.write_text(WORLD.format(box=BOX, robot=f'<model name="bot">{ROBOT}{joint}</model>'))
     world = World.load(path)
     assert world.name == 'lab' and world.physics_step_s == 0.004
     assert world.floor_size == (100.0, 100.0)  # the first ground plane: Fuel's, 100 m
     assert [obstacle.name for obstacle in world.obstacles] == ['crate']
     assert world.robot.lidar.samples == 90 and world.robot.drive.wheel_separation == 0.3
     assert world.ignored.startswith('ignored: ')
-    for part in ('2 lights', 'plugin gz-sim-sensors-system', 'model held fixed crate'):
+    for part in ('2 lights', '1 joint,', 'plugin gz-sim-sensors-system',
+                 'model held fixed crate'):
         assert part in world.ignored
     moved = world.with_robot(paths.models_dir() / 'turtlebot3_burger', (-2.0, 1.0, 0.5))
     assert (moved.robot_model, moved.robot_start) == ('turtlebot3_burger', (-2.0, 1.0, 0.5))
-    assert 'plugin gz-sim-sensors-system' in moved.ignored
+    assert 'plugin gz-sim-sensors-system' in moved.ignored  # the world's, kept
+    assert '5 joints' in moved.ignored  # the new robot's, not the old one's
 
 
 def test_world_errors_name_the_file_and_say_what_to_do(tmp_path):

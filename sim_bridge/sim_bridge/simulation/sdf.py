@@ -262,7 +262,8 @@ class SdfWorld:
     An SDF ``<world>``: its models where they stand, the floor and the physics step.
 
     ``planes`` are the ground planes in the world frame; ``physics_step_s`` is
-    ``<physics><max_step_size>`` (s), None when unset; ``ignored`` what is not simulated.
+    ``<physics><max_step_size>`` (s), None when unset; ``ignored`` what the world itself (not
+    its models, see :attr:`Model.ignored`) has that is not simulated.
     """
 
     name: str
@@ -456,7 +457,7 @@ class _Reader:
                 model = self.top_model(child, None)
                 models.append(PlacedModel(model.name, model, model.pose, model.static))
             elif child.tag == 'include':
-                models.append(self.world_include(child, child_where, found))
+                models.append(self.world_include(child, child_where))
             elif child.tag == 'physics':
                 if child.find('max_step_size') is not None:
                     step = self.number(child, 'max_step_size', child_where)
@@ -469,17 +470,17 @@ class _Reader:
         planes = []
         for placed in models:
             found.sources += placed.model.sources
-            found.ignored += placed.model.ignored
             for plane in placed.model.planes:
                 planes.append(Plane(plane.z + placed.pose[2], plane.size))
+            if not placed.model.shapes and placed.model.lidar is None:  # a sun, a ground plane
+                found.ignored += placed.model.ignored
         models = [placed for placed in models if placed.model.shapes or placed.model.lidar]
         return SdfWorld(name=element.get('name') or self.path.stem, path=self.path,
                         models=tuple(models), planes=tuple(planes), physics_step_s=step,
                         ignored=tuple(found.ignored),
                         sources=tuple(dict.fromkeys(found.sources)))
 
-    def world_include(self, include: ElementTree.Element, where: str,
-                      found: _Found) -> PlacedModel:
+    def world_include(self, include: ElementTree.Element, where: str) -> PlacedModel:
         model = self.included_model(include, where)
         pose = self.pose(include, where) if include.find('pose') is not None else model.pose
         name = (include.findtext('name') or '').strip() or model.name

@@ -665,6 +665,7 @@ def _sdf_world(path: Path, text: str, label: str, robot_given: bool) -> World:
     for placed in sdf.models:
         if placed is robot:
             continue
+        ignored += placed.model.ignored
         shapes = tuple(place(shape, placed.pose) for shape in placed.model.shapes)
         if not shapes:
             continue
