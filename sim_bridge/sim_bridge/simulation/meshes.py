@@ -42,7 +42,8 @@ def _read(path: Path) -> tuple[np.ndarray, np.ndarray]:
         raise MeshError(f'{path}: unsupported mesh format {suffix!r}; use one of '
                         f"{', '.join(MESH_SUFFIXES)}")
     if not path.is_file():
-        raise MeshError(f'{path}: mesh file not found')
+        raise MeshError(f'{path}: mesh file not found; check the <uri> (model://NAME/... is '
+                        'looked up on GZ_SIM_RESOURCE_PATH)')
     import trimesh  # imported on first use: a world of primitives never pays for it
     try:
         mesh = trimesh.load(str(path), force='mesh')
