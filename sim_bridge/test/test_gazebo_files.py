@@ -151,7 +151,7 @@ def test_the_lidar_has_more_than_one_sample_or_is_named(tmp_path):
     text = sdf_model('m', body)
     model = parse_model(text, Path('m.sdf'))
     assert (model.lidar.samples, model.lidar.frame_id) == (90, 'l')
-    assert 'cliff (1 beam lidar)' in describe_ignored(model.ignored)
+    assert 'cliff (1 beam lidar)' in describe_ignored(model.not_simulated)
     rear = parse_model(text, Path('m.sdf'), lidar='rear').lidar
     assert (rear.samples, rear.frame_id) == (45, 'r')
     with pytest.raises(SdfError, match="no lidar sensor named 'side' .*cliff, front, rear"):
@@ -282,3 +282,19 @@ def test_a_fuel_model_downloaded_to_gazebos_cache_is_used(tmp_path, monkeypatch)
         'OpenRobotics/models/Crate</uri></include>')))
     fuel_crate = World.load(world).obstacles[-1]
     assert fuel_crate.pose[0] == 1.0  # version 10, the newest, with its own pose
+
+
+def test_a_world_robots_lidar_can_be_named(tmp_path):
+    two_lidars = ROBOT.replace('</link>', LIDAR.format(name='rear', samples=45) + '</link>')
+    path = tmp_path / 'lab.sdf'
+    path.write_text(WORLD.format(box=BOX, robot=f'<model name="bot">{two_lidars}</model>'))
+    assert World.load(path).robot.lidar.samples == 90
+    world = World.load(path, lidar='rear')
+    assert world.robot.lidar.samples == 45
+    assert 'laser (lidar not used)' in world.ignored
+    with pytest.raises(WorldError, match="lab.sdf: has no robot with a lidar sensor named 'x'"):
+        World.load(path, lidar='x')
+    assert World.load('room', lidar='laser').robot.lidar.frame_id == 'laser'
+    with pytest.raises(WorldError, match="room.yaml: robot: 'model': .*no lidar sensor named 'x' "
+                       r'\(lidars: laser\)'):
+        World.load('room', lidar='x')

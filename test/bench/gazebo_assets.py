@@ -69,7 +69,7 @@ def main(assets: Path) -> int:
                 continue
             rows.append((label, 'loaded', lidar_text(model.lidar), str(len(model.shapes)),
                          area_text(lambda model=model: model.footprints),
-                         describe_ignored(model.ignored)))
+                         describe_ignored(model.not_simulated)))
     for world_file in sorted(assets.glob('*/worlds/*.world')):
         label = str(world_file.relative_to(assets))
         try:

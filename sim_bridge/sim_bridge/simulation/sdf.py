@@ -22,7 +22,7 @@ SDF 1.4 to 1.10, Gazebo Sim and Gazebo Classic forms alike, with :mod:`xml.etree
   for what it leaves unset.
 
 What the simulator does not simulate (visuals, joints, other sensors and plugins,
-``<submesh>``) is listed in :attr:`Model.ignored`, never dropped in silence; what it cannot
+``<submesh>``) is listed in :attr:`Model.not_simulated`, never dropped in silence; what it cannot
 read is an :class:`SdfError` naming the file, the element path and what to do.
 
 A ``<pose>`` is ``x y z roll pitch yaw`` (m, rad; degrees with ``degrees="true"``), fixed axes
@@ -197,8 +197,10 @@ class Model:
     origin is where the model is placed (on the floor, z = 0, for a robot); ``pose`` is the
     model's own ``<pose>``, used only where nothing places the model (an ``<include>``'s pose,
     a YAML entry's or a spawn pose replace it, as in Gazebo). ``planes`` are its ``<plane>``
-    collisions (a ground plane: the floor). ``ignored`` lists what the simulator does not
-    simulate (see :func:`describe_ignored`); ``sources`` the SDF and mesh files read.
+    collisions (a ground plane: the floor). ``lidars`` are every lidar sensor read, by name,
+    ``lidar`` the one used (see :meth:`with_lidar`). ``ignored`` lists what the simulator does
+    not simulate but the unused lidars (:attr:`not_simulated` adds them; see
+    :func:`describe_ignored`); ``sources`` the SDF and mesh files read.
     """
 
     name: str
@@ -212,6 +214,24 @@ class Model:
     planes: tuple[Plane, ...] = ()
     ignored: tuple[Ignored, ...] = ()
     sources: tuple[Path, ...] = ()
+    lidars: tuple[tuple[str, LidarConfig], ...] = ()
+
+    def with_lidar(self, name: str) -> 'Model':
+        """Return this model using its lidar sensor called ``name``; SdfError when none is."""
+        for sensor, config in self.lidars:
+            if sensor == name:
+                return replace(self, lidar=config)
+        names = ', '.join(sensor for sensor, _ in self.lidars) or 'none'
+        raise SdfError(f'{self.path}: <model name="{self.name}">: has no lidar sensor named '
+                       f"'{name}' (lidars: {names})")
+
+    @property
+    def not_simulated(self) -> tuple[Ignored, ...]:
+        """Return :attr:`ignored` and the lidars not used (a 1-beam one is a range sensor)."""
+        unused = tuple(('sensor', f'{name} (1 beam lidar)' if config.samples == 1
+                        else f'{name} (lidar not used)')
+                       for name, config in self.lidars if config is not self.lidar)
+        return self.ignored + unused
 
     @cached_property
     def footprints(self) -> tuple[Footprint, ...]:
@@ -340,7 +360,8 @@ def parse_model(text: str, path: Path, lidar: str | None = None,
                 raise SdfError(f'{path}: <sdf>: is a world file, not a model; load it as a '
                                'world')
             raise SdfError(f'{path}: <sdf>: has no <model> element')
-    return reader.top_model(element, lidar)
+    model = reader.top_model(element)
+    return model.with_lidar(lidar) if lidar is not None else model
 
 
 def parse_world(text: str, path: Path) -> SdfWorld:
@@ -454,7 +475,7 @@ class _Reader:
         for child in element:
             child_where = f'{where}/{_label(child)}'
             if child.tag == 'model':
-                model = self.top_model(child, None)
+                model = self.top_model(child)
                 models.append(PlacedModel(model.name, model, model.pose, model.static))
             elif child.tag == 'include':
                 models.append(self.world_include(child, child_where))
@@ -473,7 +494,7 @@ class _Reader:
             for plane in placed.model.planes:
                 planes.append(Plane(plane.z + placed.pose[2], plane.size))
             if not placed.model.shapes and placed.model.lidar is None:  # a sun, a ground plane
-                found.ignored += placed.model.ignored
+                found.ignored += placed.model.not_simulated
         models = [placed for placed in models if placed.model.shapes or placed.model.lidar]
         return SdfWorld(name=element.get('name') or self.path.stem, path=self.path,
                         models=tuple(models), planes=tuple(planes), physics_step_s=step,
@@ -556,14 +577,16 @@ class _Reader:
         candidates += [folder / path for folder in paths.model_search_path(self.world_folder)]
         return next((place for place in candidates if place.exists()), candidates[0])
 
-    def top_model(self, element: ElementTree.Element, lidar_name: str | None) -> Model:
+    def top_model(self, element: ElementTree.Element) -> Model:
         where = _label(element)
         name = element.get('name')
         if not name:
             raise self.error(where, 'the model has no name attribute')
         found = _Found(sources=[self.path])
         self.model(element, where, ZERO_POSE, found)
-        lidar = self.pick_lidar(found, lidar_name, where)
+        lidars = tuple((name, read()) for name, read in found.lidars)
+        # The lidar: the first with more than one beam (a 1-beam "ray" is a range sensor).
+        lidar = next((config for _, config in lidars if config.samples > 1), None)
         drive = None
         for config in found.drives:
             if drive is None:
@@ -576,7 +599,7 @@ class _Reader:
         return Model(name=name, path=self.path, shapes=tuple(found.shapes), lidar=lidar,
                      static=static, drive=drive, pose=self.pose(element, where),
                      planes=tuple(found.planes), ignored=tuple(found.ignored),
-                     sources=tuple(dict.fromkeys(found.sources)))
+                     sources=tuple(dict.fromkeys(found.sources)), lidars=lidars)
 
     @staticmethod
     def canonical_link(element: ElementTree.Element) -> str:
@@ -615,9 +638,9 @@ class _Reader:
         found.planes += [Plane(plane.z + placement[2], plane.size) for plane in model.planes]
         found.ignored += model.ignored
         found.sources += model.sources
-        if model.lidar is not None:
-            found.lidars.append((model.lidar.frame_id, partial(
-                replace, model.lidar, pose=compose(placement, model.lidar.pose))))
+        for name, config in model.lidars:
+            found.lidars.append((name, partial(replace, config,
+                                               pose=compose(placement, config.pose))))
         if model.drive is not None:
             found.drives.append(lambda _name, _link, drive=model.drive: drive)
 
@@ -648,23 +671,6 @@ class _Reader:
                                                     f"({child.get('type')})"))
             elif child.tag == 'light':
                 found.ignored.append(('light', ''))
-
-    def pick_lidar(self, found: _Found, name: str | None, where: str) -> LidarConfig | None:
-        """Return the named lidar, or the first with more than one horizontal sample."""
-        chosen = None
-        for sensor_name, read in found.lidars:
-            config = read()
-            wanted = sensor_name == name if name is not None else config.samples > 1
-            if chosen is None and wanted:
-                chosen = config
-            elif config.samples == 1:
-                found.ignored.append(('sensor', f'{sensor_name} (1 beam lidar)'))
-            else:
-                found.ignored.append(('sensor', f'{sensor_name} (lidar not used)'))
-        if name is not None and chosen is None:
-            names = ', '.join(entry[0] for entry in found.lidars) or 'none'
-            raise self.error(where, f"has no lidar sensor named '{name}' (lidars: {names})")
-        return chosen
 
     # Collisions ----------------------------------------------------------------------------
 

@@ -186,12 +186,14 @@ class World:
 
     @classmethod
     def load(cls, name_or_path: str | os.PathLike, robot: str | os.PathLike | None = None,
-             robot_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> 'World':
+             robot_pose: tuple[float, float, float] = (0.0, 0.0, 0.0),
+             lidar: str | None = None) -> 'World':
         """
         Load a shipped world by name (``room``) or any world file (YAML or SDF) by path.
 
         ``robot`` (a model name or folder) replaces the world's robot, spawned at
-        ``robot_pose`` (x m, y m, yaw rad) as ``ros_gz_sim create`` does. Raises
+        ``robot_pose`` (x m, y m, yaw rad) as ``ros_gz_sim create`` does; ``lidar`` names the
+        robot's lidar sensor to use when it has several (default: its first). Raises
         FileNotFoundError for an unknown world and :class:`WorldError` for a bad file.
         """
         path = paths.find_world(name_or_path)
@@ -206,11 +208,13 @@ class World:
             raise WorldError(label, None, None, 'holds YAML (a kit world), not SDF XML: name '
                              'it .yaml')
         if xml:
-            world = _sdf_world(path, text, label, robot is not None)
+            world = _sdf_world(path, text, label, robot is not None, lidar)
         else:
             world = cls._load_yaml(path, text, label)
+            if lidar is not None and robot is None:  # the YAML world's robot, re-read
+                robot, robot_pose = world.robot.path, world.robot_start
         if robot is not None:
-            world = world.with_robot(robot, robot_pose)
+            world = world.with_robot(robot, robot_pose, lidar)
         return world
 
     @classmethod
@@ -262,24 +266,26 @@ class World:
         return replace(self, robot_start=pose)
 
     def with_robot(self, model: str | os.PathLike,
-                   pose: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> 'World':
+                   pose: tuple[float, float, float] = (0.0, 0.0, 0.0),
+                   lidar: str | None = None) -> 'World':
         """
         Return this world with the robot ``model`` (a name or a folder) at (x m, y m, yaw rad).
 
-        The model's own ``<pose>`` is replaced by ``pose``, as ``ros_gz_sim create`` does.
-        Raises :class:`WorldError` for a model that cannot be loaded or has no collision shape,
-        or a pose overlapping an obstacle.
+        The model's own ``<pose>`` is replaced by ``pose``, as ``ros_gz_sim create`` does;
+        ``lidar`` names its lidar sensor to use (default: its first). Raises
+        :class:`WorldError` for a model that cannot be loaded or has no collision shape, or a
+        pose overlapping an obstacle.
         """
         label = self._label()
         parser = _Parser(label)
         folder = self.path.parent if self.path is not None else None
-        robot = parser.model(str(model), 'robot', folder)
+        robot = parser.model(str(model), 'robot', folder, lidar)
         if not robot.shapes:
             raise WorldError(label, 'robot', 'model', f"model '{model}' has no collision shape "
                              'to give the robot a footprint')
         world = replace(self, robot=robot, robot_model=robot.name,
                         sources=tuple(dict.fromkeys(self.sources + robot.sources)),
-                        ignored=_ignored_line(self.world_ignored + robot.ignored))
+                        ignored=_ignored_line(self.world_ignored + robot.not_simulated))
         try:
             return world.with_robot_start(*pose)
         except TypeError:
@@ -389,7 +395,7 @@ class _Parser:
                      robot_model=robot_model, robot=robot, target=target, bounds=bounds,
                      floor_size=floor_size, description=description,
                      sources=tuple(dict.fromkeys(files_read)),
-                     ignored=_ignored_line(robot.ignored))
+                     ignored=_ignored_line(robot.not_simulated))
 
     def entries(self, data: Mapping, key: str) -> list:
         value = data.get(key)
@@ -438,7 +444,8 @@ class _Parser:
         pose = self.pose(value.get('pose', [0.0, 0.0, 0.0]), 'robot')
         return name, model, pose
 
-    def model(self, name: Any, where: str, folder: Path | None = None) -> Model:
+    def model(self, name: Any, where: str, folder: Path | None = None,
+              lidar: str | None = None) -> Model:
         """Return the model ``name`` (a folder's name, or a path to a folder or SDF file)."""
         if not isinstance(name, str) or not name:
             raise self.fail(where, 'model', f'must be a model name, got {_kind(name)}')
@@ -446,7 +453,7 @@ class _Parser:
             given = Path(name)
             found = given if given.parent != Path('.') or given.suffix == '.sdf' \
                 else paths.find_model(name, folder)
-            model = load_model(found, world_folder=folder)
+            model = load_model(found, lidar=lidar, world_folder=folder)
         except FileNotFoundError as error:
             raise self.fail(where, 'model', str(error)) from None
         except SdfError as error:
@@ -648,15 +655,31 @@ def _default_bounds(obstacles: list[Obstacle], robot_start: tuple[float, float, 
             max(box[2] for box in boxes) + margin, max(box[3] for box in boxes) + margin)
 
 
-def _sdf_world(path: Path, text: str, label: str, robot_given: bool) -> World:
-    """Return the World of an SDF world file; its robot is the model that can drive and scan."""
+def _sdf_world(path: Path, text: str, label: str, robot_given: bool,
+               lidar: str | None) -> World:
+    """
+    Return the World of an SDF world file; its robot is the model that can drive and scan.
+
+    With ``lidar`` named, the robot is the first model with a drive and a lidar of that name.
+    """
     try:
         sdf = parse_world(text, path)
     except SdfError as error:
         raise WorldError(label, None, None, _without_file(str(error), path)) from None
     except FileNotFoundError as error:
         raise WorldError(label, None, None, str(error)) from None
-    robot = next((placed for placed in sdf.models if placed.model.is_robot), None)
+    robot = None
+    for placed in sdf.models:
+        if lidar is not None and placed.model.drive is not None and not robot_given and \
+                any(name == lidar for name, _ in placed.model.lidars):
+            robot = replace(placed, model=placed.model.with_lidar(lidar))
+            break
+        if lidar is None and placed.model.is_robot:
+            robot = placed
+            break
+    if robot is None and lidar is not None and not robot_given:
+        raise WorldError(label, None, None, f"has no robot with a lidar sensor named '{lidar}'"
+                         ': name one of its robot\'s lidars, or pass --robot MODEL')
     if robot is None and not robot_given:
         raise WorldError(label, None, None, 'has no robot (a model with a diff-drive plugin and '
                          'a lidar): pass one with --robot MODEL, e.g. --robot turtlebot3_burger')
@@ -665,7 +688,7 @@ def _sdf_world(path: Path, text: str, label: str, robot_given: bool) -> World:
     for placed in sdf.models:
         if placed is robot:
             continue
-        ignored += placed.model.ignored
+        ignored += placed.model.not_simulated
         shapes = tuple(place(shape, placed.pose) for shape in placed.model.shapes)
         if not shapes:
             continue
@@ -687,7 +710,8 @@ def _sdf_world(path: Path, text: str, label: str, robot_given: bool) -> World:
                  robot=robot.model if robot is not None else Model('none', path, ()),
                  target=None, bounds=_default_bounds(obstacles, start, radius),
                  floor_size=floor, sources=sdf.sources, physics_step_s=sdf.physics_step_s,
-                 ignored=_ignored_line(tuple(ignored) + (robot.model.ignored if robot else ())),
+                 ignored=_ignored_line(tuple(ignored) + (robot.model.not_simulated if robot
+                                                         else ())),
                  world_ignored=tuple(ignored))
 
 
