@@ -679,7 +679,7 @@ def _sdf_world(path: Path, text: str, label: str, robot_given: bool,
             break
     if robot is None and lidar is not None and not robot_given:
         raise WorldError(label, None, None, f"has no robot with a lidar sensor named '{lidar}'"
-                         ': name one of its robot\'s lidars, or pass --robot MODEL')
+                         ": name one of its robot's lidars, or pass --robot MODEL")
     if robot is None and not robot_given:
         raise WorldError(label, None, None, 'has no robot (a model with a diff-drive plugin and '
                          'a lidar): pass one with --robot MODEL, e.g. --robot turtlebot3_burger')
