@@ -298,3 +298,14 @@ def test_a_world_robots_lidar_can_be_named(tmp_path):
     with pytest.raises(WorldError, match="room.yaml: robot: 'model': .*no lidar sensor named 'x' "
                        r'\(lidars: laser\)'):
         World.load('room', lidar='x')
+
+
+def test_classic_ground_plane_and_sun_work_offline(tmp_path, monkeypatch):
+    monkeypatch.setenv('HOME', str(tmp_path / 'home'))  # no ~/.gazebo/models/ground_plane
+    path = tmp_path / 'classic.world'
+    path.write_text('<sdf version="1.6"><world name="default"><include><uri>model://ground_plane'
+                    '</uri></include><include><uri>model://sun</uri></include>'
+                    f'<model name="bot">{ROBOT}</model></world></sdf>')
+    world = World.load(path)
+    assert world.floor_size == (100.0, 100.0) and world.obstacles == ()
+    assert world.ignored == 'ignored: 1 light'
