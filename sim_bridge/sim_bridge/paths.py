@@ -3,8 +3,9 @@ Find the workspace's worlds and models in a source checkout or a colcon install.
 
 A source checkout (including a pip editable install) keeps ``worlds/`` and ``models/`` at the
 repository's top level, two folders above this package. A colcon install has them in the
-package's share directory. Models are also looked up the way Gazebo does, on
-``GZ_SIM_RESOURCE_PATH`` and ``GAZEBO_MODEL_PATH``.
+package's share directory. Models are looked up the way Gazebo does (see
+:func:`model_search_path`): a world's own folder, Gazebo's resource paths, the users' model
+folders, and the kit's ``models/`` last.
 """
 
 import os
@@ -13,6 +14,12 @@ import sys
 
 PACKAGE_NAME = 'sim_bridge'
 WORLD_SUFFIX = '.yaml'
+#: Suffixes of world files given by path: the kit's YAML and Gazebo's SDF.
+WORLD_FILE_SUFFIXES = ('.yaml', '.yml', '.world', '.sdf')
+#: Environment variables listing model folders, in the order they are searched.
+MODEL_PATH_VARIABLES = ('GZ_SIM_RESOURCE_PATH', 'IGN_GAZEBO_RESOURCE_PATH', 'GAZEBO_MODEL_PATH')
+#: Folders below the home directory where Gazebo keeps downloaded models.
+HOME_MODEL_FOLDERS = ('.gazebo/models', '.gz/models')
 
 
 def repo_root() -> Path | None:
@@ -71,7 +78,7 @@ def world_names() -> list[str]:
 def find_world(name_or_path: str | os.PathLike) -> Path:
     """Return the world file for a shipped world's name or for a path to any world file."""
     path = Path(name_or_path)
-    if path.suffix == WORLD_SUFFIX or path.parent != Path('.'):
+    if path.suffix in WORLD_FILE_SUFFIXES or path.parent != Path('.'):
         if path.is_file():
             return path
         raise FileNotFoundError(f'world file not found: {path}')
@@ -82,24 +89,41 @@ def find_world(name_or_path: str | os.PathLike) -> Path:
         f"unknown world '{name_or_path}': shipped worlds are {', '.join(world_names())}")
 
 
-def model_search_path() -> list[Path]:
-    """Return the folders searched for models: ours first, then Gazebo's resource paths."""
-    folders = [models_dir()]
-    for variable in ('GZ_SIM_RESOURCE_PATH', 'GAZEBO_MODEL_PATH'):
+def model_search_path(world_folder: str | os.PathLike | None = None) -> list[Path]:
+    """
+    Return the folders searched for models, first match wins.
+
+    The world file's own folder (when a world is being read), then Gazebo Sim's
+    ``GZ_SIM_RESOURCE_PATH`` and its older name ``IGN_GAZEBO_RESOURCE_PATH``, Gazebo Classic's
+    ``GAZEBO_MODEL_PATH``, the users' ``~/.gazebo/models`` and ``~/.gz/models``, and the kit's
+    ``models/`` last: a model on the user's paths (the real TurtleBot3 folders, say) wins over
+    the kit's folder of the same name.
+    """
+    folders = [Path(world_folder)] if world_folder is not None else []
+    for variable in MODEL_PATH_VARIABLES:
         folders += [Path(entry) for entry in os.environ.get(variable, '').split(os.pathsep)
                     if entry]
-    return folders
+    home = Path.home()
+    folders += [home / folder for folder in HOME_MODEL_FOLDERS]
+    folders.append(models_dir())
+    return list(dict.fromkeys(folders))
 
 
-def find_model(name: str) -> Path:
-    """Return the model folder (holding ``model.sdf``) of the model called ``name``."""
-    folders = model_search_path()
+def is_model_folder(folder: Path) -> bool:
+    """Return True when ``folder`` holds a Gazebo model (``model.config`` or ``model.sdf``)."""
+    return (folder / 'model.config').is_file() or (folder / 'model.sdf').is_file()
+
+
+def find_model(name: str, world_folder: str | os.PathLike | None = None) -> Path:
+    """Return the folder of the model called ``name`` on :func:`model_search_path`."""
+    folders = model_search_path(world_folder)
     for folder in folders:
-        if (folder / name / 'model.sdf').is_file():
+        if is_model_folder(folder / name):
             return folder / name
     raise FileNotFoundError(
-        f"model '{name}' not found (looked for {name}/model.sdf in "
-        f"{', '.join(str(folder) for folder in folders)})")
+        f"model '{name}' not found (looked for {name}/model.config or model.sdf in "
+        f"{', '.join(str(folder) for folder in folders)}); put its folder on "
+        'GZ_SIM_RESOURCE_PATH')
 
 
 def output_folder(text: str) -> Path:

@@ -93,3 +93,29 @@ def test_an_output_folder_that_is_a_file_is_a_one_line_command_line_error(tmp_pa
         assert done.stderr.splitlines()[-1].endswith(
             f'error: argument --out: {a_file} is a file, not a folder: name a folder for the '
             'outputs')
+
+
+def test_models_are_searched_in_gazebos_order_with_the_kits_folder_last(tmp_path, monkeypatch):
+    folders = {name: tmp_path / name for name in ('world', 'gz', 'ign', 'classic', 'home')}
+    monkeypatch.setenv('GZ_SIM_RESOURCE_PATH', str(folders['gz']))
+    monkeypatch.setenv('IGN_GAZEBO_RESOURCE_PATH', str(folders['ign']))
+    monkeypatch.setenv('GAZEBO_MODEL_PATH', str(folders['classic']))
+    monkeypatch.setenv('HOME', str(folders['home']))
+    assert paths.model_search_path(folders['world']) == [
+        folders['world'], folders['gz'], folders['ign'], folders['classic'],
+        folders['home'] / '.gazebo' / 'models', folders['home'] / '.gz' / 'models',
+        paths.models_dir()]
+    # The kit's TurtleBot3 gives way to one on the user's paths (ROBOTIS's real folder).
+    assert paths.find_model('turtlebot3_burger') == paths.models_dir() / 'turtlebot3_burger'
+    theirs = folders['home'] / '.gz' / 'models' / 'turtlebot3_burger'
+    theirs.mkdir(parents=True)
+    (theirs / 'model.config').write_text('<model><sdf version="1.8">model.sdf</sdf></model>')
+    assert paths.find_model('turtlebot3_burger') == theirs
+    assert paths.find_model('turtlebot3_burger', folders['world']) == theirs
+
+
+def test_find_world_takes_gazebo_world_files_by_name_or_path(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    for name in ('lab.world', 'lab.sdf'):
+        (tmp_path / name).write_text('<sdf/>')
+        assert paths.find_world(name) == Path(name)

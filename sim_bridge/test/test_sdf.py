@@ -68,7 +68,8 @@ def test_shipped_robot_has_the_labs_lidar_and_a_round_base():
     assert (lidar.update_rate, lidar.noise_mean, lidar.noise_stddev) == (10.0, 0.0, 0.01)
     assert lidar.pose == (0.0, 0.0, 0.18, 0.0, 0.0, 0.0)
     assert lidar.frame_id == 'laser'
-    assert lidar == LidarConfig(pose=lidar.pose)
+    # The lab robot states its noise; a model without <noise> has none (as in Gazebo).
+    assert lidar == LidarConfig(pose=lidar.pose, noise_stddev=0.01)
 
 
 def test_shipped_wall_follow_models_have_the_documented_shapes():
@@ -121,9 +122,10 @@ def test_classic_ray_sensor_is_read_like_the_new_lidar_sensor():
     assert parse(robot_sdf(new_style)).lidar == lidar
 
 
-def test_left_out_sensor_elements_take_the_lab_defaults():
+def test_left_out_sensor_elements_take_the_lab_defaults_without_noise_and_the_link_frame():
     lidar = parse(robot_sdf('<sensor name="front" type="gpu_lidar"/>')).lidar
-    assert lidar == LidarConfig(frame_id='front')
+    assert lidar == LidarConfig(frame_id='base_link')
+    assert lidar.noise_stddev == 0.0
 
 
 def test_sensor_pose_is_composed_with_its_link_pose_and_may_tilt():
@@ -170,8 +172,11 @@ def test_model_without_lidar_and_noise_type_none():
 
 def test_other_sensors_are_ignored_and_the_first_lidar_wins():
     sensors = ('<sensor name="cam" type="camera"/>'
-               '<sensor name="first" type="gpu_lidar"/><sensor name="second" type="ray"/>')
-    assert parse(robot_sdf(sensors)).lidar.frame_id == 'first'
+               '<sensor name="first" type="gpu_lidar"><update_rate>7</update_rate></sensor>'
+               '<sensor name="second" type="ray"/>')
+    model = parse(robot_sdf(sensors))
+    assert model.lidar.update_rate == 7.0
+    assert ('sensor', 'cam (camera)') in model.ignored
 
 
 def test_model_config_names_the_sdf_file_newest_version_first(tmp_path):
@@ -198,13 +203,13 @@ HORIZONTAL = '<scan><horizontal>{}</horizontal></scan>'
     ('<sdf><model name="robot">', 'invalid XML'),
     ('<robot/>', '<robot>'),
     ('<sdf version="1.6"/>', '<sdf>'),
-    (robot_sdf(geometry='<mesh><uri>x.dae</uri></mesh>'), '<geometry>/<mesh>'),
+    (robot_sdf(geometry='<mesh><uri>x.dae</uri></mesh>'), '<geometry>/<mesh>/<uri>'),
+    (robot_sdf(geometry='<heightmap><uri>x.png</uri></heightmap>'), '<geometry>/<heightmap>'),
     (robot_sdf(geometry='<cylinder><length>1</length></cylinder>'), '<cylinder>/<radius>'),
     (robot_sdf(geometry='<sphere><radius>-0.5</radius></sphere>'), '<sphere>/<radius>'),
     (robot_sdf(geometry='<box><size>1 0 1</size></box>'), '<box>/<size>'),
     (robot_sdf(geometry='<box><size>1 1</size></box>'), '<box>/<size>'),
     (robot_sdf(geometry=''), '<collision name="body">/<geometry>'),
-    (robot_sdf(collision_pose='0 0 0 1.57 0 0'), '<collision name="body">/<pose>'),
     (robot_sdf(collision_pose='0 0 zero 0 0 0'), '<collision name="body">/<pose>'),
     (robot_sdf(BAD_SENSOR.format(HORIZONTAL.format('<samples>abc</samples>'))),
      '<horizontal>/<samples>'),
@@ -227,7 +232,7 @@ HORIZONTAL = '<scan><horizontal>{}</horizontal></scan>'
     (robot_sdf('<sensor name="laser" type="ray"><ray/><lidar/></sensor>'),
      '<sensor name="laser">'),
     (robot_sdf('<sensor name="laser" type="ray"><pose relative_to="world">0 0 0 0 0 0</pose>'
-               '</sensor>'), '<sensor name="laser">/<pose>'),
+               '</sensor>'), 'relative_to="world" names no frame'),
     (robot_sdf().replace('<link name="base_link">', '<include><uri>x</uri></include>'
                          '<link name="base_link">'), '<include>'),
 ])

@@ -3,8 +3,10 @@ The simulator: Gazebo's stand-in, pure Python with no rclpy (the ROS face is sim
 
 Read it as a table of contents:
 
-- :mod:`.world`: world files (the kit's YAML), validated into a :class:`~.world.World`;
-- :mod:`.sdf`: Gazebo model folders (``model.config``, ``model.sdf``): collisions and the lidar;
+- :mod:`.world`: world files (the kit's YAML, Gazebo's SDF), validated into a
+  :class:`~.world.World`;
+- :mod:`.sdf`: Gazebo model folders and SDF files: collisions, the lidar, the diff-drive plugin;
+- :mod:`.meshes`: the triangle meshes models name (STL, OBJ, DAE) and extruded polylines;
 - :mod:`.geometry`: poses, collision shapes, their floor outlines and triangle meshes;
 - :mod:`.robot`: the differential drive (velocity and acceleration limits, arc integration);
 - :mod:`.lidar`: the planar lidar as pybullet ray casts against the world's shapes;

@@ -66,6 +66,12 @@ the field, e.g.
 ``worlds/room.yaml: obstacles[2] (box_a): 'size': must be 3 positive finite numbers, got
 [1, -1, 1]``.
 
+Gazebo's SDF worlds (``.world``, ``.sdf``, or any file holding ``<sdf><world>``) load too:
+their models and ``<include>``s (see :mod:`.sdf`), the ground plane as the floor, and
+``<physics><max_step_size>``. The robot is the world's model with a diff-drive plugin and a
+lidar, or the model passed to :meth:`World.load` / :meth:`World.with_robot`. Other models are
+obstacles, held fixed; what is not simulated is summed up in :attr:`World.ignored`.
+
 What the simulator sees: every obstacle is one or more :class:`~.geometry.Shape`
 primitives (walls and cubes are boxes); the lidar sees their 3-D shapes, and the robot
 collides with what lies in its height band, from just above the floor to its top
@@ -76,7 +82,7 @@ that slice.
 """
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from functools import cached_property
 import math
 import os
@@ -85,8 +91,9 @@ from typing import Any
 
 from sim_bridge import paths
 from sim_bridge.simulation.floor_slice import FloorSlice
-from sim_bridge.simulation.geometry import Footprint, Shape, wrap_angle
-from sim_bridge.simulation.sdf import load_model, Model, SdfError
+from sim_bridge.simulation.geometry import Footprint, Shape, triangulate, wrap_angle
+from sim_bridge.simulation.sdf import (describe_ignored, Ignored, is_sdf_text, load_model, Model,
+                                       parse_world, place, SdfError)
 from sim_bridge.yaml_loader import load_yaml
 import yaml
 
@@ -142,10 +149,11 @@ class Obstacle:
     shapes: tuple[Shape, ...]
     pose: tuple[float, float, float]
     model: str | None = None
-    footprints: tuple[Footprint, ...] = field(init=False, repr=False)
 
-    def __post_init__(self) -> None:
-        object.__setattr__(self, 'footprints', tuple(shape.footprint() for shape in self.shapes))
+    @cached_property
+    def footprints(self) -> tuple[Footprint, ...]:
+        """Return the floor outlines of the shapes: their whole vertical projections."""
+        return tuple(shape.footprint() for shape in self.shapes)
 
     def distance(self, x: float, y: float) -> float:
         """Return the signed distance from the floor point (x, y) to the outline (m)."""
@@ -160,7 +168,9 @@ class World:
     ``robot_start`` is (x m, y m, yaw rad); ``robot`` the parsed robot model (its ``radius`` is
     the robot's footprint, its ``lidar`` the sensor); ``bounds`` (xmin, ymin, xmax, ymax in m)
     the area used for coverage; ``floor_size`` (x, y in m) or None for an endless floor;
-    ``sources`` the files it was read from: the world file (if any), then each model's SDF file.
+    ``sources`` the files it was read from: the world file (if any), then each model's SDF file;
+    ``physics_step_s`` an SDF world's ``<physics><max_step_size>`` (s), None when unset;
+    ``ignored`` one line summing up what the simulator does not simulate ('' for nothing).
     """
 
     name: str
@@ -174,24 +184,54 @@ class World:
     floor_size: tuple[float, float] | None = None
     description: str = ''
     sources: tuple[Path, ...] = ()
+    physics_step_s: float | None = None
+    ignored: str = ''
+    #: What the world itself (not its robot) has that is not simulated.
+    world_ignored: tuple[Ignored, ...] = ()
 
     @classmethod
-    def load(cls, name_or_path: str | os.PathLike) -> 'World':
+    def load(cls, name_or_path: str | os.PathLike, robot: str | os.PathLike | None = None,
+             robot_pose: tuple[float, float, float] = (0.0, 0.0, 0.0),
+             lidar: str | None = None) -> 'World':
         """
-        Load a shipped world by name (``room``) or any world file by path.
+        Load a shipped world by name (``room``) or any world file (YAML or SDF) by path.
 
-        Raises FileNotFoundError for an unknown world and :class:`WorldError` for a bad file.
+        ``robot`` (a model name or folder) replaces the world's robot, spawned at
+        ``robot_pose`` (x m, y m, yaw rad) as ``ros_gz_sim create`` does; ``lidar`` names the
+        robot's lidar sensor to use when it has several (default: its first). Raises
+        FileNotFoundError for an unknown world and :class:`WorldError` for a bad file.
         """
         path = paths.find_world(name_or_path)
         label = _display_path(path)
+        text = path.read_text(encoding='utf-8')
+        xml = is_sdf_text(text)
+        suffix = path.suffix.lower()
+        if xml and suffix in ('.yaml', '.yml'):
+            raise WorldError(label, None, None, 'holds XML (an SDF world), not YAML: name it '
+                             '.world or .sdf')
+        if not xml and suffix in ('.world', '.sdf'):
+            raise WorldError(label, None, None, 'holds YAML (a kit world), not SDF XML: name '
+                             'it .yaml')
+        if xml:
+            world = _sdf_world(path, text, label, robot is not None, lidar)
+        else:
+            world = cls._load_yaml(path, text, label)
+            if lidar is not None and robot is None:  # the YAML world's robot, re-read
+                robot, robot_pose = world.robot.path, world.robot_start
+        if robot is not None:
+            world = world.with_robot(robot, robot_pose, lidar)
+        return world
+
+    @classmethod
+    def _load_yaml(cls, path: Path, text: str, label: str) -> 'World':
         try:
-            data = load_yaml(path.read_text(encoding='utf-8'))
+            data = load_yaml(text)
         except yaml.YAMLError as error:
             mark = getattr(error, 'problem_mark', None)
             where = f'line {mark.line + 1}, column {mark.column + 1}: ' if mark else ''
             problem = getattr(error, 'problem', None) or str(error)
             raise WorldError(label, None, None, f'invalid YAML: {where}{problem}') from None
-        return _Parser(label).world(data, path)
+        return _Parser(label, path.parent).world(data, path)
 
     @classmethod
     def from_dict(cls, data: Any, source: str = '<dict>') -> 'World':
@@ -240,6 +280,33 @@ class World:
         _check_robot_clear(self._label(), pose, self.floor_slice)
         return replace(self, robot_start=pose)
 
+    def with_robot(self, model: str | os.PathLike,
+                   pose: tuple[float, float, float] = (0.0, 0.0, 0.0),
+                   lidar: str | None = None) -> 'World':
+        """
+        Return this world with the robot ``model`` (a name or a folder) at (x m, y m, yaw rad).
+
+        The model's own ``<pose>`` is replaced by ``pose``, as ``ros_gz_sim create`` does;
+        ``lidar`` names its lidar sensor to use (default: its first). Raises
+        :class:`WorldError` for a model that cannot be loaded or has no collision shape, or a
+        pose overlapping an obstacle.
+        """
+        label = self._label()
+        parser = _Parser(label)
+        folder = self.path.parent if self.path is not None else None
+        robot = parser.model(str(model), 'robot', folder, lidar)
+        if not robot.shapes:
+            raise WorldError(label, 'robot', 'model', f"model '{model}' has no collision shape "
+                             'to give the robot a footprint')
+        world = replace(self, robot=robot, robot_model=robot.name,
+                        sources=tuple(dict.fromkeys(self.sources + robot.sources)),
+                        ignored=_ignored_line(self.world_ignored + robot.not_simulated))
+        try:
+            return world.with_robot_start(*pose)
+        except TypeError:
+            raise WorldError(label, 'robot', 'pose', f'must be (x, y, yaw), got {pose!r}') \
+                from None
+
     def mirrored_start(self) -> 'World':
         """
         Return this world with the robot turned round on its start (yaw + pi).
@@ -261,6 +328,11 @@ def _display_path(path: Path) -> str:
         return str(path.resolve().relative_to(Path.cwd()))
     except ValueError:
         return str(path)
+
+
+def _ignored_line(items: tuple[Ignored, ...]) -> str:
+    text = describe_ignored(items)
+    return f'ignored: {text}' if text else ''
 
 
 def _floor_slice(label: str, robot: Model, obstacles: tuple[Obstacle, ...]) -> FloorSlice:
@@ -287,8 +359,9 @@ def _check_robot_clear(label: str, pose: tuple[float, float, float],
 class _Parser:
     """Turns the parsed YAML of one file into a World, raising WorldError on the first fault."""
 
-    def __init__(self, label: str) -> None:
+    def __init__(self, label: str, folder: Path | None = None) -> None:
         self.label = label
+        self.folder = folder
         self.model_files: list[Path] = []
 
     def fail(self, entry: str | None, field_name: str | None, problem: str) -> WorldError:
@@ -336,7 +409,8 @@ class _Parser:
         return World(name=name, path=path, obstacles=tuple(obstacles), robot_start=robot_start,
                      robot_model=robot_model, robot=robot, target=target, bounds=bounds,
                      floor_size=floor_size, description=description,
-                     sources=tuple(dict.fromkeys(files_read)))
+                     sources=tuple(dict.fromkeys(files_read)),
+                     ignored=_ignored_line(robot.not_simulated))
 
     def entries(self, data: Mapping, key: str) -> list:
         value = data.get(key)
@@ -378,23 +452,28 @@ class _Parser:
             raise self.fail('robot', None, f'must be a mapping, got {_kind(value)}')
         self.check_keys(value, _ROBOT_KEYS, 'robot')
         name = value.get('model', DEFAULT_ROBOT_MODEL)
-        model = self.model(name, 'robot')
+        model = self.model(name, 'robot', self.folder)
         if not model.shapes:
             raise self.fail('robot', 'model', f"model '{name}' has no collision shape to give "
                             'the robot a footprint')
         pose = self.pose(value.get('pose', [0.0, 0.0, 0.0]), 'robot')
         return name, model, pose
 
-    def model(self, name: Any, where: str) -> Model:
+    def model(self, name: Any, where: str, folder: Path | None = None,
+              lidar: str | None = None) -> Model:
+        """Return the model ``name`` (a folder's name, or a path to a folder or SDF file)."""
         if not isinstance(name, str) or not name:
             raise self.fail(where, 'model', f'must be a model name, got {_kind(name)}')
         try:
-            model = load_model(paths.find_model(name))
+            given = Path(name)
+            found = given if given.parent != Path('.') or given.suffix == '.sdf' \
+                else paths.find_model(name, folder)
+            model = load_model(found, lidar=lidar, world_folder=folder)
         except FileNotFoundError as error:
             raise self.fail(where, 'model', str(error)) from None
         except SdfError as error:
             raise self.fail(where, 'model', f"model '{name}' is broken: {error}") from None
-        self.model_files.append(model.path)
+        self.model_files += model.sources or [model.path]
         return model
 
     def walls(self, entry: Any, index: int) -> tuple[str, list[Obstacle]]:
@@ -461,7 +540,7 @@ class _Parser:
         if kind == 'model':
             if 'model' not in entry:
                 raise self.fail(where, 'model', 'missing; name a model folder')
-            model = self.model(entry['model'], where)
+            model = self.model(entry['model'], where, self.folder)
             if not model.shapes:
                 raise self.fail(where, 'model', f"model '{entry['model']}' has no collision "
                                 'shapes')
@@ -564,17 +643,93 @@ def _wall(name: str, x: float, y: float, yaw: float, length: float, thickness: f
     return Obstacle(name, 'wall', (shape,), (x, y, shape.yaw))
 
 
+def _shape_bounds(shape: Shape) -> tuple[float, float, float, float]:
+    """Return the floor bounding box (xmin, ymin, xmax, ymax) of a shape (m)."""
+    try:
+        return shape.footprint().bounds()
+    except ValueError:
+        points = triangulate(shape)[0] @ shape.rotation().T + (shape.x, shape.y, shape.z)
+        low = points.min(axis=0)
+        high = points.max(axis=0)
+        return (float(low[0]), float(low[1]), float(high[0]), float(high[1]))
+
+
 def _default_bounds(obstacles: list[Obstacle], robot_start: tuple[float, float, float],
                     robot_radius: float) -> tuple[float, float, float, float]:
-    walls = [fp for obstacle in obstacles if obstacle.kind == 'wall'
-             for fp in obstacle.footprints]
+    walls = [shape for obstacle in obstacles if obstacle.kind == 'wall'
+             for shape in obstacle.shapes]
     if walls:
-        boxes = [fp.bounds() for fp in walls]
+        boxes = [_shape_bounds(shape) for shape in walls]
         margin = 0.0
     else:
         x, y = robot_start[:2]
-        boxes = [fp.bounds() for obstacle in obstacles for fp in obstacle.footprints]
+        boxes = [_shape_bounds(shape) for obstacle in obstacles for shape in obstacle.shapes]
         boxes.append((x - robot_radius, y - robot_radius, x + robot_radius, y + robot_radius))
         margin = BOUNDS_MARGIN
     return (min(box[0] for box in boxes) - margin, min(box[1] for box in boxes) - margin,
             max(box[2] for box in boxes) + margin, max(box[3] for box in boxes) + margin)
+
+
+def _sdf_world(path: Path, text: str, label: str, robot_given: bool,
+               lidar: str | None) -> World:
+    """
+    Return the World of an SDF world file; its robot is the model that can drive and scan.
+
+    With ``lidar`` named, the robot is the first model with a drive and a lidar of that name.
+    """
+    try:
+        sdf = parse_world(text, path)
+    except SdfError as error:
+        raise WorldError(label, None, None, _without_file(str(error), path)) from None
+    except FileNotFoundError as error:
+        raise WorldError(label, None, None, str(error)) from None
+    robot = None
+    for placed in sdf.models:
+        if lidar is not None and placed.model.drive is not None and not robot_given and \
+                any(name == lidar for name, _ in placed.model.lidars):
+            robot = replace(placed, model=placed.model.with_lidar(lidar))
+            break
+        if lidar is None and placed.model.is_robot:
+            robot = placed
+            break
+    if robot is None and lidar is not None and not robot_given:
+        raise WorldError(label, None, None, f"has no robot with a lidar sensor named '{lidar}'"
+                         ": name one of its robot's lidars, or pass --robot MODEL")
+    if robot is None and not robot_given:
+        raise WorldError(label, None, None, 'has no robot (a model with a diff-drive plugin and '
+                         'a lidar): pass one with --robot MODEL, e.g. --robot turtlebot3_burger')
+    obstacles = []
+    ignored = list(sdf.ignored)
+    for placed in sdf.models:
+        if placed is robot:
+            continue
+        ignored += placed.model.not_simulated
+        shapes = tuple(place(shape, placed.pose) for shape in placed.model.shapes)
+        if not shapes:
+            continue
+        x, y, _, _, _, yaw = placed.pose
+        obstacles.append(Obstacle(placed.name, 'model', shapes, (x, y, yaw),
+                                  model=placed.model.name))
+        if not placed.static:
+            ignored.append(('model held fixed', placed.name))
+    floor = next((plane.size for plane in sdf.planes), None)
+    if robot is not None:
+        start = (robot.pose[0], robot.pose[1], wrap_angle(robot.pose[5]))
+        radius = robot.model.radius
+    else:  # with_robot puts the robot given in
+        start = (0.0, 0.0, 0.0)
+        radius = 0.0
+    name = sdf.name if sdf.name != 'default' else path.stem
+    return World(name=name, path=path, obstacles=tuple(obstacles), robot_start=start,
+                 robot_model=robot.name if robot is not None else '',
+                 robot=robot.model if robot is not None else Model('none', path, ()),
+                 target=None, bounds=_default_bounds(obstacles, start, radius),
+                 floor_size=floor, sources=sdf.sources, physics_step_s=sdf.physics_step_s,
+                 ignored=_ignored_line(tuple(ignored) + (robot.model.not_simulated if robot
+                                                         else ())),
+                 world_ignored=tuple(ignored))
+
+
+def _without_file(message: str, path: Path) -> str:
+    """Return an SdfError's message without its leading file name when it is ``path``."""
+    return message.removeprefix(f'{path}: ')

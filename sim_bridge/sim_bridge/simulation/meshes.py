@@ -1,0 +1,98 @@
+"""
+Triangle meshes of a model: the files ``<mesh>`` names (STL, OBJ, COLLADA) and extrusions.
+
+trimesh reads every format (DAE through pycollada). A COLLADA file carries its own length unit
+(``<asset><unit meter="0.0254"/>`` for a file drawn in inches) and Gazebo scales the mesh by
+it; trimesh's plain load does not, so :func:`load_mesh` applies it from pycollada's reading of
+the asset. The SDF ``<scale>`` is applied on top. A file is read once per process and kept
+(worlds repeat the same mesh many times). :func:`extrude` builds the prism of an SDF
+``<polyline>`` (shapely triangulates the outline).
+"""
+
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+
+from sim_bridge.simulation.geometry import Mesh
+
+#: File suffixes trimesh reads here (lower case).
+MESH_SUFFIXES = ('.stl', '.obj', '.dae')
+
+
+class MeshError(ValueError):
+    """A mesh file that cannot be read; the message names the file and why."""
+
+
+def load_mesh(path: Path, scale: tuple[float, float, float] = (1.0, 1.0, 1.0)) -> Mesh:
+    """
+    Return the mesh in file ``path`` in metres, times ``scale``, as one triangle mesh.
+
+    The file's scene graph (node transforms) is flattened; a DAE's ``<unit>`` is applied.
+    Raises :class:`MeshError` for a format not read here or a file with no triangles.
+    """
+    vertices, faces = _read(Path(path).resolve())
+    return Mesh(vertices * np.asarray(scale, dtype=float), faces, str(path))
+
+
+@lru_cache(maxsize=256)
+def _read(path: Path) -> tuple[np.ndarray, np.ndarray]:
+    suffix = path.suffix.lower()
+    if suffix not in MESH_SUFFIXES:
+        raise MeshError(f'{path}: unsupported mesh format {suffix!r}; use one of '
+                        f"{', '.join(MESH_SUFFIXES)}")
+    if not path.is_file():
+        raise MeshError(f'{path}: mesh file not found; check the <uri> (model://NAME/... is '
+                        'looked up on GZ_SIM_RESOURCE_PATH)')
+    import trimesh  # imported on first use: a world of primitives never pays for it
+    try:
+        mesh = trimesh.load(str(path), force='mesh')
+    except Exception as error:  # trimesh and pycollada raise many kinds on a broken file
+        raise MeshError(f'{path}: cannot read the mesh: {error}') from None
+    if len(getattr(mesh, 'faces', ())) == 0:
+        raise MeshError(f'{path}: the mesh has no triangles')
+    vertices = np.asarray(mesh.vertices, dtype=float)
+    if suffix == '.dae':
+        vertices = vertices * _collada_unit(path)
+    vertices.setflags(write=False)
+    faces = np.asarray(mesh.faces, dtype=np.int64)
+    faces.setflags(write=False)
+    return vertices, faces
+
+
+def _collada_unit(path: Path) -> float:
+    """Return the metres per unit a COLLADA file declares (1.0 when it declares none)."""
+    import collada
+    try:
+        document = collada.Collada(str(path), ignore=[collada.common.DaeUnsupportedError,
+                                                      collada.common.DaeBrokenRefError])
+    except Exception as error:  # pycollada raises many kinds on a broken file
+        raise MeshError(f'{path}: cannot read the COLLADA asset: {error}') from None
+    unit = document.assetInfo.unitmeter
+    return float(unit) if unit else 1.0
+
+
+def extrude(points: list[tuple[float, float]], height: float, source: str) -> Mesh:
+    """
+    Return the prism of a simple polygon (x, y points in m) from z = 0 up to ``height`` (m).
+
+    Raises :class:`MeshError` when the points do not outline a simple polygon of some area.
+    """
+    import shapely
+    outline = shapely.Polygon(points) if len(points) >= 3 else None
+    if outline is None or not outline.is_valid or outline.area <= 0.0:
+        raise MeshError(f'{source}: need at least 3 points outlining a simple polygon')
+    triangles = [np.asarray(triangle.exterior.coords)[:3]
+                 for triangle in shapely.constrained_delaunay_triangles(outline).geoms]
+    pieces = []
+    for triangle in triangles:
+        pieces.append(np.column_stack((triangle[::-1], np.zeros(3))))  # bottom, facing down
+        pieces.append(np.column_stack((triangle, np.full(3, height))))  # top, facing up
+    ring = np.asarray(outline.exterior.coords)
+    for start, end in zip(ring[:-1], ring[1:]):
+        low_start, low_end = (*start, 0.0), (*end, 0.0)
+        high_start, high_end = (*start, height), (*end, height)
+        pieces.append(np.array([low_start, low_end, high_end]))
+        pieces.append(np.array([low_start, high_end, high_start]))
+    vertices = np.vstack(pieces)
+    return Mesh(vertices, np.arange(len(vertices)).reshape(-1, 3), source)
