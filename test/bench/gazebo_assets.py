@@ -20,6 +20,8 @@ from sim_bridge.simulation.sdf import describe_ignored, LidarConfig, load_model
 from sim_bridge.simulation.world import World
 
 ASSETS = Path(__file__).resolve().parents[3] / 'shared' / 'gazebo_assets'
+#: Where ROBOTIS's launch files spawn the robot (x m, y m, yaw rad) in a world with none.
+SPAWN_POSES = {'turtlebot3_world': (-2.0, -0.5, 0.0)}
 
 
 def lidar_text(lidar: LidarConfig | None) -> str:
@@ -79,8 +81,9 @@ def main(assets: Path) -> int:
             if 'pass one with --robot' not in str(error):
                 rows.append((label, f'ERROR {error}', '', '', '', ''))
                 continue
-            world = World.load(world_file, robot='turtlebot3_burger')
-            robot = ' (no robot: --robot turtlebot3_burger)'
+            pose = SPAWN_POSES.get(world_file.stem, (0.0, 0.0, 0.0))
+            world = World.load(world_file, robot='turtlebot3_burger', robot_pose=pose)
+            robot = f' (no robot: --robot turtlebot3_burger --robot-pose {pose})'
         rows.append((label, 'loaded' + robot, lidar_text(world.robot.lidar),
                      str(len(world.shapes())), area_text(world.footprints),
                      world.ignored.removeprefix('ignored: ')))
