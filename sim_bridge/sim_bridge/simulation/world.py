@@ -72,7 +72,7 @@ primitives (walls and cubes are boxes); the robot collides with their floor outl
 lidar sees their 3-D shapes.
 """
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 import math
 import os
@@ -223,6 +223,20 @@ class World:
             raise WorldError(self._label(), 'robot', 'pose', f'must be finite, got {pose}')
         _check_robot_clear(self._label(), pose, self.robot.radius, self.obstacles)
         return replace(self, robot_start=pose)
+
+    def with_robot(self, model: Model, pose: Sequence[float]) -> 'World':
+        """
+        Return this world with ``model`` as its robot, at ``pose`` (x m, y m, yaw rad).
+
+        As ``ros_gz_sim create`` spawns a model into a world. Raises :class:`WorldError` when
+        the model has no collision shape (no footprint) or would start overlapping an obstacle.
+        """
+        if not model.shapes:
+            raise WorldError(self._label(), 'robot', 'model', f"model '{model.name}' has no "
+                             'collision shape to give the robot a footprint')
+        robot = replace(self, robot_model=model.name, robot=model,
+                        sources=tuple(dict.fromkeys((*self.sources, model.path))))
+        return robot.with_robot_start(*pose)
 
     def mirrored_start(self) -> 'World':
         """
