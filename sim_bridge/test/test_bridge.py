@@ -726,6 +726,85 @@ def test_robot_pose_parameter_places_the_robot(session):
     assert pose == pytest.approx((1.0, -1.0, 0.5))
 
 
+#: A robot model of the test's own: a 0.1 m box with a 0..2 pi lidar in frame base_scan.
+SPAWNED_ROBOT_SDF = """<?xml version="1.0"?>
+<sdf version="1.8">
+  <model name="little_bot">
+    <link name="base_footprint">
+      <collision name="body">
+        <pose>0 0 0.05 0 0 0</pose>
+        <geometry><box><size>0.2 0.2 0.1</size></box></geometry>
+      </collision>
+      <sensor name="hls_lfcd_lds" type="gpu_lidar">
+        <pose>-0.03 0 0.12 0 0 0</pose>
+        <gz_frame_id>base_scan</gz_frame_id>
+        <update_rate>5</update_rate>
+        <lidar>
+          <scan><horizontal><samples>360</samples><resolution>1</resolution>
+            <min_angle>0</min_angle><max_angle>6.28</max_angle></horizontal></scan>
+          <range><min>0.12</min><max>3.5</max><resolution>0.015</resolution></range>
+        </lidar>
+      </sensor>
+    </link>
+  </model>
+</sdf>
+"""
+
+
+@pytest.fixture
+def spawned_robot(tmp_path, monkeypatch):
+    """Put the model folder ``little_bot`` on GZ_SIM_RESOURCE_PATH, as a Gazebo user does."""
+    folder = tmp_path / 'models' / 'little_bot'
+    folder.mkdir(parents=True)
+    (folder / 'model.sdf').write_text(SPAWNED_ROBOT_SDF)
+    monkeypatch.setenv('GZ_SIM_RESOURCE_PATH', str(tmp_path / 'models'))
+    return folder
+
+
+def test_robot_parameter_spawns_a_model_at_robot_pose(session, spawned_robot):
+    bridge = session.bridge(world='obstacles', robot='little_bot', robot_pose=[1.0, -1.0, 0.5])
+    scans = session.listen(session.probe(), LaserScan, 'scan')
+    session.run_for(0.3)
+    assert bridge.sim.world.robot.name == 'little_bot'
+    assert bridge.sim.world.robot.radius == pytest.approx(math.hypot(0.1, 0.1))
+    assert bridge.sim.pose == pytest.approx((1.0, -1.0, 0.5))
+    (t, scan), = scans                                    # its lidar: 5 Hz, 360 beams
+    assert t == 200 * MS
+    assert (scan.header.frame_id, len(scan.ranges)) == ('base_scan', 360)
+
+
+def test_robot_parameter_alone_spawns_at_the_worlds_start(session, spawned_robot):
+    bridge = session.bridge(world='wall_follow_box', robot='little_bot')
+    assert bridge.sim.pose == pytest.approx(World.load('wall_follow_box').robot_start)
+
+
+@pytest.mark.parametrize('params, error, match', [
+    ({'robot': 'no_such_bot'}, FileNotFoundError, "model 'no_such_bot' not found"),
+    ({'robot': 'little_bot', 'robot_pose': [2.5, 0.0, 0.0]}, ValueError,
+     "overlaps obstacle 'cube'"),
+    ({'robot_pose': [1.0, 2.0]}, ValueError, r"'robot_pose' must be \[x, y, yaw\]"),
+])
+def test_a_robot_that_cannot_be_spawned_is_one_clear_error(params, error, match, session,
+                                                           spawned_robot):
+    with pytest.raises(error, match=match):
+        session.bridge(world='obstacles', **params)
+
+
+def test_what_the_world_cannot_simulate_is_logged_once_at_start(session, monkeypatch, logs):
+    robot_world(monkeypatch, ignored=("light 'sun'", "plugin 'gz::sim::systems::Imu'"))
+    session.bridge()
+    session.run_for(0.5)
+    assert warnings_of(logs) == [
+        "not simulated: light 'sun'; plugin 'gz::sim::systems::Imu'"]
+
+
+def test_the_worlds_physics_step_sets_the_physics_rate_unless_the_parameter_does(
+        session, monkeypatch):
+    robot_world(monkeypatch, physics_step_s=0.004)
+    assert session.bridge().step_ns == 4 * MS
+    assert session.bridge(namespace='given', physics_rate=50.0).step_ns == 20 * MS
+
+
 def test_parameters_on_the_command_line_as_ros2_run_gives_them(session):
     bridge = session.bridge(cli_args=['--ros-args', '-p', 'world:=wall_follow_box',
                                       '-p', 'robot_pose:=[1.0, -1.0, 0.5]',
