@@ -46,6 +46,7 @@ SCAN_PERIOD_NS = NANOSECONDS_PER_SECOND // 10
 ODOM_PERIOD_NS = NANOSECONDS_PER_SECOND // 50
 COMMAND_PERIOD_S = 0.1                       # how often the probe repeats a command
 PARAMS_FILE = Path(__file__).resolve().parents[1] / 'params' / 'sim.yaml'
+MODELS = Path(__file__).resolve().parent / 'fixtures' / 'models'
 
 
 class Session:
@@ -726,39 +727,14 @@ def test_robot_pose_parameter_places_the_robot(session):
     assert pose == pytest.approx((1.0, -1.0, 0.5))
 
 
-#: A robot model of the test's own: a 0.1 m box with a 0..2 pi lidar in frame base_scan.
-SPAWNED_ROBOT_SDF = """<?xml version="1.0"?>
-<sdf version="1.8">
-  <model name="little_bot">
-    <link name="base_footprint">
-      <collision name="body">
-        <pose>0 0 0.05 0 0 0</pose>
-        <geometry><box><size>0.2 0.2 0.1</size></box></geometry>
-      </collision>
-      <sensor name="hls_lfcd_lds" type="gpu_lidar">
-        <pose>-0.03 0 0.12 0 0 0</pose>
-        <gz_frame_id>base_scan</gz_frame_id>
-        <update_rate>5</update_rate>
-        <lidar>
-          <scan><horizontal><samples>360</samples><resolution>1</resolution>
-            <min_angle>0</min_angle><max_angle>6.28</max_angle></horizontal></scan>
-          <range><min>0.12</min><max>3.5</max><resolution>0.015</resolution></range>
-        </lidar>
-      </sensor>
-    </link>
-  </model>
-</sdf>
-"""
-
-
 @pytest.fixture
-def spawned_robot(tmp_path, monkeypatch):
-    """Put the model folder ``little_bot`` on GZ_SIM_RESOURCE_PATH, as a Gazebo user does."""
-    folder = tmp_path / 'models' / 'little_bot'
-    folder.mkdir(parents=True)
-    (folder / 'model.sdf').write_text(SPAWNED_ROBOT_SDF)
-    monkeypatch.setenv('GZ_SIM_RESOURCE_PATH', str(tmp_path / 'models'))
-    return folder
+def spawned_robot(monkeypatch):
+    """
+    Put the test's model folders on GZ_SIM_RESOURCE_PATH, as a Gazebo user does.
+
+    ``little_bot``: a 0.2 m box with a 0..2 pi lidar of 360 beams at 5 Hz in frame base_scan.
+    """
+    monkeypatch.setenv('GZ_SIM_RESOURCE_PATH', str(MODELS))
 
 
 def test_robot_parameter_spawns_a_model_at_robot_pose(session, spawned_robot):
