@@ -30,7 +30,7 @@ from rclpy.time import Time
 from rclpy.utilities import get_default_context
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import LaserScan
-from sim_bridge import bridge as bridge_module
+from sim_bridge import bridge as bridge_module, live
 from sim_bridge.bridge import NO_TF_WARNING, SimBridge
 from sim_bridge.paths import find_world
 from sim_bridge.simulation.robot import DiffDriveConfig, DriveLimits
@@ -747,6 +747,13 @@ def test_robot_parameter_spawns_a_model_at_robot_pose(session, spawned_robot):
     (t, scan), = scans                                    # its lidar: 5 Hz, 360 beams
     assert t == 200 * MS
     assert (scan.header.frame_id, len(scan.ranges)) == ('base_scan', 360)
+
+
+def test_robot_and_robot_pose_as_live_gives_them_on_the_command_line(session, spawned_robot):
+    spec = live.bridge_spec('obstacles', robot='little_bot', robot_pose=(0.5, -1.0, 1.5))
+    bridge = session.bridge(cli_args=list(spec.cmd[spec.cmd.index('--ros-args'):]))
+    assert bridge.sim.world.robot.name == 'little_bot'
+    assert bridge.sim.pose == pytest.approx((0.5, -1.0, 1.5))
 
 
 def test_robot_parameter_alone_spawns_at_the_worlds_start(session, spawned_robot):
