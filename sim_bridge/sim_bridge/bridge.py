@@ -136,7 +136,7 @@ class SimBridge(Node):
                        for name, default in (('odom', drive.odometry_frame),
                                              ('base_link', drive.base_frame),
                                              ('laser', lidar_frame))}
-        limits = DriveLimits(**{name: self.declare_parameter(name, default).value
+        limits = DriveLimits(**{name: self.declare_parameter(name, float(default)).value
                                 for name, default in vars(drive.limits).items()})
         # Every other parameter is read before the simulator (a pybullet client) exists, so a
         # bad one cannot leave a client behind.
@@ -145,7 +145,7 @@ class SimBridge(Node):
         odom_rate = self.rate('odom_rate', float(drive.odometry_rate))
         real_time_factor = self.rate('real_time_factor', 1.0)
         stamped = self.declare_parameter('cmd_vel_stamped', False).value
-        publish_tf = self.declare_parameter('publish_tf', drive.publish_tf).value
+        publish_tf = self.declare_parameter('publish_tf', bool(drive.publish_tf)).value
         # 0: keep the last command until the next, as Gazebo's DiffDrive does.
         command_timeout = self.declare_parameter('cmd_vel_timeout',
                                                  float(drive.command_timeout or 0.0)).value
