@@ -53,7 +53,7 @@ NANOSECONDS_PER_SECOND = 10 ** 9
 #: times a lab lidar's rate (Gazebo's own default step, 1 ms, would be 1000 Hz).
 DEFAULT_PHYSICS_RATE = 100.0
 NO_TF_WARNING = ('tf2_ros is not installed (it comes with a ROS 2 installation, not from PyPI): '
-                 'publishing no TF (odom -> base_link, base_link -> laser); /odom, /scan and '
+                 'publishing no TF (odom -> base, base -> lidar frame); odometry, scans and '
                  '/clock are published as usual')
 
 

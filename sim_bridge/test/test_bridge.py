@@ -883,7 +883,7 @@ def test_a_30_hz_lidar_on_100_hz_physics_sends_30_scans_a_second_each_saying_whe
     assert warnings_of(logs) == []
 
 
-def test_odometry_keeps_a_rate_that_does_not_divide_the_physics_rate(session, logs):
+def test_a_rate_above_the_physics_rate_is_warned_of_and_sent_every_step(session, logs):
     session.bridge(odom_rate=30.0, physics_rate=25.0)
     times, _ = published_times(session, Odometry, 'odom', 2.0)
     assert len(times) == 50                      # 25 Hz physics: one odometry per step
