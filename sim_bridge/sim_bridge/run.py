@@ -148,7 +148,8 @@ def node_parameters(world: World, params: Params | None, *, seed: int, gui: bool
     """
     Return every node's parameters: ``params`` plus the simulator's own.
 
-    The simulator's: world, robot, robot pose, seed and gui. RunError when ``params`` sets one of the RUNNER_BRIDGE_PARAMETERS.
+    The simulator's: world, robot, robot pose, seed and gui. RunError when ``params`` sets
+    one of the RUNNER_BRIDGE_PARAMETERS.
     """
     if not is_seed(seed):
         raise RunError(f'seed must be a non-negative integer up to {MAX_SEED} (a ROS integer '

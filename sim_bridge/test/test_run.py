@@ -302,8 +302,8 @@ def test_file_target_with_class_name_picks_that_class(tmp_path):
 ], ids=['unknown target', 'missing file', 'no Node subclass', 'two Node subclasses',
         'unknown class', 'unknown world', 'param type', 'param for absent node',
         'malformed param', 'param the runner sets', 'bad simulator param',
-        'bad lidar param', 'unknown robot', 'robot pose as a param', 'zero duration', 'infinite duration', 'negative seed',
-        'seed beyond int64'])
+        'bad lidar param', 'unknown robot', 'robot pose as a param', 'zero duration',
+        'infinite duration', 'negative seed', 'seed beyond int64'])
 def test_start_error_is_one_line_exit_2_and_writes_nothing(args, mentions, tmp_path, run_main):
     out_dir = tmp_path / 'out'
     argv = ['--world', 'wall_follow_box', '--duration', '1', *args, '--out', str(out_dir)]
@@ -562,7 +562,7 @@ def test_simulator_param_reaches_the_bridge(tmp_path, run_main):
 
 
 def test_robot_and_robot_pose_spawn_a_model_the_run_is_scored_with(tmp_path, run_main,
-                                                                     monkeypatch):
+                                                                   monkeypatch):
     monkeypatch.setenv('GZ_SIM_RESOURCE_PATH', str(MODELS))
     status, _, _ = run_main('--world', 'obstacles', '--robot', 'little_bot', '--robot-pose',
                             '0.5', '-1.0', '1.5', '--node', 'scan_ahead', '--duration', '0.4',
