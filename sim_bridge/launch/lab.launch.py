@@ -2,7 +2,9 @@
 Start the simulator with the world of a lab task, and the task's scan_pkg node.
 
 ``ros2 launch sim_bridge lab.launch.py task:=wall_follow`` (tasks: see sim_bridge.lab_tasks);
-``world:=...`` overrides the task's world, ``gui:=true`` opens the pybullet window.
+``world:=...`` overrides the task's world, ``robot:=NAME`` and ``robot_pose:='[x, y, yaw]'`` its
+robot (the lab robot in every task's world; see sim.launch.py), ``gui:=true`` opens the pybullet
+window.
 """
 
 import os
@@ -36,7 +38,9 @@ def start_task(context):
             PythonLaunchDescriptionSource(
                 PathJoinSubstitution([share, 'launch', 'sim.launch.py'])),
             launch_arguments={'world': world, 'gui': LaunchConfiguration('gui'),
-                              'rviz': LaunchConfiguration('rviz')}.items(),
+                              'rviz': LaunchConfiguration('rviz'),
+                              'robot': LaunchConfiguration('robot'),
+                              'robot_pose': LaunchConfiguration('robot_pose')}.items(),
         ),
         Node(package='scan_pkg', executable=task.node, output='screen',
              parameters=[*task_params_files(task.node), {'use_sim_time': True}]),
@@ -49,6 +53,10 @@ def generate_launch_description():
                               description=f"lab task: {', '.join(LAB_TASKS)}"),
         DeclareLaunchArgument('world', default_value='',
                               description="world to use instead of the task's"),
+        DeclareLaunchArgument('robot', default_value='',
+                              description="robot model to spawn instead of the world's"),
+        DeclareLaunchArgument('robot_pose', default_value='',
+                              description="the robot's start [x, y, yaw] (m, m, rad)"),
         DeclareLaunchArgument('gui', default_value='false',
                               description='open the pybullet window'),
         DeclareLaunchArgument('rviz', default_value='false', description='start RViz'),

@@ -1,19 +1,28 @@
 """
 The simulator as a ROS 2 node: it stands in for Gazebo and its ROS bridge in the lab.
 
-Publishes ``scan`` (sensor_msgs/LaserScan), ``odom`` (nav_msgs/Odometry), TF odom → base_link,
-static TF base_link → laser, ``clock`` (rosgraph_msgs/Clock) and ``collisions``
-(geometry_msgs/PointStamped); obeys ``cmd_vel`` (geometry_msgs/Twist, or TwistStamped when
-``cmd_vel_stamped`` is true). Live, a timer on the steady clock steps the physics at
-``physics_rate`` (Hz), paced at ``real_time_factor`` × wall-clock speed; the other nodes run
-with ``use_sim_time:=true``. Stepped (``SimBridge(stepped=True)``), the runner calls
-:meth:`SimBridge.step` itself, as Gazebo's lockstep does with its clients.
+Publishes ``scan`` (sensor_msgs/LaserScan) at the lidar's ``update_rate``, in the lidar's frame;
+the odometry (nav_msgs/Odometry) on the drive plugin's odometry topic (``odom``) with TF
+odom -> base, static TF base -> lidar frame, ``clock`` (rosgraph_msgs/Clock) and
+``collisions`` (geometry_msgs/PointStamped); obeys the drive plugin's command topic
+(``cmd_vel``: geometry_msgs/Twist, or TwistStamped when ``cmd_vel_stamped`` is true) and,
+as Gazebo's DiffDrive does, keeps the last command until the next one (``cmd_vel_timeout``
+> 0 stops the robot after that many s without one). Live, a timer on the steady clock steps
+the physics at ``physics_rate`` (Hz), paced at ``real_time_factor`` x wall-clock speed; the
+other nodes run with ``use_sim_time:=true``. Stepped (``SimBridge(stepped=True)``), the runner
+calls :meth:`SimBridge.step` itself, as Gazebo's lockstep does with its clients.
+
+The drive follows the robot model's diff-drive plugin (``Model.drive``: limits, topics,
+frames, odometry rate, TF); what it leaves unset is Gazebo's default. Precedence: a parameter
+given to the node (params file, ``-p``, launch) wins over the plugin, which wins over the
+kit's default; each such parameter is declared with the plugin's value as its default.
 
 TF needs ``tf2_ros``, which a ROS 2 installation has and PyPI does not: without it the bridge
 says so once and publishes everything else.
 """
 
 from array import array
+from fractions import Fraction
 import math
 
 from geometry_msgs.msg import PointStamped, TransformStamped, Twist, TwistStamped
@@ -24,6 +33,7 @@ from rclpy.clock import Clock as RclpyClock, ClockType
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from rclpy.time import Time
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import LaserScan
@@ -33,13 +43,17 @@ try:
 except ImportError:  # tf2_ros is part of a ROS 2 installation, not of the PyPI wheels
     StaticTransformBroadcaster = TransformBroadcaster = None
 
-from sim_bridge.simulation.robot import DriveLimits
+from sim_bridge.simulation.robot import DiffDriveConfig, DriveLimits
+from sim_bridge.simulation.sdf import LidarConfig
 from sim_bridge.simulation.simulator import Simulator
 from sim_bridge.simulation.world import World
 
 NANOSECONDS_PER_SECOND = 10 ** 9
+#: Hz, when neither the world (its physics step) nor the physics_rate parameter sets one: ten
+#: times a lab lidar's rate (Gazebo's own default step, 1 ms, would be 1000 Hz).
+DEFAULT_PHYSICS_RATE = 100.0
 NO_TF_WARNING = ('tf2_ros is not installed (it comes with a ROS 2 installation, not from PyPI): '
-                 'publishing no TF (odom -> base_link, base_link -> laser); /odom, /scan and '
+                 'publishing no TF (odom -> base, base -> lidar frame); odometry, scans and '
                  '/clock are published as usual')
 
 
@@ -63,6 +77,39 @@ def float32_array(values: np.ndarray) -> array:
     return array('f', np.asarray(values, dtype=np.float32).tobytes())
 
 
+def relative(topic: str) -> str:
+    """Return a plugin's topic as a relative ROS name: in the node's namespace, remappable."""
+    return topic.lstrip('/')
+
+
+class UpdateSchedule:
+    """
+    When something sent at ``rate_hz`` is due, on a clock that advances in physics steps.
+
+    Update n (n = 1, 2, ...) is due at n / rate_hz s and happens at the first physics step at or
+    after that time, as a Gazebo sensor updates (its next update time moves on one period per
+    update): the rate is kept exactly on average whatever the physics step, e.g. 30 scans per
+    simulated second from a 30 Hz lidar on 100 Hz physics, 3 or 4 steps apart. Updates due
+    within one step (a rate above the physics rate) make one. Times are exact fractions of a
+    ns: deterministic, no drift.
+    """
+
+    def __init__(self, rate_hz: float) -> None:
+        self.period_ns = Fraction(NANOSECONDS_PER_SECOND) / Fraction(rate_hz)
+        self.updates = 0
+        self.last_ns = 0
+        #: The time (ns) from the previous update (or the start) to the last one.
+        self.elapsed_ns = 0
+
+    def due(self, now_ns: int) -> bool:
+        """Return whether an update is due at ``now_ns`` (ns); if so, it counts as made."""
+        if now_ns < (self.updates + 1) * self.period_ns:
+            return False
+        self.updates = math.floor(now_ns / self.period_ns)
+        self.elapsed_ns, self.last_ns = now_ns - self.last_ns, now_ns
+        return True
+
+
 class SimBridge(Node):
     """
     Step the simulator and bridge it to ROS topics.
@@ -73,32 +120,50 @@ class SimBridge(Node):
 
     def __init__(self, *, stepped: bool = False, **kwargs):
         super().__init__('sim_bridge', **kwargs)
-        world = World.load(self.declare_parameter('world', 'obstacles').value)
-        start = self.declare_parameter('start_pose', list(world.robot_start)).value
-        self.frames = {name: self.declare_parameter(name + '_frame', name).value
-                       for name in ('odom', 'base_link', 'laser')}
-        limits = DriveLimits(**{name: self.declare_parameter(name, default).value
-                                for name, default in vars(DriveLimits()).items()})
+        world = self.load_world()
+        # What the world's files ask for and the simulator does not do, said once, at start.
+        if world.ignored:
+            self.get_logger().info(world.ignored)
+        world_step_s = world.physics_step_s
+        # The robot model's diff-drive plugin gives the drive's defaults, Gazebo's own where
+        # the plugin leaves something unset (a robot without one: DiffDriveConfig's); a
+        # parameter given to the node (params file, -p, launch) overrides it.
+        drive = world.robot.drive or DiffDriveConfig()
+        lidar_frame = world.robot.lidar.frame_id if world.robot.lidar else LidarConfig.frame_id
+        self.frames = {name: self.declare_parameter(name + '_frame', default).value
+                       for name, default in (('odom', drive.odometry_frame),
+                                             ('base_link', drive.base_frame),
+                                             ('laser', lidar_frame))}
+        limits = DriveLimits(**{name: self.declare_parameter(name, float(default)).value
+                                for name, default in vars(drive.limits).items()})
         # Every other parameter is read before the simulator (a pybullet client) exists, so a
         # bad one cannot leave a client behind.
-        physics_rate = self.rate('physics_rate', 100.0)
-        odom_rate = self.rate('odom_rate', 50.0)
+        physics_rate = self.rate('physics_rate', 1.0 / world_step_s if world_step_s
+                                 else DEFAULT_PHYSICS_RATE)
+        odom_rate = self.rate('odom_rate', float(drive.odometry_rate))
         real_time_factor = self.rate('real_time_factor', 1.0)
         stamped = self.declare_parameter('cmd_vel_stamped', False).value
+        publish_tf = self.declare_parameter('publish_tf', bool(drive.publish_tf)).value
+        # 0: keep the last command until the next, as Gazebo's DiffDrive does.
+        command_timeout = self.declare_parameter('cmd_vel_timeout',
+                                                 float(drive.command_timeout or 0.0)).value
+        if not (math.isfinite(command_timeout) and command_timeout >= 0.0):
+            raise ValueError("parameter 'cmd_vel_timeout' must be 0 (keep the last command) or "
+                             f'a positive number of s, got {command_timeout!r}')
         self.sim = Simulator(
-            world.with_robot_start(*start),
+            world,
             seed=self.declare_parameter('seed', 0).value,
             limits=limits,
-            command_timeout=self.declare_parameter('cmd_vel_timeout', 0.5).value,
+            command_timeout=command_timeout if command_timeout > 0.0 else None,
             lidar_samples=self.optional('lidar_samples', 0),
             lidar_noise_stddev=self.optional('lidar_noise_stddev', -1.0),
             gui=self.declare_parameter('gui', False).value,
             draw_rays=self.declare_parameter('draw_rays', False).value)
         self.step_ns = round(NANOSECONDS_PER_SECOND / physics_rate)
         self.step_s = self.step_ns / NANOSECONDS_PER_SECOND
-        self.steps_per_scan = self.steps_between(
+        self.scan_schedule = self.schedule(
             'lidar update_rate', self.sim.lidar_config.update_rate, physics_rate)
-        self.steps_per_odom = self.steps_between('odom_rate', odom_rate, physics_rate)
+        self.odom_schedule = self.schedule('odom_rate', odom_rate, physics_rate)
         self.steps = 0
         self.collisions_reported = 0
         #: Called as ``on_publish(topic, msg)`` after each message the bridge publishes itself.
@@ -110,14 +175,16 @@ class SimBridge(Node):
             {'event_callbacks': PublisherEventCallbacks(use_default_callbacks=False)},
             {'event_callbacks': SubscriptionEventCallbacks(use_default_callbacks=False)})
         self.scan_pub = self.create_publisher(LaserScan, 'scan', 10, **events)
-        self.odom_pub = self.create_publisher(Odometry, 'odom', 10, **events)
+        self.odom_pub = self.create_publisher(Odometry, relative(drive.odometry_topic), 10,
+                                              **events)
         self.clock_pub = self.create_publisher(Clock, 'clock', 10, **events)
         self.collision_pub = self.create_publisher(PointStamped, 'collisions', 10, **events)
+        self.tf_broadcaster = None
         if TransformBroadcaster is None:
             self.get_logger().warning(NO_TF_WARNING)
-            self.tf_broadcaster = None
         else:
-            self.tf_broadcaster = TransformBroadcaster(self)
+            if publish_tf:
+                self.tf_broadcaster = TransformBroadcaster(self)
             StaticTransformBroadcaster(self).sendTransform(self.laser_transform())
         # Messages published every step are filled in place: publishing copies them.
         self.clock = Clock()
@@ -125,8 +192,9 @@ class SimBridge(Node):
         self.odom.header.frame_id = self.frames['odom']
         self.odom_transform = self.transform(self.clock.clock, 'odom', 'base_link',
                                              (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
-        self.create_subscription(TwistStamped if stamped else Twist, 'cmd_vel',
-                                 self.on_cmd_vel, 10, **cmd_vel_events)
+        self.create_subscription(TwistStamped if stamped else Twist,
+                                 relative(drive.command_topic), self.on_cmd_vel, 10,
+                                 **cmd_vel_events)
         if not stepped:
             # The steady clock: this timer makes sim time, so it cannot wait for it.
             self.create_timer(1.0 / physics_rate / real_time_factor, self.step,
@@ -139,14 +207,32 @@ class SimBridge(Node):
             raise ValueError(f"parameter '{name}' must be positive and finite, got {value!r}")
         return value
 
-    def steps_between(self, name, rate, physics_rate):
-        """Return the physics steps between messages sent at ``rate`` (Hz); warn if inexact."""
-        steps = max(1, round(physics_rate / rate))
-        if not math.isclose(physics_rate / steps, rate):
+    def schedule(self, name, rate, physics_rate):
+        """Return the UpdateSchedule of ``rate`` (Hz); warn when the physics cannot keep it."""
+        if rate > physics_rate:
             self.get_logger().warning(
-                f'{name} {rate:g} Hz is not physics_rate {physics_rate:g} Hz divided by a whole '
-                f'number: publishing every {steps} steps, at {physics_rate / steps:g} Hz')
-        return steps
+                f'{name} {rate:g} Hz is above physics_rate {physics_rate:g} Hz: publishing '
+                f'every physics step, at {physics_rate:g} Hz')
+        return UpdateSchedule(rate)
+
+    def load_world(self) -> World:
+        """
+        Return the world the parameter ``world`` names, with the robot ``robot`` at ``robot_pose``.
+
+        ``robot`` names a model folder (as the world file's ``robot: model:``; empty: the
+        world's own robot) put at ``robot_pose`` (x m, y m, yaw rad; unset: where the world puts
+        its robot), as ``ros_gz_sim create`` spawns a model into a Gazebo world.
+        """
+        name = self.declare_parameter('world', 'obstacles').value
+        robot = self.declare_parameter('robot', '').value
+        pose = self.declare_parameter('robot_pose', Parameter.Type.DOUBLE_ARRAY).value
+        if pose is not None and len(pose) != 3:
+            raise ValueError(f"parameter 'robot_pose' must be [x, y, yaw] (m, m, rad), got "
+                             f'{list(pose)}')
+        if robot:
+            return World.load(name, robot=robot, robot_pose=pose)
+        world = World.load(name)
+        return world if pose is None else world.with_robot_start(*pose)
 
     def optional(self, name, unset):
         """Declare a parameter whose default ``unset`` means 'as the robot model says'."""
@@ -175,19 +261,21 @@ class SimBridge(Node):
         """
         self.sim.step(self.step_s)
         self.steps += 1
+        now_ns = self.now_ns
         stamp = self.clock.clock
-        stamp.sec, stamp.nanosec = divmod(self.now_ns, NANOSECONDS_PER_SECOND)
+        stamp.sec, stamp.nanosec = divmod(now_ns, NANOSECONDS_PER_SECOND)
         due = []
-        if self.steps % self.steps_per_scan == 0:
+        if self.scan_schedule.due(now_ns):
             due.append((self.scan_pub, self.scan_message(stamp)))
-        if self.steps % self.steps_per_odom == 0:
+        odom_due = self.odom_schedule.due(now_ns)
+        if odom_due:
             due.append((self.odom_pub, self.odometry(stamp)))
         collisions = self.sim.collisions
         while self.collisions_reported < len(collisions):
             due.append((self.collision_pub,
                         self.report_collision(collisions[self.collisions_reported], stamp)))
             self.collisions_reported += 1
-        send_tf = self.tf_broadcaster is not None and self.steps % self.steps_per_odom == 0
+        send_tf = self.tf_broadcaster is not None and odom_due
         heard = (clock_due or any(publisher.get_subscription_count() for publisher, _ in due)
                  or (send_tf and self.tf_broadcaster.pub_tf.get_subscription_count() > 0))
         if heard:
@@ -206,11 +294,19 @@ class SimBridge(Node):
             self.on_publish(publisher.topic_name, msg)
 
     def scan_message(self, stamp) -> LaserScan:
+        """
+        Return the scan taken now, stamped ``stamp``.
+
+        ``scan_time`` is the time (s) since the previous scan (since the start for the first):
+        1/update_rate on average, one physics step more or less when the rate does not divide
+        the physics rate. ``time_increment`` is 0: every beam is cast at the same instant.
+        """
         scan = self.sim.scan()
         msg = LaserScan(angle_min=float(scan.angle_min), angle_max=float(scan.angle_max),
                         angle_increment=float(scan.angle_increment),
                         time_increment=float(scan.time_increment),
-                        scan_time=float(scan.scan_time), range_min=float(scan.range_min),
+                        scan_time=self.scan_schedule.elapsed_ns / NANOSECONDS_PER_SECOND,
+                        range_min=float(scan.range_min),
                         range_max=float(scan.range_max), ranges=float32_array(scan.ranges),
                         intensities=float32_array(scan.intensities))
         msg.header.stamp = stamp

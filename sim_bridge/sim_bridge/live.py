@@ -1,12 +1,14 @@
 """
 Run a lab task live: the simulator and the task's node as two ROS 2 processes, as launch does.
 
-``python -m sim_bridge.live TASK [--world W] [--duration S] [--gui] [--rtf F]`` (``./lab live``)
+``python -m sim_bridge.live TASK [--world W] [--robot NAME [--robot-pose X Y YAW]] [--duration S]
+[--gui] [--rtf F]`` (``./lab live``)
 starts what ``ros2 launch sim_bridge lab.launch.py task:=TASK`` starts on a ROS 2 machine, on a
 machine that has only Python (launch and launch_ros are not on PyPI):
 
 - ``sim_bridge-1``: ``python -m sim_bridge.bridge --ros-args --params-file <sim.yaml>
-  -p world:=W -p gui:=... -p real_time_factor:=F``, the simulator stepping its physics on its
+  -p world:=W -p gui:=... -p real_time_factor:=F [-p robot:=NAME -p robot_pose:=[X, Y, YAW]]``,
+  the simulator (with the robot model NAME spawned at the pose) stepping its physics on its
   own steady-clock timer, publishing /scan, /odom and /clock;
 - ``<node>-2``: the task's scan_pkg node (the console script's module, ``python -m
   scan_pkg.<node>``) with ``--ros-args --params-file <params/<node>.yaml> -p
@@ -205,20 +207,28 @@ def ros_overrides(params: Mapping[str, str]) -> list[str]:
 
 
 def bridge_spec(world: str, *, gui: bool = False, real_time_factor: float = 1.0,
+                robot: str | None = None, robot_pose: Sequence[float] | None = None,
                 params: Mapping[str, str] | None = None, python: str = sys.executable
                 ) -> ProcessSpec:
     """
     Return the simulator's process: ``world`` (a name or a path), its window, its pace.
 
     As sim.launch.py starts it: the params file ``sim.yaml``, then ``world`` and ``gui``;
-    here also ``real_time_factor`` (× wall-clock speed) and ``params`` overrides.
+    here also ``real_time_factor`` (× wall-clock speed), the robot model ``robot`` to spawn
+    instead of the world's and its ``robot_pose`` (x m, y m, yaw rad), and ``params``
+    overrides.
     """
     cmd = [*python_command('sim_bridge.bridge', python=python), '--ros-args']
     params_file = package_params_file('sim_bridge', 'sim.yaml')
     if params_file is not None:
         cmd += ['--params-file', str(params_file)]
+    spawn = {}
+    if robot is not None:
+        spawn['robot'] = robot
+    if robot_pose is not None:
+        spawn['robot_pose'] = f"[{', '.join(repr(float(value)) for value in robot_pose)}]"
     cmd += ros_overrides({'world': world, 'gui': 'true' if gui else 'false',
-                          'real_time_factor': repr(float(real_time_factor)),
+                          'real_time_factor': repr(float(real_time_factor)), **spawn,
                           **(params or {})})
     return ProcessSpec(BRIDGE_EXECUTABLE, tuple(cmd))
 
@@ -240,15 +250,17 @@ def node_spec(executable: str, *, params: Mapping[str, str] | None = None,
 
 
 def task_specs(task: str, *, world: str | None = None, gui: bool = False,
-               real_time_factor: float = 1.0,
+               real_time_factor: float = 1.0, robot: str | None = None,
+               robot_pose: Sequence[float] | None = None,
                params: Mapping[str, Mapping[str, str]] | None = None,
                python: str = sys.executable) -> list[ProcessSpec]:
     """
     Return the processes of lab task ``task``: the simulator, then the task's node.
 
-    ``world`` replaces the task's world; ``params`` maps a node name (``sim_bridge`` or the
-    task's node) to its parameter overrides. ValueError for an unknown task or for ``params``
-    naming another node.
+    ``world`` replaces the task's world, ``robot`` (a model name) the world's robot (the lab
+    robot in every task's world), ``robot_pose`` (x m, y m, yaw rad) its start; ``params``
+    maps a node name (``sim_bridge`` or the task's node) to its parameter overrides.
+    ValueError for an unknown task or for ``params`` naming another node.
     """
     if task not in LAB_TASKS:
         raise ValueError(f"unknown task '{task}': choose one of {', '.join(LAB_TASKS)}")
@@ -259,6 +271,7 @@ def task_specs(task: str, *, world: str | None = None, gui: bool = False,
         raise ValueError(f"parameters for {', '.join(sorted(unknown))}: task '{task}' runs "
                          f'the nodes {BRIDGE_EXECUTABLE} and {lab_task.node}')
     return [bridge_spec(world or lab_task.world, gui=gui, real_time_factor=real_time_factor,
+                        robot=robot, robot_pose=robot_pose,
                         params=params.get(BRIDGE_EXECUTABLE), python=python),
             node_spec(lab_task.node, params=params.get(lab_task.node), python=python)]
 
@@ -560,6 +573,11 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         epilog='Stop with Ctrl-C: the node first, then the simulator.')
     parser.add_argument('task', choices=list(LAB_TASKS), help='lab task')
     parser.add_argument('--world', help="world name or path instead of the task's")
+    parser.add_argument('--robot', metavar='NAME',
+                        help="robot model to spawn instead of the world's (a model folder, "
+                             'also from GZ_SIM_RESOURCE_PATH / GAZEBO_MODEL_PATH)')
+    parser.add_argument('--robot-pose', type=float, nargs=3, metavar=('X', 'Y', 'YAW'),
+                        help="the robot's start pose (m, m, rad; default: the world's)")
     parser.add_argument('--duration', type=positive_float, metavar='S',
                         help='stop after this many wall seconds (default: at Ctrl-C)')
     parser.add_argument('--gui', action='store_true', help='open the pybullet window')
@@ -581,8 +599,11 @@ def main(argv: Sequence[str] | None = None) -> int:
             params.setdefault(node, {})[name] = value
         if args.world is not None:
             paths.find_world(args.world)
+        if args.robot is not None:
+            paths.find_model(args.robot)
         specs = task_specs(args.task, world=args.world, gui=args.gui,
-                           real_time_factor=args.rtf, params=params)
+                           real_time_factor=args.rtf, robot=args.robot,
+                           robot_pose=args.robot_pose, params=params)
     except (ValueError, FileNotFoundError) as error:
         print(f'error: {error}', file=sys.stderr)
         return 2

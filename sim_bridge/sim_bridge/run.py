@@ -43,9 +43,10 @@ from sim_bridge.targets import load_node_class, StudentCode, TargetError
 import yaml
 
 BRIDGE_NODE = 'sim_bridge'
-#: SimBridge parameters the runner alone sets: the world the metrics are scored in, the seed
-#: and gui options, the start pose, and the pace (a run is on sim time; --gui paces it).
-RUNNER_BRIDGE_PARAMETERS = ('world', 'seed', 'gui', 'start_pose', 'real_time_factor')
+#: SimBridge parameters the runner alone sets: the world and robot the metrics are scored in,
+#: the seed and gui options, the robot's start pose, and the pace (a run is on sim time; --gui
+#: paces it).
+RUNNER_BRIDGE_PARAMETERS = ('world', 'robot', 'robot_pose', 'seed', 'gui', 'real_time_factor')
 SETPOINT_PARAMETER = 'distance'
 PROGRESS_AFTER_S = 2.0
 GUI_FRAME_RATE = 60
@@ -106,10 +107,18 @@ def parse_param(text: str) -> tuple[str, str, Any]:
     return node, name, parameter_value_to_python(get_parameter_value(value))
 
 
-def load_world(world: str) -> World:
-    """Load a world by name or path, turning every failure into a one-line RunError."""
+def load_world(world: str, robot: str | None = None,
+               start: Sequence[float] | str | None = None) -> World:
+    """
+    Load a world by name or path, turning every failure into a one-line RunError.
+
+    ``robot`` names a robot model (a model folder, as the world file's ``robot: model:``)
+    spawned in it instead of the world's own robot, at ``start`` when that is a pose (x m, y m,
+    yaw rad), else at the world's robot start; as the bridge's ``robot`` parameter does.
+    """
+    pose = None if start is None or isinstance(start, str) else start
     try:
-        return World.load(find_world(world))
+        return World.load(find_world(world), robot=robot, robot_pose=pose)
     except (FileNotFoundError, WorldError) as error:
         raise RunError(str(error)) from None
 
@@ -128,24 +137,27 @@ def start_pose(world: World, start: Sequence[float] | str | None) -> list[float]
 
 
 def node_parameters(world: World, params: Params | None, *, seed: int, gui: bool,
-                    start: Sequence[float] | str | None) -> Params:
+                    start: Sequence[float] | str | None, robot: str | None = None) -> Params:
     """
-    Return every node's parameters: ``params`` plus the simulator's world, seed, gui and start.
+    Return every node's parameters: ``params`` plus the simulator's own.
 
-    RunError when ``params`` sets one of the RUNNER_BRIDGE_PARAMETERS.
+    The simulator's: world, robot, robot pose, seed and gui. RunError when ``params`` sets
+    one of the RUNNER_BRIDGE_PARAMETERS.
     """
     if not is_seed(seed):
         raise RunError(f'seed must be a non-negative integer up to {MAX_SEED} (a ROS integer '
                        f'parameter is int64), got {seed!r}')
     bridge_params = {'world': str(world.path), 'seed': seed, 'gui': bool(gui)}
+    if robot is not None:
+        bridge_params['robot'] = robot
     pose = start_pose(world, start)
     if pose is not None:
-        bridge_params['start_pose'] = pose
+        bridge_params['robot_pose'] = pose
     params = dict(params or {})
     clash = [name for name in RUNNER_BRIDGE_PARAMETERS if name in params.get(BRIDGE_NODE, {})]
     if clash:
         raise RunError(f'--param {BRIDGE_NODE}:{clash[0]}: the runner sets it (use --world, '
-                       '--seed, --gui)')
+                       '--robot, --robot-pose, --seed, --gui)')
     params[BRIDGE_NODE] = {**params.get(BRIDGE_NODE, {}), **bridge_params}
     return params
 
@@ -510,7 +522,8 @@ def open_outputs(out_dir: Path, params_file: Path, record: bool) -> BagRecorder 
 def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60.0,
                    seed: int = 0, params: Params | None = None,
                    out_dir: Path | str | None = None,
-                   start: Sequence[float] | str | None = None, quiet: bool = False,
+                   start: Sequence[float] | str | None = None, robot: str | None = None,
+                   quiet: bool = False,
                    record: bool = True, plot: bool = True, gui: bool = False,
                    field_checks: bool = True,
                    progress: Callable[[float, float], None] | None = None) -> RunResult:
@@ -518,7 +531,10 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
     Run ``targets`` (see sim_bridge.targets) with the simulator in ``world`` for ``duration_s``.
 
     ``params`` maps node names to parameter overrides; ``start`` overrides the robot's start
-    pose (x m, y m, yaw rad), or is 'mirrored' to put the world's target on the robot's left.
+    pose (x m, y m, yaw rad), or is 'mirrored' to put the world's target on the robot's left;
+    ``robot`` names a robot model spawned instead of the world's own (see :func:`load_world`).
+    What the world's files hold that the simulator does not simulate (``World.ignored``) is
+    logged once by the simulator at start and kept in ``metrics['ignored']``.
     ``gui`` shows the run in the pybullet window at wall-clock pace. ``field_checks``: rosidl
     refuses a value of the wrong type in a message field (see sim_bridge.run_environment); off,
     the run behaves as Jazzy's default does on a robot. Raises RunError when the
@@ -532,8 +548,9 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
     """
     if not (math.isfinite(duration_s) and duration_s > 0):
         raise RunError(f'duration must be a positive number of seconds, got {duration_s}')
-    world_model = load_world(world)
-    node_params = node_parameters(world_model, params, seed=seed, gui=gui, start=start)
+    world_model = load_world(world, robot, start)
+    node_params = node_parameters(world_model, params, seed=seed, gui=gui, start=start,
+                                  robot=robot)
     out_dir = Path(out_dir) if out_dir is not None else default_out_dir(world_model, targets)
 
     node_errors, warnings, ended_by = [], [], None
@@ -603,6 +620,7 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
                               node_errors=node_errors)
     metrics['warnings'] = [*metrics.get('warnings', []), *warnings]
     metrics['ended_by'] = ended_by
+    metrics['ignored'] = world_model.ignored
     (out_dir / 'metrics.json').write_text(json.dumps(metrics, indent=2) + '\n')
     if plot:
         plot_trajectory(observer.trace, world_model, out_dir / 'trajectory.png',
@@ -665,6 +683,11 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
                         dest='nodes', help='node to run (repeatable)')
     parser.add_argument('--duration', type=float, default=60.0, metavar='S',
                         help='simulated seconds (default 60)')
+    parser.add_argument('--robot', metavar='NAME',
+                        help="robot model to spawn instead of the world's (a model folder, "
+                             'also from GZ_SIM_RESOURCE_PATH / GAZEBO_MODEL_PATH)')
+    parser.add_argument('--robot-pose', type=float, nargs=3, metavar=('X', 'Y', 'YAW'),
+                        help="the robot's start pose (m, m, rad; default: the world's)")
     parser.add_argument('--seed', type=int, default=0, help='seed of the run (default 0)')
     parser.add_argument('--param', action='append', default=[], metavar='NODE:NAME=VALUE',
                         help='parameter override, typed as --ros-args -p types it (repeatable)')
@@ -693,6 +716,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             params.setdefault(node, {})[name] = value
         result = run_simulation(
             args.world, args.nodes, duration_s=args.duration, seed=args.seed, params=params,
+            start=args.robot_pose, robot=args.robot,
             out_dir=args.out, quiet=args.quiet, gui=args.gui, record=not args.no_record,
             plot=not args.no_plot, field_checks=not args.no_field_checks,
             progress=terminal_progress() if sys.stderr.isatty() and not args.quiet else None)

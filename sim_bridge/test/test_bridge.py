@@ -9,6 +9,7 @@ DDS traffic stays in the test process (conftest.py).
 """
 
 import copy
+from dataclasses import replace
 import math
 from pathlib import Path
 import shutil
@@ -29,10 +30,10 @@ from rclpy.time import Time
 from rclpy.utilities import get_default_context
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import LaserScan
-from sim_bridge import bridge as bridge_module
+from sim_bridge import bridge as bridge_module, live
 from sim_bridge.bridge import NO_TF_WARNING, SimBridge
 from sim_bridge.paths import find_world
-from sim_bridge.simulation.robot import DriveLimits
+from sim_bridge.simulation.robot import DiffDriveConfig, DriveLimits
 from sim_bridge.simulation.simulator import Simulator
 from sim_bridge.simulation.world import World
 from sim_bridge.stepping import spin_until_idle, SteppedExecutor
@@ -45,6 +46,7 @@ SCAN_PERIOD_NS = NANOSECONDS_PER_SECOND // 10
 ODOM_PERIOD_NS = NANOSECONDS_PER_SECOND // 50
 COMMAND_PERIOD_S = 0.1                       # how often the probe repeats a command
 PARAMS_FILE = Path(__file__).resolve().parents[1] / 'params' / 'sim.yaml'
+MODELS = Path(__file__).resolve().parent / 'fixtures' / 'models'
 
 
 class Session:
@@ -208,6 +210,31 @@ def warnings_of(logs, node_name='sim_bridge'):
 def ramp_loss(speed, accel):
     """Return the distance (m) lost accelerating from rest to ``speed`` (m/s) at ``accel``."""
     return speed ** 2 / (2.0 * accel)
+
+
+def robot_world(monkeypatch, *, drive=None, lidar=None, **world_attributes):
+    """
+    Make every bridge load the obstacles world with its robot's drive and lidar replaced.
+
+    As the model reader gives a model whose SDF has a diff-drive plugin; ``world_attributes``
+    are set on the world as its reader would set them (``physics_step_s``, ``ignored``).
+    """
+    world = World.load('obstacles')
+    world = replace(world, robot=replace(world.robot, drive=drive,
+                                         lidar=lidar or world.robot.lidar))
+    for name, value in world_attributes.items():
+        object.__setattr__(world, name, value)   # frozen: as the reader's constructor would
+    monkeypatch.setattr(bridge_module.World, 'load', lambda *args, **kwargs: world)
+    return world
+
+
+#: A TurtleBot3-like plugin: its own topics and frames, slow odometry, no acceleration limit.
+PLUGIN = DiffDriveConfig(
+    wheel_separation=0.16, wheel_radius=0.033,
+    limits=DriveLimits(max_linear_speed=0.22, max_angular_speed=2.0,
+                       max_linear_accel=math.inf, max_angular_accel=math.inf),
+    command_topic='/robot/cmd_vel', odometry_topic='robot/odom', odometry_frame='robot_odom',
+    base_frame='base_footprint', odometry_rate=20.0, publish_tf=True)
 
 
 # --- what the bridge publishes ---------------------------------------------------------------
@@ -539,6 +566,84 @@ def test_twist_publisher_on_a_stamped_bridge_is_refused_in_the_same_process(sess
     assert bridge.sim.pose == (0.0, 0.0, 0.0)
 
 
+# --- the drive as the robot model's diff-drive plugin says -----------------------------------
+
+def test_the_drive_follows_the_models_diff_drive_plugin(session, monkeypatch, tf_sent):
+    world = robot_world(monkeypatch, drive=PLUGIN,
+                        lidar=replace(World.load('obstacles').robot.lidar, frame_id='base_scan'))
+    bridge = session.bridge()
+    probe = session.probe()
+    # The plugin's topics, as relative names (in the node's namespace, remappable).
+    odometry = session.listen(probe, Odometry, 'robot/odom')
+    scans = session.listen(probe, LaserScan, 'scan')
+    session.drive(probe.create_publisher(Twist, 'robot/cmd_vel', 10), twist(1.0, 3.0), 1.0)
+    assert bridge.sim.command == (0.22, 2.0)                      # the plugin's limits
+    assert bridge.sim.velocity == (0.22, 2.0)                     # no acceleration limit
+    times = [t for t, _ in odometry]
+    assert times == periodic_times(NANOSECONDS_PER_SECOND // 20, NANOSECONDS_PER_SECOND)
+    assert {(odom.header.frame_id, odom.child_frame_id) for _, odom in odometry} == \
+        {('robot_odom', 'base_footprint')}
+    assert {scan.header.frame_id for _, scan in scans} == {'base_scan'}
+    ((_, static),) = tf_sent['tf_static']
+    assert (static.header.frame_id, static.child_frame_id) == ('base_footprint', 'base_scan')
+    assert static.transform.translation.z == pytest.approx(world.robot.lidar.pose[2])
+    assert {(transform.header.frame_id, transform.child_frame_id)
+            for _, transform in tf_sent['tf']} == {('robot_odom', 'base_footprint')}
+    assert [t for t, _ in tf_sent['tf']] == times
+    assert bridge.get_parameter('max_linear_speed').value == 0.22
+    assert bridge.get_parameter('cmd_vel_timeout').value == 0.0
+
+
+def test_a_parameter_given_to_the_node_wins_over_the_plugin(session, monkeypatch, tf_sent):
+    robot_world(monkeypatch, drive=PLUGIN)
+    bridge = session.bridge(cli_args=['--ros-args', '-p', 'max_linear_speed:=0.1',
+                                      '-p', 'odom_frame:=odom', '-p', 'odom_rate:=10.0'])
+    probe = session.probe()
+    odometry = session.listen(probe, Odometry, 'robot/odom')
+    session.drive(probe.create_publisher(Twist, 'robot/cmd_vel', 10), twist(1.0, 3.0), 0.5)
+    assert bridge.sim.command == (0.1, 2.0)       # the parameter's speed, the plugin's turn
+    assert [t for t, _ in odometry] == periodic_times(NANOSECONDS_PER_SECOND // 10,
+                                                      NANOSECONDS_PER_SECOND // 2)
+    assert (odometry[0][1].header.frame_id, odometry[0][1].child_frame_id) == \
+        ('odom', 'base_footprint')
+
+
+def test_a_plugin_without_tf_sends_only_the_static_lidar_transform(session, monkeypatch,
+                                                                   tf_sent):
+    robot_world(monkeypatch, drive=replace(PLUGIN, publish_tf=False))
+    session.bridge()
+    session.run_for(0.5)
+    assert len(tf_sent['tf_static']) == 1
+    assert tf_sent['tf'] == []
+    session.bridge(namespace='with_tf', publish_tf=True)
+    session.run_for(0.1)
+    assert len(tf_sent['tf']) == 2
+
+
+def test_a_robot_without_a_plugin_keeps_the_kits_drive(session):
+    bridge = session.bridge()
+    assert World.load('obstacles').robot.drive is None
+    assert {name: bridge.get_parameter(name).value for name in vars(DriveLimits())} == \
+        vars(DriveLimits())
+    assert bridge.frames == {'odom': 'odom', 'base_link': 'base_link', 'laser': 'laser'}
+    assert bridge.get_parameter('odom_rate').value == 50.0
+
+
+def test_without_a_new_command_the_robot_keeps_the_last_one_as_in_gazebo(session):
+    bridge = session.bridge()
+    probe = session.probe()
+    probe.create_publisher(Twist, 'cmd_vel', 10).publish(twist(0.2, 0.1))
+    session.run_for(5.0)
+    assert bridge.sim.command == (0.2, 0.1)
+    assert bridge.sim.velocity == pytest.approx((0.2, 0.1))
+
+
+@pytest.mark.parametrize('value', [-1.0, math.nan, math.inf])
+def test_cmd_vel_timeout_must_be_zero_or_positive(value, session):
+    with pytest.raises(ValueError, match="'cmd_vel_timeout' must be 0"):
+        session.bridge(cmd_vel_timeout=value)
+
+
 @pytest.mark.parametrize('timeout_s', [0.5, 1.0])
 def test_robot_stops_when_commands_stop_for_cmd_vel_timeout(timeout_s, session):
     bridge = session.bridge(cmd_vel_timeout=timeout_s)
@@ -617,14 +722,76 @@ def test_unknown_world_raises_naming_the_shipped_worlds(session):
         session.bridge(world='no_such_world')
 
 
-def test_start_pose_parameter_places_the_robot(session):
-    _, pose = first_pose(session, start_pose=[1.0, -1.0, 0.5])
+def test_robot_pose_parameter_places_the_robot(session):
+    _, pose = first_pose(session, robot_pose=[1.0, -1.0, 0.5])
     assert pose == pytest.approx((1.0, -1.0, 0.5))
+
+
+@pytest.fixture
+def spawned_robot(monkeypatch):
+    """
+    Put the test's model folders on GZ_SIM_RESOURCE_PATH, as a Gazebo user does.
+
+    ``little_bot``: a 0.2 m box with a 0..2 pi lidar of 360 beams at 5 Hz in frame base_scan.
+    """
+    monkeypatch.setenv('GZ_SIM_RESOURCE_PATH', str(MODELS))
+
+
+def test_robot_parameter_spawns_a_model_at_robot_pose(session, spawned_robot):
+    bridge = session.bridge(world='obstacles', robot='little_bot', robot_pose=[1.0, -1.0, 0.5])
+    scans = session.listen(session.probe(), LaserScan, 'scan')
+    session.run_for(0.3)
+    assert bridge.sim.world.robot.name == 'little_bot'
+    assert bridge.sim.world.robot.radius == pytest.approx(math.hypot(0.1, 0.1))
+    assert bridge.sim.pose == pytest.approx((1.0, -1.0, 0.5))
+    (t, scan), = scans                                    # its lidar: 5 Hz, 360 beams
+    assert t == 200 * MS
+    assert (scan.header.frame_id, len(scan.ranges)) == ('base_scan', 360)
+
+
+def test_robot_and_robot_pose_as_live_gives_them_on_the_command_line(session, spawned_robot):
+    spec = live.bridge_spec('obstacles', robot='little_bot', robot_pose=(0.5, -1.0, 1.5))
+    bridge = session.bridge(cli_args=list(spec.cmd[spec.cmd.index('--ros-args'):]))
+    assert bridge.sim.world.robot.name == 'little_bot'
+    assert bridge.sim.pose == pytest.approx((0.5, -1.0, 1.5))
+
+
+def test_robot_parameter_alone_spawns_at_the_worlds_start(session, spawned_robot):
+    bridge = session.bridge(world='wall_follow_box', robot='little_bot')
+    assert bridge.sim.pose == pytest.approx(World.load('wall_follow_box').robot_start)
+
+
+@pytest.mark.parametrize('params, error, match', [
+    ({'robot': 'no_such_bot'}, ValueError, "model 'no_such_bot' not found"),
+    ({'robot': 'little_bot', 'robot_pose': [2.5, 0.0, 0.0]}, ValueError,
+     "overlaps obstacle 'cube'"),
+    ({'robot_pose': [1.0, 2.0]}, ValueError, r"'robot_pose' must be \[x, y, yaw\]"),
+])
+def test_a_robot_that_cannot_be_spawned_is_one_clear_error(params, error, match, session,
+                                                           spawned_robot):
+    with pytest.raises(error, match=match):
+        session.bridge(world='obstacles', **params)
+
+
+def test_what_the_world_cannot_simulate_is_logged_once_at_start(session, monkeypatch, logs):
+    robot_world(monkeypatch, ignored='ignored: 1 light, plugin gz-sim-imu-system')
+    session.bridge()
+    session.run_for(0.5)
+    said = [record.msg for record in logs
+            if record.name == 'sim_bridge' and record.msg.startswith('ignored: ')]
+    assert said == ['ignored: 1 light, plugin gz-sim-imu-system']
+
+
+def test_the_worlds_physics_step_sets_the_physics_rate_unless_the_parameter_does(
+        session, monkeypatch):
+    robot_world(monkeypatch, physics_step_s=0.004)
+    assert session.bridge().step_ns == 4 * MS
+    assert session.bridge(namespace='given', physics_rate=50.0).step_ns == 20 * MS
 
 
 def test_parameters_on_the_command_line_as_ros2_run_gives_them(session):
     bridge = session.bridge(cli_args=['--ros-args', '-p', 'world:=wall_follow_box',
-                                      '-p', 'start_pose:=[1.0, -1.0, 0.5]',
+                                      '-p', 'robot_pose:=[1.0, -1.0, 0.5]',
                                       '-p', 'max_linear_speed:=0.5'])
     assert bridge.sim.world.name == 'wall_follow_box'
     assert bridge.sim.pose == pytest.approx((1.0, -1.0, 0.5))
@@ -669,7 +836,7 @@ def test_lidar_noise_is_on_by_default(session):
 
 @pytest.mark.parametrize('name, value', [
     ('seed', 1.5), ('physics_rate', 100), ('cmd_vel_timeout', 1), ('cmd_vel_stamped', 'true'),
-    ('world', 3), ('start_pose', [0, 0, 0]), ('max_linear_speed', 1)])
+    ('world', 3), ('robot_pose', [0, 0, 0]), ('max_linear_speed', 1)])
 def test_parameter_of_the_wrong_type_raises_as_rclpy_does(name, value, session):
     with pytest.raises(InvalidParameterTypeException, match=f"parameter '{name}'"):
         session.bridge(**{name: value})
@@ -693,25 +860,46 @@ def test_drive_limits_must_be_positive(session):
         session.bridge(max_linear_speed=-1.0)
 
 
-@pytest.mark.parametrize('params, steps, warning', [
-    ({'physics_rate': 25.0, 'odom_rate': 25.0}, (2, 1),
-     'lidar update_rate 10 Hz is not physics_rate 25 Hz divided by a whole number: publishing '
-     'every 2 steps, at 12.5 Hz'),
-    ({'odom_rate': 30.0}, (10, 3),
-     'odom_rate 30 Hz is not physics_rate 100 Hz divided by a whole number: publishing every '
-     '3 steps, at 33.3333 Hz'),
-])
-def test_a_rate_the_physics_cannot_keep_is_warned_of_with_the_rate_kept(
-        params, steps, warning, session, logs):
-    bridge = session.bridge(**params)
+def published_times(session, msg_type, topic, seconds):
+    """Run the bridges for ``seconds``; return the sim times (ns) and messages on ``topic``."""
+    received = session.listen(session.probe(), msg_type, topic)
+    session.run_for(seconds)
+    return [t for t, _ in received], [msg for _, msg in received]
+
+
+def test_a_30_hz_lidar_on_100_hz_physics_sends_30_scans_a_second_each_saying_when(
+        session, monkeypatch, logs):
+    world = World.load('obstacles')
+    robot_world(monkeypatch, lidar=replace(world.robot.lidar, update_rate=30.0))
+    session.bridge()
+    times, scans = published_times(session, LaserScan, 'scan', 3.0)
+    assert len(times) == 90
+    # Each scan at the first physics step at or after n / 30 s, stamped with that step's time.
+    assert times == [math.ceil(n * NANOSECONDS_PER_SECOND / 30 / STEP_NS) * STEP_NS
+                     for n in range(1, 91)]
+    assert [stamp_ns(scan.header.stamp) for scan in scans] == times
+    assert [scan.scan_time for scan in scans] == pytest.approx(
+        [(t - previous) / NANOSECONDS_PER_SECOND for previous, t in zip([0] + times, times)])
+    assert {scan.time_increment for scan in scans} == {0.0}
+    assert warnings_of(logs) == []
+
+
+def test_a_rate_above_the_physics_rate_is_warned_of_and_sent_every_step(session, logs):
+    session.bridge(odom_rate=30.0, physics_rate=25.0)
+    times, _ = published_times(session, Odometry, 'odom', 2.0)
+    assert len(times) == 50                      # 25 Hz physics: one odometry per step
     session.spin()
-    assert (bridge.steps_per_scan, bridge.steps_per_odom) == steps
-    assert warnings_of(logs) == [warning]
-    odometry = session.listen(session.probe(), Odometry, 'odom')
-    for _ in range(2 * steps[1]):
-        session.step()
-    assert [t for t, _ in odometry] == [step * bridge.step_ns
-                                        for step in (steps[1], 2 * steps[1])]
+    assert warnings_of(logs) == [
+        'odom_rate 30 Hz is above physics_rate 25 Hz: publishing every physics step, at 25 Hz']
+
+
+@pytest.mark.parametrize('rate, seconds, count', [(30.0, 2.0, 60), (7.0, 3.0, 21),
+                                                  (50.0, 1.0, 50)])
+def test_odometry_comes_at_its_rate_on_average(rate, seconds, count, session):
+    session.bridge(odom_rate=rate)
+    times, _ = published_times(session, Odometry, 'odom', seconds)
+    assert len(times) == count
+    assert times[-1] == round(seconds * NANOSECONDS_PER_SECOND)
 
 
 def test_the_installed_params_file_holds_the_nodes_own_defaults(session):

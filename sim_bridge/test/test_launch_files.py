@@ -40,3 +40,17 @@ def test_sim_launch_reads_the_installed_params_file():
     source = (PACKAGE / 'launch' / 'sim.launch.py').read_text()
     assert "'params', 'sim.yaml'" in source
     assert (PACKAGE / 'params' / 'sim.yaml').is_file()
+
+
+def declared_arguments(path: Path) -> set[str]:
+    """Return the names of the launch arguments a launch file declares."""
+    tree = ast.parse(path.read_text(), filename=str(path))
+    return {call.args[0].value for call in ast.walk(tree)
+            if isinstance(call, ast.Call) and getattr(call.func, 'id', '') ==
+            'DeclareLaunchArgument'}
+
+
+@pytest.mark.parametrize('path', LAUNCH_FILES, ids=lambda path: path.name)
+def test_launch_files_spawn_a_robot_as_the_bridge_parameters_do(path):
+    # robot:=NAME robot_pose:='[x, y, yaw]', the sim_bridge parameters of the same names.
+    assert {'world', 'robot', 'robot_pose', 'gui', 'rviz'} <= declared_arguments(path)

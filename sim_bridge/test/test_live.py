@@ -106,6 +106,16 @@ def test_the_world_and_the_window_can_be_chosen_and_a_node_without_params_file_h
                             '-p', 'use_sim_time:=true')
 
 
+def test_a_robot_and_its_pose_go_to_the_simulator_as_its_parameters():
+    bridge, _ = live.task_specs('scan_ahead', robot='little_bot', robot_pose=(0.5, -1, 1.5),
+                                params={'sim_bridge': {'seed': '3'}})
+    assert bridge.cmd[-6:] == ('-p', 'robot:=little_bot', '-p', 'robot_pose:=[0.5, -1.0, 1.5]',
+                               '-p', 'seed:=3')
+    # Without them the task's world keeps its own robot, the lab robot.
+    assert not any(argument.startswith(('robot:=', 'robot_pose:='))
+                   for argument in live.task_specs('scan_ahead')[0].cmd)
+
+
 @pytest.mark.parametrize('task', sorted(LAB_TASKS))
 def test_every_task_runs_its_console_scripts_module(task):
     bridge, node = live.task_specs(task)
@@ -121,16 +131,18 @@ def test_bad_tasks_and_parameters_are_refused_before_anything_starts(capsys):
     with pytest.raises(ValueError, match='parameters for wanderbot'):
         live.task_specs('wall_follow', params={'wanderbot': {'speed': '1.0'}})
     assert live.parse_param('wall_follow:distance=0.6') == ('wall_follow', 'distance', '0.6')
-    assert live.parse_param('sim_bridge:start_pose=[0.0, 1.0, 0.0]') == \
-        ('sim_bridge', 'start_pose', '[0.0, 1.0, 0.0]')
+    assert live.parse_param('sim_bridge:robot_pose=[0.0, 1.0, 0.0]') == \
+        ('sim_bridge', 'robot_pose', '[0.0, 1.0, 0.0]')
     for text in ('distance=0.6', 'wall_follow:distance', ':x=1'):
         with pytest.raises(ValueError, match='NODE:NAME=VALUE'):
             live.parse_param(text)
     assert live.main(['wall_follow', '--world', 'no_such_world']) == 2
+    assert live.main(['wall_follow', '--robot', 'no_such_bot']) == 2
     assert live.main(['wall_follow', '--param', 'distance=0.6']) == 2
     assert live.main(['wall_follow', '--param', 'wanderbot:speed=1.0']) == 2
     assert 'error: ' in capsys.readouterr().err
-    for argv in (['fly'], ['wall_follow', '--rtf', '0'], ['wall_follow', '--duration', 'nan']):
+    for argv in (['fly'], ['wall_follow', '--rtf', '0'], ['wall_follow', '--duration', 'nan'],
+                 ['wall_follow', '--robot-pose', '1', '2']):
         with pytest.raises(SystemExit) as exit_info:
             live.main(argv)
         assert exit_info.value.code == 2

@@ -6,6 +6,7 @@ several tests where they only read its outputs. The nodes' log lines are written
 file descriptor 2, so tests read them with ``capfd``.
 """
 
+from dataclasses import replace
 import importlib.util
 import json
 import math
@@ -29,6 +30,8 @@ from sim_bridge.simulation.world import World
 import yaml
 
 FIXTURES = Path(__file__).parent / 'fixtures'
+#: The tests' robot models (little_bot: 360 beams at 5 Hz in frame base_scan).
+MODELS = FIXTURES / 'models'
 SCAN_AHEAD_SOURCE = Path(__file__).parents[2] / 'scan_pkg' / 'scan_pkg' / 'scan_ahead.py'
 TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
 NANOSECONDS_PER_SECOND = 10 ** 9
@@ -287,6 +290,10 @@ def test_file_target_with_class_name_picks_that_class(tmp_path):
      "'physics_rate' must be positive"),
     (['--node', 'scan_ahead', '--param', 'sim_bridge:lidar_samples=-3'],
      'samples must be a positive integer'),
+    (['--node', 'scan_ahead', '--robot', 'no_such_bot'],
+     "model 'no_such_bot' not found"),
+    (['--node', 'scan_ahead', '--param', 'sim_bridge:robot_pose=[0.0, 0.0, 0.0]'],
+     'sim_bridge:robot_pose: the runner sets it (use --world, --robot, --robot-pose'),
     (['--node', 'scan_ahead', '--duration', '0'], 'duration must be a positive number'),
     (['--node', 'scan_ahead', '--duration', 'inf'], 'duration must be a positive number'),
     (['--node', 'scan_ahead', '--seed', '-1'], 'seed must be a non-negative integer'),
@@ -296,8 +303,8 @@ def test_file_target_with_class_name_picks_that_class(tmp_path):
 ], ids=['unknown target', 'missing file', 'no Node subclass', 'two Node subclasses',
         'unknown class', 'unknown world', 'param type', 'param for absent node',
         'malformed param', 'param the runner sets', 'bad simulator param',
-        'bad lidar param', 'zero duration', 'infinite duration', 'negative seed',
-        'seed beyond int64'])
+        'bad lidar param', 'unknown robot', 'robot pose as a param', 'zero duration',
+        'infinite duration', 'negative seed', 'seed beyond int64'])
 def test_start_error_is_one_line_exit_2_and_writes_nothing(args, mentions, tmp_path, run_main):
     out_dir = tmp_path / 'out'
     argv = ['--world', 'wall_follow_box', '--duration', '1', *args, '--out', str(out_dir)]
@@ -553,6 +560,45 @@ def test_simulator_param_reaches_the_bridge(tmp_path, run_main):
                             '--out', str(tmp_path))
     assert status == 0
     assert [len(scan.ranges) for _, scan in read_bag(tmp_path / 'run')['/scan']] == [360, 360]
+
+
+def test_robot_and_robot_pose_spawn_a_model_the_run_is_scored_with(tmp_path, run_main,
+                                                                   monkeypatch):
+    monkeypatch.setenv('GZ_SIM_RESOURCE_PATH', str(MODELS))
+    status, _, _ = run_main('--world', 'obstacles', '--robot', 'little_bot', '--robot-pose',
+                            '0.5', '-1.0', '1.5', '--node', 'scan_ahead', '--duration', '0.4',
+                            '--quiet', '--out', str(tmp_path))
+    assert status == 0
+    bag = read_bag(tmp_path / 'run')
+    assert [(scan.header.frame_id, len(scan.ranges)) for _, scan in bag['/scan']] == \
+        [('base_scan', 360)] * 2                                  # 5 Hz for 0.4 s
+    _, odom = bag['/odom'][0]
+    position = odom.pose.pose.position
+    assert (position.x, position.y, yaw_of(odom.pose.pose.orientation)) == \
+        pytest.approx((0.5, -1.0, 1.5))
+    bridge_params = yaml.safe_load((tmp_path / 'params.yaml').read_text())['sim_bridge']
+    assert bridge_params['ros__parameters']['robot'] == 'little_bot'
+    assert bridge_params['ros__parameters']['robot_pose'] == [0.5, -1.0, 1.5]
+    # Scored with the spawned robot's outline, a 0.2 m square turned 1.5 rad, not a circle:
+    # nearest is the 1 m cube's corner at (2.0, -0.5).
+    corners = np.array([[0.1, 0.1], [-0.1, 0.1], [-0.1, -0.1], [0.1, -0.1]])
+    turned = corners @ np.array([[math.cos(1.5), math.sin(1.5)],
+                                 [-math.sin(1.5), math.cos(1.5)]]) + (0.5, -1.0)
+    clearance = min(math.dist(corner, (2.0, -0.5)) for corner in turned)
+    assert load_metrics(tmp_path)['min_clearance_m'] == pytest.approx(clearance, abs=1e-6)
+
+
+def test_what_the_world_does_not_simulate_is_said_once_and_kept_in_the_metrics(
+        tmp_path, run_main, monkeypatch):
+    world = replace(World.load('obstacles'), ignored='ignored: 1 light')
+    monkeypatch.setattr(World, 'load', lambda *args, **kwargs: world)
+    status, _, stderr = run_main('--world', 'obstacles', '--node', 'scan_ahead', '--duration',
+                                 '0.2', '--out', str(tmp_path))
+    assert status == 0
+    assert stderr.count('ignored: 1 light') == 1
+    metrics = load_metrics(tmp_path)
+    assert metrics['ignored'] == 'ignored: 1 light'
+    assert metrics['warnings'] == []
 
 
 def test_start_pose_inside_an_obstacle_cannot_start(tmp_path):

@@ -81,7 +81,7 @@ ball, its widest section below the robot's top). "The robot must start clear" me
 that slice.
 """
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from functools import cached_property
 import math
@@ -191,13 +191,13 @@ class World:
 
     @classmethod
     def load(cls, name_or_path: str | os.PathLike, robot: str | os.PathLike | None = None,
-             robot_pose: tuple[float, float, float] = (0.0, 0.0, 0.0),
-             lidar: str | None = None) -> 'World':
+             robot_pose: Sequence[float] | None = None, lidar: str | None = None) -> 'World':
         """
         Load a shipped world by name (``room``) or any world file (YAML or SDF) by path.
 
         ``robot`` (a model name or folder) replaces the world's robot, spawned at
-        ``robot_pose`` (x m, y m, yaw rad) as ``ros_gz_sim create`` does; ``lidar`` names the
+        ``robot_pose`` (x m, y m, yaw rad; default: where the world puts its robot, else the
+        origin) as ``ros_gz_sim create`` does; ``lidar`` names the
         robot's lidar sensor to use when it has several (default: its first). Raises
         FileNotFoundError for an unknown world and :class:`WorldError` for a bad file.
         """
@@ -219,7 +219,8 @@ class World:
             if lidar is not None and robot is None:  # the YAML world's robot, re-read
                 robot, robot_pose = world.robot.path, world.robot_start
         if robot is not None:
-            world = world.with_robot(robot, robot_pose, lidar)
+            pose = world.robot_start if robot_pose is None else tuple(robot_pose)
+            world = world.with_robot(robot, pose, lidar)
         return world
 
     @classmethod
