@@ -13,8 +13,10 @@ from matplotlib import colormaps
 from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
-from matplotlib.patches import Polygon, Rectangle
+from matplotlib.patches import PathPatch, Polygon, Rectangle
+from matplotlib.path import Path
 import numpy as np
+from shapely.geometry.polygon import orient
 
 from sim_bridge.run_trace import ScanSnapshot, Trace
 
@@ -94,10 +96,10 @@ def _draw_world(axes, world) -> list:
                              linestyle='--', linewidth=0.8, edgecolor='#bdbdbd'))
     for footprint, owner in zip(world.footprints(), world.footprint_owners()):
         is_target = owner == world.target
-        axes.add_patch(Polygon(footprint.outline(), closed=True, zorder=2,
-                               facecolor=TARGET_COLOUR if is_target else OBSTACLE_COLOUR,
-                               edgecolor='#c0631a' if is_target else '#616161',
-                               linewidth=1.5 if is_target else 0.6))
+        axes.add_patch(_patch(footprint, zorder=2,
+                              facecolor=TARGET_COLOUR if is_target else OBSTACLE_COLOUR,
+                              edgecolor='#c0631a' if is_target else '#616161',
+                              linewidth=1.5 if is_target else 0.6))
     legend = []
     if any(obstacle.name != world.target for obstacle in world.obstacles):
         legend.append(Rectangle((0, 0), 1, 1, facecolor=OBSTACLE_COLOUR, label='obstacle'))
@@ -105,6 +107,23 @@ def _draw_world(axes, world) -> list:
         legend.append(Rectangle((0, 0), 1, 1, facecolor=TARGET_COLOUR, edgecolor='#c0631a',
                                 label=f'target: {world.target}'))
     return legend
+
+
+def _patch(footprint, **style):
+    """
+    Return a patch of a footprint; a polygon's holes stay open.
+
+    A wall enclosing an area (the TurtleBot3 world's hexagon) is a polygon with a hole where
+    the robot drives; its exterior alone would paint over that floor.
+    """
+    if footprint.kind != 'polygon':
+        return Polygon(footprint.outline(), closed=True, **style)
+    parts = getattr(footprint.polygon, 'geoms', [footprint.polygon])
+    # Oriented exteriors counter-clockwise and holes clockwise: the fill leaves holes out.
+    rings = [ring for part in parts for oriented in [orient(part)]
+             for ring in (oriented.exterior, *oriented.interiors)]
+    return PathPatch(Path.make_compound_path(
+        *(Path(np.asarray(ring.coords), closed=True) for ring in rings)), **style)
 
 
 def _draw_path(figure, axes, time, x, y, colour_scale) -> None:

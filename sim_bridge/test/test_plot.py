@@ -6,10 +6,11 @@ import math
 from matplotlib.patches import Polygon
 import numpy as np
 import pytest
+import shapely
 
-from sim_bridge.plot import plot_trajectory, scan_hits, SCANS_DRAWN, spread_evenly
+from sim_bridge.plot import _patch, plot_trajectory, scan_hits, SCANS_DRAWN, spread_evenly
 from sim_bridge.run_trace import CollisionEvent, ScanSnapshot, Trace
-from sim_bridge.simulation.geometry import Shape
+from sim_bridge.simulation.geometry import Footprint, Shape
 from sim_bridge.simulation.world import Obstacle, World
 
 PNG_SIGNATURE = b'\x89PNG\r\n\x1a\n'
@@ -105,3 +106,14 @@ def test_plot_draws_what_the_robot_could_hit_and_the_robots_outline(tmp_path, tr
              and line.get_marker() in ('None', '')]
     assert np.ptp(start[0], axis=0) == pytest.approx((0.2, 0.4))
     assert 0.5 * (start[0].min(axis=0) + start[0].max(axis=0)) == pytest.approx((1.3, 0.0))
+
+
+def test_a_walled_enclosure_is_drawn_with_its_floor_open():
+    # A hexagonal wall (as the TurtleBot3 world's) slices to a polygon with a hole where the
+    # robot drives: the patch must paint the wall, not the floor inside it.
+    outer = shapely.Polygon([(3 * math.cos(a), 3 * math.sin(a))
+                             for a in np.arange(6) * math.pi / 3])
+    wall = Footprint('polygon', 0.0, 0.0, polygon=outer.difference(outer.buffer(-0.2)))
+    patch = _patch(wall)
+    assert not patch.get_path().contains_point((0.0, 0.0))
+    assert patch.get_path().contains_point((2.9, 0.0))
