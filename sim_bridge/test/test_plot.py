@@ -3,6 +3,8 @@
 from dataclasses import replace
 import math
 
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
 from matplotlib.patches import Polygon
 import numpy as np
 import pytest
@@ -114,6 +116,18 @@ def test_a_walled_enclosure_is_drawn_with_its_floor_open():
     outer = shapely.Polygon([(3 * math.cos(a), 3 * math.sin(a))
                              for a in np.arange(6) * math.pi / 3])
     wall = Footprint('polygon', 0.0, 0.0, polygon=outer.difference(outer.buffer(-0.2)))
-    patch = _patch(wall)
-    assert not patch.get_path().contains_point((0.0, 0.0))
-    assert patch.get_path().contains_point((2.9, 0.0))
+    figure = Figure(figsize=(2, 2), dpi=100)
+    FigureCanvasAgg(figure)
+    axes = figure.add_axes((0, 0, 1, 1))
+    axes.set_xlim(-3.2, 3.2)
+    axes.set_ylim(-3.2, 3.2)
+    axes.add_patch(_patch(wall, facecolor='black', edgecolor='none'))
+    figure.canvas.draw()
+    pixels = np.asarray(figure.canvas.buffer_rgba())
+
+    def grey_at(x, y):
+        column, row = axes.transData.transform((x, y))
+        return int(pixels[pixels.shape[0] - 1 - round(row), round(column), 0])
+
+    assert grey_at(0.0, 0.0) == 255  # the floor inside: white
+    assert grey_at(2.9, 0.0) == 0    # the wall: painted
