@@ -1,0 +1,198 @@
+"""
+Gazebo's own robots in Gazebo's own worlds: acceptance runs and speed, in one sitting.
+
+Reads ``../shared/gazebo_assets`` in place (see its README; nothing is copied), with Gazebo
+Sim's model folders on ``GZ_SIM_RESOURCE_PATH`` and Classic's on ``GAZEBO_MODEL_PATH``, as their
+users set them, and prints:
+
+1. each TurtleBot3 (Burger and Waffle, the Sim and the Classic files) in its generation's
+   ``turtlebot3_world.world``, spawned where ROBOTIS's launch file spawns it, driven by the
+   lab's ``wanderbot`` for ``--duration`` simulated seconds (default 120), recorded: collisions,
+   distance driven, and the /scan messages of the bag (how many, ranges per scan, frames);
+2. a Burger driven under ``cafe_table``'s top (beside its pedestal) and the construction cone's
+   floor size as its SDF's ``<scale>`` makes it;
+3. the load time of ``turtlebot3_world.world``; the real-time factor of the Burger run; and the
+   real-time factor of the 600 s recorded ``wall_follow`` run in ``wall_follow_box`` (36 beams)
+   with this checkout and, with ``--compare CHECKOUT``, another checkout of the project (e.g. a
+   ``git worktree`` of the commit before a change), side by side.
+
+Run: python test/bench/bench_gazebo.py [--assets DIR] [--duration S] [--compare CHECKOUT]
+"""
+
+import argparse
+import math
+import os
+from pathlib import Path
+import subprocess
+import sys
+import tempfile
+import time
+
+from rosbags.rosbag2 import Reader
+from rosbags.typesys import get_typestore, Stores
+
+from sim_bridge.run import run_simulation
+from sim_bridge.simulation.simulator import Simulator
+from sim_bridge.simulation.world import World
+
+ROOT = Path(__file__).resolve().parents[2]
+ASSETS = ROOT.parent / 'shared' / 'gazebo_assets'
+#: Where ROBOTIS's turtlebot3_world launch file spawns the robot (x m, y m, yaw rad).
+SPAWN = (-2.0, -0.5, 0.0)
+GENERATIONS = {'Sim': ('turtlebot3_gazebo_sim', 'GZ_SIM_RESOURCE_PATH'),
+               'Classic': ('turtlebot3_gazebo_classic', 'GAZEBO_MODEL_PATH')}
+#: Measures the real-time factor of the recorded wall_follow run in any checkout's code.
+WALL_FOLLOW_RTF = """
+import sys, tempfile, time
+from sim_bridge.run import run_simulation
+with tempfile.TemporaryDirectory() as out:
+    start = time.perf_counter()
+    run_simulation('wall_follow_box', ['wall_follow'], duration_s=float(sys.argv[1]), seed=1,
+                   out_dir=out, quiet=True, plot=False)
+    print(float(sys.argv[1]) / (time.perf_counter() - start))
+"""
+
+
+def model_paths(assets: Path, generation: str) -> dict[str, str]:
+    """Return the environment that finds one generation's TurtleBot3 and the shared models."""
+    folder, variable = GENERATIONS[generation]
+    return {variable: os.pathsep.join((str(assets / folder / 'models'),
+                                       str(assets / 'gazebo_models')))}
+
+
+def scans_in(bag: Path) -> tuple[int, set[int], set[str]]:
+    """Return the /scan messages of a bag: how many, their range counts and frames."""
+    store = get_typestore(Stores.ROS2_JAZZY)
+    counts, frames, total = set(), set(), 0
+    with Reader(bag) as reader:
+        connections = [c for c in reader.connections if c.topic == '/scan']
+        for connection, _, data in reader.messages(connections=connections):
+            scan = store.deserialize_cdr(data, connection.msgtype)
+            total += 1
+            counts.add(len(scan.ranges))
+            frames.add(scan.header.frame_id)
+    return total, counts, frames
+
+
+def drive_turtlebots(assets: Path, duration_s: float) -> float | None:
+    """Print the wanderbot runs; return the Burger's (Sim) real-time factor."""
+    print(f'1. wanderbot {duration_s:g} s in turtlebot3_world.world from {SPAWN}')
+    print('   robot             files    collisions  driven m  scans  ranges  frames  x real time')
+    burger_rtf = None
+    for generation in GENERATIONS:
+        world_file = assets / GENERATIONS[generation][0] / 'worlds' / 'turtlebot3_world.world'
+        for robot in ('turtlebot3_burger', 'turtlebot3_waffle'):
+            with tempfile.TemporaryDirectory() as out, environment(model_paths(assets,
+                                                                               generation)):
+                start = time.perf_counter()
+                result = run_simulation(str(world_file), ['wanderbot'], duration_s=duration_s,
+                                        seed=1, start=SPAWN, robot=robot, out_dir=out,
+                                        quiet=True, plot=False)
+                rtf = duration_s / (time.perf_counter() - start)
+                total, counts, frames = scans_in(Path(out) / 'run')
+            metrics = result.metrics
+            if (robot, generation) == ('turtlebot3_burger', 'Sim'):
+                burger_rtf = rtf
+            print(f'   {robot:<17} {generation:<8} {metrics["collisions"]:>10}  '
+                  f'{metrics["distance_m"]:>8.2f}  {total:>5}  '
+                  f'{",".join(map(str, sorted(counts))):>6}  {",".join(sorted(frames)):>6}  '
+                  f'{rtf:>10.1f}')
+    return burger_rtf
+
+
+def under_the_table_and_the_cone(assets: Path) -> None:
+    """Print a Burger's run under cafe_table's top and the cone's floor size."""
+    with tempfile.TemporaryDirectory() as folder, environment(model_paths(assets, 'Sim')):
+        world_file = Path(folder) / 'cafe.yaml'
+        # The table's centre 0.3 m to the robot's left: under the top, clear of the pedestal.
+        world_file.write_text('robot: {model: turtlebot3_burger, pose: [-1.0, 0.0, 0.0]}\n'
+                              'obstacles:\n'
+                              '  - {name: table, type: model, model: cafe_table, '
+                              'pose: [0.0, 0.3, 0.0]}\n'
+                              '  - {name: cone, type: model, model: construction_cone, '
+                              'pose: [3.0, 3.0, 0.0]}\n')
+        world = World.load(world_file)
+        with Simulator(world) as sim:
+            sim.set_command(0.2, 0.0)
+            for _ in range(1000):
+                sim.step(0.01)
+            print(f'2. Burger under cafe_table: drove to x = {sim.pose[0]:.2f} m (from -1.00), '
+                  f'{len(sim.collisions)} collisions, clearance {sim.clearance():.3f} m')
+        table_top = max(shape.z_range()[1] for shape in world.obstacle('table').shapes)
+        print(f'   the table top is {table_top:.3f} m up, the Burger '
+              f'{max(shape.z_range()[1] for shape in world.robot.shapes):.3f} m tall')
+        cone = world.obstacle('cone').footprints
+        xs = [x for footprint in cone for x, _ in footprint.outline()]
+        print(f'   construction_cone: {max(xs) - min(xs):.3f} m across at the floor '
+              "(its DAE is 1.98 inches across, scaled by the SDF's <scale>)")
+
+
+def load_time(assets: Path) -> None:
+    """Print how long turtlebot3_world.world takes to load (best of 3)."""
+    world_file = assets / 'turtlebot3_gazebo_sim' / 'worlds' / 'turtlebot3_world.world'
+    with environment(model_paths(assets, 'Sim')):
+        best = math.inf
+        for _ in range(3):
+            start = time.perf_counter()
+            World.load(world_file, robot='turtlebot3_burger', robot_pose=SPAWN)
+            best = min(best, time.perf_counter() - start)
+    print(f'3. load of turtlebot3_world.world with the Burger: {best * 1000:.0f} ms (best of 3)')
+
+
+def wall_follow_rtf(checkout: Path, duration_s: float) -> float:
+    """Return the real-time factor of the recorded wall_follow run with ``checkout``'s code."""
+    pythonpath = os.pathsep.join((str(checkout / 'sim_bridge'), str(checkout / 'scan_pkg')))
+    output = subprocess.run([sys.executable, '-c', WALL_FOLLOW_RTF, str(duration_s)],
+                            env={**os.environ, 'PYTHONPATH': pythonpath}, check=True,
+                            capture_output=True, text=True).stdout
+    return float(output.split()[-1])
+
+
+class environment:
+    """Set environment variables for a block (the model search reads them when loading)."""
+
+    def __init__(self, values: dict[str, str]) -> None:
+        self.values = values
+        self.saved: dict[str, str | None] = {}
+
+    def __enter__(self) -> None:
+        for name, value in self.values.items():
+            self.saved[name] = os.environ.get(name)
+            os.environ[name] = value
+
+    def __exit__(self, *exc_info) -> None:
+        for name, value in self.saved.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[1])
+    parser.add_argument('--assets', type=Path, default=ASSETS)
+    parser.add_argument('--duration', type=float, default=120.0)
+    parser.add_argument('--compare', type=Path, metavar='CHECKOUT')
+    args = parser.parse_args()
+    if not args.assets.is_dir():
+        print(f'no assets folder at {args.assets}; nothing to run')
+        return 0
+    burger_rtf = drive_turtlebots(args.assets, args.duration)
+    under_the_table_and_the_cone(args.assets)
+    load_time(args.assets)
+    print(f'   Burger in turtlebot3_world (360 beams, meshes), recorded: {burger_rtf:.1f}x '
+          'real time')
+    checkouts = [('this checkout', ROOT)]
+    if args.compare is not None:
+        checkouts.append((str(args.compare), args.compare.resolve()))
+    figures = [(name, wall_follow_rtf(path, 600.0)) for name, path in checkouts]
+    for name, rtf in figures:
+        print(f'   wall_follow 600 s in wall_follow_box, 36 beams, recorded ({name}): '
+              f'{rtf:.1f}x real time')
+    if len(figures) == 2:
+        print(f'   ratio this / compared: {figures[0][1] / figures[1][1]:.2f}')
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
