@@ -100,12 +100,16 @@ class UpdateSchedule:
         self.last_ns = 0
         #: The time (ns) from the previous update (or the start) to the last one.
         self.elapsed_ns = 0
+        #: The first whole ns at or after the next update's exact time: asked every physics
+        #: step, so a comparison of integers (n < x for a whole n is n < ceil(x)).
+        self.next_ns = math.ceil(self.period_ns)
 
     def due(self, now_ns: int) -> bool:
         """Return whether an update is due at ``now_ns`` (ns); if so, it counts as made."""
-        if now_ns < (self.updates + 1) * self.period_ns:
+        if now_ns < self.next_ns:
             return False
         self.updates = math.floor(now_ns / self.period_ns)
+        self.next_ns = math.ceil((self.updates + 1) * self.period_ns)
         self.elapsed_ns, self.last_ns = now_ns - self.last_ns, now_ns
         return True
 

@@ -104,11 +104,12 @@ def under_the_table_and_the_cone(assets: Path) -> None:
     """Print a Burger's run under cafe_table's top and the cone's floor size."""
     with tempfile.TemporaryDirectory() as folder, environment(model_paths(assets, 'Sim')):
         world_file = Path(folder) / 'cafe.yaml'
-        # The table's centre 0.3 m to the robot's left: under the top, clear of the pedestal.
+        # The table's centre 0.42 m to the robot's left: under its top (0.913 m square), clear
+        # of its base plate (0.56 m square, 4 cm high) and column.
         world_file.write_text('robot: {model: turtlebot3_burger, pose: [-1.0, 0.0, 0.0]}\n'
                               'obstacles:\n'
                               '  - {name: table, type: model, model: cafe_table, '
-                              'pose: [0.0, 0.3, 0.0]}\n'
+                              'pose: [0.0, 0.42, 0.0]}\n'
                               '  - {name: cone, type: model, model: construction_cone, '
                               'pose: [3.0, 3.0, 0.0]}\n')
         world = World.load(world_file)
