@@ -11,6 +11,7 @@ from sim_bridge import paths
 from sim_bridge.simulation.geometry import triangulate
 from sim_bridge.simulation.sdf import (describe_ignored, load_model, NO_SPEED_LIMIT, parse_model,
                                        SdfError)
+from sim_bridge.simulation.simulator import Simulator
 from sim_bridge.simulation.world import World, WorldError
 
 
@@ -309,3 +310,21 @@ def test_classic_ground_plane_and_sun_work_offline(tmp_path, monkeypatch):
     world = World.load(path)
     assert world.floor_size == (100.0, 100.0) and world.obstacles == ()
     assert world.ignored == 'ignored: 1 light'
+
+
+def test_the_kits_waffle_drives_through_a_gap_only_its_own_outline_fits(tmp_path):
+    # Two cubes leave 0.40 m; the Waffle is 0.306 m wide (a circle round its outline, 0.47 m
+    # across, would not fit).
+    world_file = tmp_path / 'gap.yaml'
+    world_file.write_text('robot: {model: turtlebot3_waffle, pose: [0.0, 0.0, 0.0]}\n'
+                          'obstacles:\n'
+                          '  - {name: left, type: cube, size: [1, 1, 0.5], pose: [1.5, 0.7]}\n'
+                          '  - {name: right, type: cube, size: [1, 1, 0.5], pose: [1.5, -0.7]}\n')
+    world = World.load(world_file)
+    assert world.floor_slice.robot_radius > 0.2
+    with Simulator(world) as sim:
+        sim.set_command(0.2, 0.0)
+        for _ in range(1500):
+            sim.step(0.01)
+        assert sim.collisions == []
+        assert sim.pose[0] > 2.5
