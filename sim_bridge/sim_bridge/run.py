@@ -629,7 +629,7 @@ def summary_table(metrics: dict) -> str:
          f"{wall['mean']:.3f} m / " + ('n/a' if wall['mae'] is None else f"{wall['mae']:.3f} m")),
         ('stop-and-turns', f"{len(metrics['turns_deg'])}"),
         ('longest stationary', f"{metrics['max_stationary_s']:.1f} s"),
-        ('coverage', f"{metrics['coverage']:.0%}"),
+        ('coverage', 'n/a' if metrics['coverage'] is None else f"{metrics['coverage']:.0%}"),
         ('node errors', '; '.join(f"{e['node']}: {e['error']}" for e in metrics['node_errors'])
          or 'none'),
         ('warnings', '; '.join(metrics['warnings']) or 'none'),

@@ -387,6 +387,30 @@ def test_node_raising_in_its_callback_fails_the_run(tmp_path, run_main):
     assert len(read_bag(out_dir / 'run')['/scan']) == 5
 
 
+def test_an_exception_whose_str_raises_fails_the_run_at_the_students_line(tmp_path, run_main):
+    out_dir = tmp_path / 'out'
+    status, _, stderr = run_main('--world', 'obstacles', '--node',
+                                 str(FIXTURES / 'broken_str_error_node.py'), '--duration', '1',
+                                 '--no-record', '--no-plot', '--out', str(out_dir))
+    assert status == 1
+    (error,) = load_metrics(out_dir)['node_errors']
+    assert error['error'].startswith(
+        "node 'checker' raised ScanError: <exception str() failed> at ")
+    assert 'broken_str_error_node.py:27: raise ScanError(msg)' in error['error']
+    assert 'targets.py' not in stderr  # no traceback of the runner's own
+
+
+def test_a_world_too_small_for_a_coverage_cell_runs_and_says_coverage_n_a(tmp_path, run_main):
+    world = tmp_path / 'speck.yaml'
+    world.write_text('bounds: [0, 0, 0.001, 0.001]\n')
+    status, stdout, stderr = run_main('--world', str(world), '--node', 'scan_ahead',
+                                      '--duration', '0.2', '--quiet', '--no-record',
+                                      '--no-plot', '--out', str(tmp_path / 'out'))
+    assert (status, 'Traceback' in stderr) == (0, False)
+    assert load_metrics(tmp_path / 'out')['coverage'] is None
+    assert re.search(r'coverage +n/a', stdout)
+
+
 @pytest.mark.parametrize('how, says', [
     ('sys.exit', "node 'misbehaver' raised SystemExit (sys.exit(3)) at "),
     ('KeyboardInterrupt', "node 'misbehaver' raised KeyboardInterrupt at "),
