@@ -177,6 +177,21 @@ def test_table_shows_the_error_of_a_node_that_failed(tmp_path, runs):
     assert lines[2].endswith('FAIL')
 
 
+def test_a_coloured_error_reaches_the_table_and_the_page_as_inert_text(tmp_path, runs):
+    def simulate_coloured_error(world, targets, **options):
+        error = "node 'follower' raised ValueError: \x1b[2J\x1b[91mTOO CLOSE\x1b[0m\r\x00"
+        return SimpleNamespace(metrics={'laps': 0, 'collisions': 0,
+                                        'node_errors': [{'node': 'follower', 'error': error}]})
+
+    report = run_scenario(runs[0], tmp_path, simulate=simulate_coloured_error)
+    table = format_table([report], failures_only=True)
+    assert 'raised ValueError: \\x1b[2J\\x1b[91mTOO' in table
+    assert not any(char in table for char in '\x1b\r\x00')
+    write_report([report], tmp_path / 'report.json')
+    saved = json.loads((tmp_path / 'report.json').read_text())
+    assert '\\x0d\\x00' in saved['runs'][0]['metrics']['node_errors'][0]['error']
+
+
 def test_report_is_json_with_every_run_and_the_verdict(tmp_path, runs):
     reports = graded(runs[:2], tmp_path)
     write_report(reports, tmp_path / 'report.json', overrides=['ana.py'])

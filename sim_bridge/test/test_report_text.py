@@ -15,6 +15,14 @@ def test_lone_surrogates_show_the_bytes_they_stand_for():
     assert printable('caf\u00e9') == 'caf\u00e9'
 
 
+def test_control_characters_show_as_codes_so_a_terminal_does_nothing_with_them():
+    # A student's coloured or \r-animated message, a NUL: inert on the console and in a page.
+    shown = printable('\x1b[2J\x1b[31mTOO CLOSE\x1b[0m\x00\r\r\x9b1m\x7f')
+    assert shown == '\\x1b[2J\\x1b[31mTOO CLOSE\\x1b[0m\\x00\\x0d\\x0d\\x9b1m\\x7f'
+    assert printable('line 1\n\tline 2 \u00e9') == 'line 1\n\tline 2 \u00e9'
+    assert '\x1b' not in cap_text('\x1b[2J' * 10_000, 1000)
+
+
 def test_a_long_text_keeps_its_ends_around_a_marker():
     text = 'start ' + 'x' * 100_000 + ' Error: the end'
     cut = cap_text(text, 1000)
