@@ -49,7 +49,7 @@ from typing import Any, Callable
 
 from sim_bridge.metrics import METRIC_KINDS
 from sim_bridge.targets import split_target
-from sim_bridge.yaml_loader import load_yaml
+from sim_bridge.yaml_loader import load_yaml, read_text
 import yaml
 
 SCENARIO_SUFFIX = '.yaml'
@@ -319,9 +319,12 @@ def load_scenario(path: str | os.PathLike) -> Scenario:
     path = Path(path)
     label = str(path)
     try:
-        data = load_yaml(path.read_text(encoding='utf-8'))
+        data = load_yaml(read_text(path))
     except OSError as error:
         raise ScenarioError(f'{label}: cannot read: {error.strerror or error}') from None
+    except UnicodeDecodeError as error:  # e.g. a file saved as Latin-1
+        raise ScenarioError(f'{label}: not UTF-8 text: {error.reason} at byte {error.start}'
+                            ) from None
     except yaml.YAMLError as error:
         mark = getattr(error, 'problem_mark', None)
         where = f' at line {mark.line + 1}, column {mark.column + 1}' if mark else ''

@@ -1,5 +1,6 @@
 """Scenario files and pass criteria: parsing, judging, validation errors, node overrides."""
 
+import os
 from pathlib import Path
 import textwrap
 
@@ -7,6 +8,7 @@ import pytest
 
 from sim_bridge.scenario import (load_scenario, load_scenarios, MAX_SEED, parse_criterion,
                                  ScenarioError, target_name, with_node_overrides)
+from sim_bridge.yaml_loader import FILE_LIMIT_BYTES
 
 METRICS = {
     'collisions': 0, 'laps': -2, 'min_clearance_m': 0.21, 'turns_deg': [104.5, 171.0, 95.25],
@@ -174,6 +176,25 @@ def test_unreadable_files_are_named(tmp_path):
     (tmp_path / 'empty').mkdir()
     with pytest.raises(ScenarioError, match='empty: no .yaml scenario files'):
         load_scenarios([tmp_path / 'empty'])
+
+
+def test_a_file_that_is_not_utf8_not_a_file_or_huge_is_named_not_read_without_end(tmp_path):
+    (tmp_path / 'latin1.yaml').write_bytes(VALID.replace('follow the box', 'caf\u00e9')
+                                           .encode('latin-1'))
+    with pytest.raises(ScenarioError, match=r'latin1.yaml: not UTF-8 text: .* at byte \d+$'):
+        load_scenario(tmp_path / 'latin1.yaml')
+    (tmp_path / 'zero.yaml').symlink_to('/dev/zero')
+    with pytest.raises(ScenarioError, match='zero.yaml: cannot read: not a regular file'):
+        load_scenario(tmp_path / 'zero.yaml')
+    os.mkfifo(tmp_path / 'pipe.yaml')  # opening it would wait for a writer for ever
+    with pytest.raises(ScenarioError, match='pipe.yaml: cannot read: not a regular file'):
+        load_scenario(tmp_path / 'pipe.yaml')
+    write(tmp_path, 'huge.yaml', VALID + '#' * FILE_LIMIT_BYTES)
+    with pytest.raises(ScenarioError, match='huge.yaml: cannot read: larger than 1024 KiB'):
+        load_scenario(tmp_path / 'huge.yaml')
+    (tmp_path / 'loop.yaml').symlink_to('loop.yaml')
+    with pytest.raises(ScenarioError, match='loop.yaml: cannot read: Too many levels'):
+        load_scenario(tmp_path / 'loop.yaml')
 
 
 def test_a_folder_stands_for_its_scenario_files_in_name_order(tmp_path):

@@ -8,7 +8,7 @@ from sim_bridge import paths
 from sim_bridge.simulation import world as world_module
 from sim_bridge.simulation.geometry import Footprint, Shape, signed_distance
 from sim_bridge.simulation.world import World, WorldError
-from sim_bridge.yaml_loader import load_yaml
+from sim_bridge.yaml_loader import FILE_LIMIT_BYTES, load_yaml
 import yaml
 
 WALL_FOLLOW_WORLDS = ('wall_follow_box', 'wall_follow_box_rotated', 'wall_follow_cross',
@@ -295,6 +295,15 @@ def test_broken_world_file_is_rejected_naming_file_entry_and_field(
     for part in (entry, repr(field) if field else None):
         if part:
             assert part in message
+
+
+def test_a_world_file_that_is_not_utf8_or_too_large_is_named_not_a_traceback(tmp_path):
+    (tmp_path / 'latin1.yaml').write_bytes('description: salle de caf\u00e9\n'.encode('latin-1'))
+    with pytest.raises(WorldError, match=r'latin1.yaml: cannot read: not UTF-8 text'):
+        World.load(tmp_path / 'latin1.yaml')
+    (tmp_path / 'huge.yaml').write_text('#' * (FILE_LIMIT_BYTES + 1))
+    with pytest.raises(WorldError, match='huge.yaml: cannot read: larger than 1024 KiB'):
+        World.load(tmp_path / 'huge.yaml')
 
 
 def test_the_largest_world_accepted_is_a_lab_sized_one_and_a_yaw_may_be_any_angle():

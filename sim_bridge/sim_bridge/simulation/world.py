@@ -82,7 +82,7 @@ from typing import Any
 from sim_bridge import paths
 from sim_bridge.simulation.geometry import Footprint, Shape, wrap_angle
 from sim_bridge.simulation.sdf import load_model, Model, SdfError
-from sim_bridge.yaml_loader import load_yaml
+from sim_bridge.yaml_loader import load_yaml, read_text
 import yaml
 
 DEFAULT_ROBOT_MODEL = 'lab_robot'
@@ -179,12 +179,15 @@ class World:
         path = paths.find_world(name_or_path)
         label = _display_path(path)
         try:
-            data = load_yaml(path.read_text(encoding='utf-8'))
+            data = load_yaml(read_text(path))
         except yaml.YAMLError as error:
             mark = getattr(error, 'problem_mark', None)
             where = f'line {mark.line + 1}, column {mark.column + 1}: ' if mark else ''
             problem = getattr(error, 'problem', None) or str(error)
             raise WorldError(label, None, None, f'invalid YAML: {where}{problem}') from None
+        except (OSError, UnicodeDecodeError) as error:  # a link to /dev/zero, a Latin-1 file
+            why = getattr(error, 'strerror', None) or f'not UTF-8 text: {error.reason}'
+            raise WorldError(label, None, None, f'cannot read: {why}') from None
         return _Parser(label).world(data, path)
 
     @classmethod
