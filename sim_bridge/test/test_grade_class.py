@@ -104,6 +104,18 @@ def test_each_job_is_named_after_its_student_and_a_missing_file_is_not_run(tmp_p
                for job in ana for node in job.run.scenario.nodes)
 
 
+def test_only_folders_are_students_and_an_out_folder_inside_the_class_is_none(tmp_path):
+    submissions = make_class(tmp_path / 'class', WORKSPACE)
+    (submissions / 'notes.txt').write_text('a file, no student')
+    (submissions / '.git').mkdir()
+    (submissions / 'results' / STUDENTS_DIR / 'ana').mkdir(parents=True)  # a graded --out
+    batch = ClassBatch(load_scenarios(SCENARIOS), submissions, submissions / 'results')
+    assert batch.students == sorted(CLASS)
+    (submissions / 'grades' / '2026').mkdir(parents=True)
+    batch = ClassBatch(load_scenarios(SCENARIOS), submissions, submissions / 'grades' / '2026')
+    assert batch.students == sorted([*CLASS, 'results'])  # now an ordinary folder
+
+
 FIXTURES = Path(__file__).resolve().parent / 'fixtures'
 SCAN_AHEAD = WORKSPACE / 'scan_pkg' / 'scan_pkg' / 'scan_ahead.py'
 #: Folder names the file system allows: not UTF-8 (a Windows zip), the class's own outputs'
