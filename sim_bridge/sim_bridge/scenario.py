@@ -429,7 +429,15 @@ def load_scenarios(paths: list[str | os.PathLike]) -> list[Scenario]:
             files += found
         else:
             files.append(path)
-    return [load_scenario(file) for file in files]
+    # A run's outputs are named after its scenario (<out>/<scenario>/seed_<n>): a file given
+    # twice (a.yaml and a folder holding it) runs once, two files of one name are refused.
+    named: dict[str, Path] = {}
+    for file in files:
+        other = named.setdefault(file.stem, file)
+        if other != file and other.resolve() != file.resolve():
+            raise ScenarioError(f'{file}: its name {file.stem!r} is also the name of {other} '
+                                '(runs are named after their scenario); rename one')
+    return [load_scenario(file) for file in named.values()]
 
 
 def _resolve(reference: str, base: Path | None, suffix: str) -> str:

@@ -204,6 +204,20 @@ def test_a_folder_stands_for_its_scenario_files_in_name_order(tmp_path):
     assert [scenario.name for scenario in load_scenarios([tmp_path])] == ['a', 'b']
 
 
+def test_a_scenario_given_twice_runs_once_and_two_of_one_name_are_refused(tmp_path):
+    for folder in ('a', 'b'):
+        (tmp_path / folder).mkdir()
+    write(tmp_path, 'a/box.yaml', VALID)
+    write(tmp_path, 'a/cyl.yaml', VALID)
+    scenarios = load_scenarios([tmp_path / 'a' / 'box.yaml', tmp_path / 'a',
+                                tmp_path / 'a' / '..' / 'a' / 'box.yaml'])
+    assert [scenario.name for scenario in scenarios] == ['box', 'cyl']
+    write(tmp_path, 'b/box.yaml', VALID)
+    with pytest.raises(ScenarioError, match=r"b/box.yaml: its name 'box' is also the name of "
+                                             r'.*a/box.yaml \(runs are named after'):
+        load_scenarios([tmp_path / 'a', tmp_path / 'b' / 'box.yaml'])
+
+
 @pytest.mark.parametrize('target, name', [
     ('wall_follow', 'wall_follow'), ('scan_pkg.wall_follow', 'wall_follow'),
     ('students/ana/wall_follow.py', 'wall_follow'), ('wf.py:WallFollower', 'wf'),
