@@ -112,8 +112,7 @@ class BatchProgress:
 
     def note(self, line: str) -> None:
         """Print a line above the bar (also when the progress is not shown: a warning)."""
-        self.stream.write(('\r\033[K' if self.live else '') + printable(line) + '\n')
-        self.stream.flush()
+        self._write(('\r\033[K' if self.live else '') + printable(line) + '\n')
         self._draw()
 
     def time_left_s(self) -> float | None:
@@ -132,11 +131,20 @@ class BatchProgress:
         share = done_sim / self.total_sim_s if self.total_sim_s > 0 else self.done / self.total
         filled = round(BAR_WIDTH * min(share, 1.0))
         left = self.time_left_s()
-        self.stream.write(f"\r\033[K[{'#' * filled}{'.' * (BAR_WIDTH - filled)}] "
-                          f'{self.done}/{self.total} runs, {share:.0%} of the simulated time'
-                          + (f', about {format_duration(left)} left' if left is not None else '')
-                          + (f" (running: {', '.join(self.running)})" if self.running else ''))
-        self.stream.flush()
+        self._write(f"\r\033[K[{'#' * filled}{'.' * (BAR_WIDTH - filled)}] "
+                    f'{self.done}/{self.total} runs, {share:.0%} of the simulated time'
+                    + (f', about {format_duration(left)} left' if left is not None else '')
+                    + (f" (running: {', '.join(self.running)})" if self.running else ''))
+
+    def _write(self, text: str) -> None:
+        if self.stream is None:
+            return
+        try:
+            self.stream.write(text)
+            self.stream.flush()
+        except OSError:  # piped into `head`, which has exited: the batch goes on unseen
+            self.stream = None
+            self.live = False
 
 
 def format_duration(seconds: float) -> str:
@@ -434,27 +442,35 @@ def main(argv: list[str] | None = None) -> int:
     status = 0 if all(report.passed for report in reports) else 1
     if batch is not None:
         text, unwritten = batch.write_outputs(reports, names)
-        print(text)
+        print_out(text)
         return status if not unwritten else max(status, 1)
     notes = reuse_notes(reports, args.out)
-    table = format_table(reports, failures_only=args.quiet)
-    if not args.quiet or status:
-        print(table)
-    print(summary(reports))
-    for note in notes:
-        print(f'note: {note}')
+    # The files first: a console that has gone (`| head`) must not cost the report.
     unwritten = write_outputs({
         args.out / REPORT_NAME: lambda path: write_report(
             reports, path, overrides=args.node_override, names=names, notes=notes),
         args.out / PAGE_NAME: lambda path: html_report.write_runs_page(
             path, 'Grading report', [report.as_dict(names) for report in reports],
             root=args.out, notes=notes)})
+    lines = [format_table(reports, failures_only=args.quiet)] if not args.quiet or status else []
+    lines.append(summary(reports))
+    lines += [f'note: {note}' for note in notes]
     written = [printable(os.fspath(path)) for path in (args.out / REPORT_NAME,
                                                        args.out / PAGE_NAME)
                if path not in unwritten]
     if written:
-        print(f"report: {' and '.join(written)}")
+        lines.append(f"report: {' and '.join(written)}")
+    print_out('\n'.join(lines))
     return max(status, 1) if unwritten else status
+
+
+def print_out(text: str) -> None:
+    """Print ``text`` on stdout; a pipe whose reader has exited (``| head``) takes no more."""
+    try:
+        print(text, flush=True)
+    except BrokenPipeError:
+        # As Python's documentation advises: stdout to devnull, so the flush at exit is quiet.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
 
 
 if __name__ == '__main__':

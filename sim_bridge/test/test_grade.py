@@ -5,6 +5,7 @@ Runs in child processes are tested in test_isolation.py; here ``grade_runs`` is 
 in-process runs of the stand-in, so each test is about one piece of the grader.
 """
 
+import contextlib
 import io
 import json
 from pathlib import Path
@@ -221,6 +222,29 @@ def test_main_exits_non_zero_and_writes_the_report_when_a_run_fails(
     assert '1 of 3 runs passed' in out and 'box_ccw/seed_2' in out
     assert 'box_ccw/seed_1' not in out.split('1 of 3')[0]
     assert json.loads((tmp_path / 'out' / grade.REPORT_NAME).read_text())['summary']['runs'] == 3
+
+
+class ClosedPipe(io.StringIO):
+    """A stream piped into ``head``, which has read its lines and exited."""
+
+    def write(self, text):
+        raise BrokenPipeError(32, 'Broken pipe')
+
+    def fileno(self):
+        return 1
+
+
+def test_a_console_piped_into_head_that_has_exited_costs_no_run_and_no_report(
+        tmp_path, monkeypatch):
+    monkeypatch.setattr(grade, 'grade_runs', grade_in_process)
+    monkeypatch.setattr(grade.sys, 'stderr', ClosedPipe())  # the progress lines' stream
+    monkeypatch.setattr(grade.os, 'dup2', lambda *fds: None)  # pytest's own stdout stays
+    with contextlib.redirect_stdout(ClosedPipe()):
+        status = main([str(scenario_file(tmp_path)), '--out', str(tmp_path / 'out')])
+    assert status == 1
+    document = json.loads((tmp_path / 'out' / grade.REPORT_NAME).read_text())
+    assert document['summary'] == {'runs': 3, 'passed': 1, 'failed': 2, 'reused': 0}
+    assert (tmp_path / 'out' / grade.PAGE_NAME).is_file()
 
 
 def test_main_exits_zero_when_every_run_passes(tmp_path, monkeypatch, capsys):
