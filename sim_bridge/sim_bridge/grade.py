@@ -433,12 +433,19 @@ def main(argv: list[str] | None = None) -> int:
         reports = grade_runs(jobs, workers=args.jobs, limits=limits, progress=progress,
                              resume=not args.fresh, names=names, quiet=False,
                              record=not args.no_record, plot=not args.no_plot)
+        # Still interruptible: the reports are written again from the runs' saved results.
+        return write_reports(args, batch, reports, names)
     except KeyboardInterrupt:
         print(f'\ninterrupted: {progress.done} of {len(jobs)} runs finished; the same command '
               'again resumes from there', file=sys.stderr)
         return 128 + interrupted_by[0]
     finally:
         signal.signal(signal.SIGTERM, previous)
+
+
+def write_reports(args: argparse.Namespace, batch: grade_class.ClassBatch | None,
+                  reports: list[RunReport], names: PathNames) -> int:
+    """Write and print a finished batch's reports; return the grader's exit status."""
     status = 0 if all(report.passed for report in reports) else 1
     if batch is not None:
         text, unwritten = batch.write_outputs(reports, names)

@@ -8,7 +8,9 @@ in-process runs of the stand-in, so each test is about one piece of the grader.
 import contextlib
 import io
 import json
+import os
 from pathlib import Path
+import signal
 from types import SimpleNamespace
 
 import pytest
@@ -245,6 +247,23 @@ def test_a_console_piped_into_head_that_has_exited_costs_no_run_and_no_report(
     document = json.loads((tmp_path / 'out' / grade.REPORT_NAME).read_text())
     assert document['summary'] == {'runs': 3, 'passed': 1, 'failed': 2, 'reused': 0}
     assert (tmp_path / 'out' / grade.PAGE_NAME).is_file()
+
+
+@pytest.mark.parametrize('signum', [signal.SIGINT, signal.SIGTERM], ids=['ctrl_c', 'sigterm'])
+def test_a_stop_while_the_reports_are_written_is_an_interruption_not_a_traceback(
+        tmp_path, monkeypatch, capsys, signum):
+    monkeypatch.setattr(grade, 'grade_runs', grade_in_process)
+
+    def stopped_while_writing(*args, **kwargs):
+        os.kill(os.getpid(), signum)  # Ctrl-C, or a CI job's timeout, as the JSON is written
+
+    monkeypatch.setattr(grade, 'write_report', stopped_while_writing)
+    status = main([str(scenario_file(tmp_path)), '--out', str(tmp_path / 'out')])
+    assert status == 128 + signum
+    err = capsys.readouterr().err
+    assert 'interrupted: 3 of 3 runs finished; the same command again resumes' in err
+    assert 'Traceback' not in err
+    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
 
 
 def test_main_exits_zero_when_every_run_passes(tmp_path, monkeypatch, capsys):
