@@ -546,7 +546,7 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
         except TargetError as error:
             failure = import_failure(error)
             if not quiet and failure.traceback:
-                sys.stderr.write(failure.traceback)  # what `python3 node.py` would print
+                to_console(failure.traceback)  # what `python3 node.py` would print
             raise failure from None
         code = StudentCode.of(inspect.getfile(node_class) for node_class in classes)
         params_file = Path(scratch) / 'params.yaml'
@@ -561,7 +561,7 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
             if start_failure is None:
                 warnings += run.undeclared(node_params)
                 for warning in warnings:
-                    print(f'warning: {warning}', file=sys.stderr)
+                    to_console(f'warning: {warning}\n')
             setpoint = run.parameter(SETPOINT_PARAMETER)
             bag = open_outputs(out_dir, params_file, record)
             recorder.record(bag)
@@ -580,7 +580,7 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
             ended_by = str(end)
             warnings.append(f'{end}: the run ended at {bridge.now_ns / NANOSECONDS_PER_SECOND:g} '
                             f's of its {duration_s:g} s')
-            print(f'warning: {warnings[-1]}', file=sys.stderr)
+            to_console(f'warning: {warnings[-1]}\n')
         except NodeError as error:
             student_traceback = error.code.traceback(error.original)
             if not interrupt.pressed:  # a Ctrl-C while a callback ran is the user's
@@ -589,7 +589,7 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
                                               'traceback': student_traceback}))
             if not quiet and not interrupt.pressed:
                 # What the node's own process would print before dying, its own part.
-                sys.stderr.write(student_traceback)
+                to_console(student_traceback)
         except RunStopped as stop:
             if not outputs_open:  # stopped while starting: there is nothing to write yet
                 raise
@@ -611,6 +611,15 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
         raise KeyboardInterrupt(f'run interrupted at {metrics["sim_time_s"]:.1f} s of sim time; '
                                 f'its outputs are in {out_dir}')
     return RunResult(metrics, out_dir)
+
+
+def to_console(text: str) -> None:
+    """Write ``text`` on stderr; a node that closed it (``os.close(2)``) costs its run nothing."""
+    try:
+        sys.stderr.write(text)
+        sys.stderr.flush()
+    except (OSError, ValueError):  # ValueError: sys.stderr.close() in the node's code
+        pass
 
 
 def summary_table(metrics: dict) -> str:
