@@ -131,6 +131,10 @@ def test_with_robot_start_moves_the_robot_but_refuses_an_overlap():
     assert (caught.value.entry, caught.value.field) == ('robot', 'pose')
     with pytest.raises(WorldError, match='finite'):
         world.with_robot_start(math.nan, 0.0, 0.0)
+    # A scenario's start a km away (written in mm, say) is refused as a world file's pose is.
+    with pytest.raises(WorldError, match='x and y within ±1000 m of the origin'):
+        world.with_robot_start(0.0, 1.0e9, 0.0)
+    assert world.with_robot_start(-1000.0, 1000.0, 0.0).robot_start[:2] == (-1000.0, 1000.0)
 
 
 def test_walls_from_segments_and_the_room_helper():

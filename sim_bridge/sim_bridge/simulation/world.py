@@ -222,8 +222,10 @@ class World:
         Raises :class:`WorldError` when the robot would start overlapping an obstacle.
         """
         pose = (float(x), float(y), wrap_angle(float(yaw)))
-        if not all(math.isfinite(value) for value in pose):
-            raise WorldError(self._label(), 'robot', 'pose', f'must be finite, got {pose}')
+        if not all(math.isfinite(value) for value in pose) or \
+                max(map(abs, pose[:2])) > MAX_COORDINATE_M:  # lab-sized, as in a world file
+            raise WorldError(self._label(), 'robot', 'pose', 'must be finite, x and y within '
+                             f'±{MAX_COORDINATE_M:g} m of the origin, got {pose}')
         _check_robot_clear(self._label(), pose, self.robot.radius, self.obstacles)
         return replace(self, robot_start=pose)
 
