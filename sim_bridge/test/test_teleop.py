@@ -106,6 +106,7 @@ def test_ctrl_c_stops_and_quits():
     (['--times', '1.5'], '--times'), (['--wait', '-1'], '--wait'),
     (['--once', '--rate', '5'], '--rate'), (['--once', '--times', '2'], '--times'),
     (['--topic', 'bad topic!'], '--topic'), (['--topic', '/cmd_vel/'], '--topic'),
+    (['--topic', 'robot//cmd_vel'], '--topic'),
     (['--rate', '-1e-3'], '--rate')])
 def test_send_cmd_vel_refuses_a_bad_argument_by_name(argv, named, capsys):
     with pytest.raises(SystemExit) as exit_info:
