@@ -708,6 +708,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except RunError as error:
         print(f'error: {error}', file=sys.stderr)
         return 2
+    except OSError as error:  # an output the run could not write: metrics.json is a folder
+        print(f'error: cannot write {error.filename or args.out}: {error.strerror or error}',
+              file=sys.stderr)
+        return 2
     except KeyboardInterrupt as interrupt:
         print(f'\n{interrupt}' if str(interrupt) else '\ninterrupted', file=sys.stderr)
         return 130

@@ -318,6 +318,15 @@ def test_output_folder_that_cannot_be_created_is_a_start_error(tmp_path, run_mai
     assert f"error: cannot write to {not_a_folder / 'out'}: " in stderr
 
 
+@pytest.mark.parametrize('output', ['metrics.json', 'trajectory.png'])
+def test_an_output_that_cannot_be_written_is_named_in_one_line(output, tmp_path, run_main):
+    (tmp_path / 'out' / output).mkdir(parents=True)  # left there by hand, say
+    status, _, stderr = run_main('--world', 'obstacles', '--node', 'scan_ahead', '--duration',
+                                 '0.2', '--quiet', '--no-record', '--out', str(tmp_path / 'out'))
+    assert status == 2 and 'Traceback' not in stderr
+    assert f"error: cannot write {tmp_path / 'out' / output}: Is a directory" in stderr
+
+
 def test_start_error_leaves_a_previous_run_in_the_folder_untouched(tmp_path, run_main):
     out_dir = tmp_path / 'out'
     assert run_main('--world', 'wall_follow_box', '--node', 'wall_follow', '--duration', '0.5',
