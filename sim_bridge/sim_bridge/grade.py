@@ -35,7 +35,8 @@ from sim_bridge.grading import (
 from sim_bridge.isolate import (
     BUDGET_BASE_S, BUDGET_PER_SIM_S, Child, DEFAULT_MEMORY_BYTES, DEFAULT_STALL_S, Job, Limits)
 from sim_bridge.paths import output_folder
-from sim_bridge.report_text import first_line, format_measured, PathNames, printable, reason
+from sim_bridge.report_text import (
+    first_line, format_measured, one_line, PathNames, printable, reason)
 from sim_bridge.scenario import load_scenarios, ScenarioRun, with_node_overrides
 from sim_bridge.simulation.world import World, WorldError
 from sim_bridge.targets import split_target
@@ -103,7 +104,7 @@ class BatchProgress:
         verdict = 'PASS' if report.passed else 'FAIL'
         why = '' if report.passed else f': {reason(report.as_dict())}'
         line = (f'[{self.done:{len(str(self.total))}d}/{self.total}] {verdict} '
-                f'{printable(name)}{why} ({round(report.sim_time_s, 1):g} of '
+                f'{one_line(name)}{why} ({round(report.sim_time_s, 1):g} of '
                 f'{report.run.scenario.duration_s:g} s sim in {report.wall_time_s:.1f} s)')
         left = self.time_left_s()
         if left is not None and self.done < self.total:
@@ -298,7 +299,7 @@ def format_table(reports: Iterable[RunReport], *, failures_only: bool = False) -
     for report in reports:
         if failures_only and report.passed:
             continue
-        name = printable(report.run.name)
+        name = one_line(report.run.name)
         metrics = report.metrics or {}
         if report.error is not None:
             rows.append((name, f'error: {first_line(report.error, TABLE_TEXT_CHARS)}', '',

@@ -18,7 +18,7 @@ from pathlib import Path
 from sim_bridge import html_report
 from sim_bridge.grading import (
     GradeJob, PAGE_NAME, REPORT_NAME, reuse_notes, RunReport, write_outputs, write_report)
-from sim_bridge.report_text import count_cell, OUTCOME_LEGEND, PathNames, printable
+from sim_bridge.report_text import count_cell, one_line, OUTCOME_LEGEND, PathNames, printable
 from sim_bridge.scenario import Scenario, target_name
 
 CSV_NAME = 'class.csv'
@@ -114,7 +114,7 @@ class ClassBatch:
             cells = [' '.join(filter(None, count_cell(
                 [run for run in runs if run['scenario'] == scenario.name])))
                 for scenario in self.scenarios]
-            rows.append([printable(student), *cells, ' '.join(filter(None, count_cell(runs)))])
+            rows.append([one_line(student), *cells, ' '.join(filter(None, count_cell(runs)))])
         return rows
 
     def write_outputs(self, reports: list[RunReport],

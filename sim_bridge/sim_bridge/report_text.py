@@ -57,6 +57,11 @@ def printable(text: str) -> str:
     return _CONTROL.sub(lambda match: f'\\x{ord(match.group()):02x}', text)
 
 
+def one_line(name: str) -> str:
+    r"""Return a name (a student's folder, a run) printable on one line: newline as ``\n``."""
+    return printable(name).replace('\n', '\\n').replace('\t', '\\t')
+
+
 def cap_text(text: str, limit: int = TEXT_LIMIT_BYTES) -> str:
     """
     Return ``text`` printable and at most about ``limit`` bytes (UTF-8) long.
