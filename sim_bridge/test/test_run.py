@@ -672,7 +672,11 @@ def test_no_record_and_no_plot_leave_only_the_metrics(tmp_path, run_main):
     ('x = 1\ndef broken(:\n', 'SyntaxError: invalid syntax at {path}:2: def broken(:'),
     ('import sys\n\nsys.exit("run me with ros2 run")\n',
      "SystemExit (sys.exit('run me with ros2 run')) at {path}:3: sys.exit("),
-], ids=['import error', 'syntax error', 'exit at import'])
+    ('if True:\n        x = 1\n\ty = 2\n',
+     'TabError: inconsistent use of tabs and spaces in indentation at {path}:3'),
+    ('class ScanError(Exception):\n    def __str__(self):\n        return self.typo\n\n\n'
+     'raise ScanError()\n', 'ScanError: <exception str() failed> at {path}:6: raise ScanError()'),
+], ids=['import error', 'syntax error', 'exit at import', 'tabs and spaces', 'str that raises'])
 def test_a_target_that_fails_to_import_is_a_one_line_start_error(
         source, mentions, tmp_path, run_main):
     path = tmp_path / 'broken.py'
@@ -686,6 +690,25 @@ def test_a_target_that_fails_to_import_is_a_one_line_start_error(
     # Above it, the student's part of the traceback, as `python3 broken.py` shows it: their
     # file and line, not the runner's frames.
     assert f'File "{path}", line ' in stderr and 'sim_bridge' not in stderr
+
+
+def test_a_node_file_of_null_bytes_is_a_one_line_start_error(tmp_path, run_main):
+    path = tmp_path / 'scan_ahead.py'
+    path.write_bytes(bytes(range(256)))  # a .pyc or a zip saved under the node's name
+    status, _, stderr = run_main('--world', 'obstacles', '--node', str(path),
+                                 '--out', str(tmp_path / 'out'))
+    assert status == 2 and 'Traceback' not in stderr
+    assert f"error: '{path}' fails to import: SyntaxError: source code string cannot contain " \
+        'null bytes' in stderr
+
+
+def test_a_node_file_saved_on_windows_with_a_bom_and_crlf_runs(tmp_path, run_main):
+    path = tmp_path / 'scan_ahead.py'
+    path.write_bytes(b'\xef\xbb\xbf' + SCAN_AHEAD_SOURCE.read_bytes().replace(b'\n', b'\r\n'))
+    status, _, stderr = run_main('--world', 'obstacles', '--node', str(path), '--duration',
+                                 '0.3', '--no-record', '--no-plot', '--out', str(tmp_path / 'o'))
+    assert status == 0, stderr
+    assert log_lines(stderr, 'scan_ahead')
 
 
 def test_a_syntax_error_is_reported_at_the_students_line_in_the_grade_report(tmp_path):
