@@ -58,6 +58,9 @@ SEED_PLACEHOLDER = '$seed'
 #: The largest seed: a seed is a ROS integer parameter (int64) of the simulator and, through
 #: $seed, of a node; the simulator's generator (numpy) takes any non-negative integer.
 MAX_SEED = 2 ** 63 - 1
+#: The longest simulated run (s): a day. A lab's run lasts minutes; ``duration: 1e9`` (a typo,
+#: or milliseconds) would hold a batch for months of wall time.
+MAX_DURATION_S = 86400.0
 #: What a NODE of ``--node-override NODE=TARGET`` can be: a node's name, no path.
 _OVERRIDE_NODE = re.compile(r'[\w.-]+')
 _KEYS = ('description', 'world', 'nodes', 'params', 'duration', 'seed', 'seeds', 'start',
@@ -365,8 +368,9 @@ def scenario_from_dict(data: Any, name: str, path: Path | None = None) -> Scenar
             raise fail(f'nodes[{index}]', f'must be a TARGET text, got {_kind(node)}')
 
     duration = data['duration']
-    if not _is_number(duration) or not 0 < duration < math.inf:
-        raise fail('duration', f'must be a positive number of seconds, got {duration!r}')
+    if not _is_number(duration) or not 0 < duration <= MAX_DURATION_S:
+        raise fail('duration', f'must be a positive number of seconds, at most '
+                   f'{MAX_DURATION_S:g} (a day), got {duration!r}')
 
     seeds = data.get('seeds', [data.get('seed', 0)])
     if not isinstance(seeds, list) or not seeds:

@@ -157,7 +157,19 @@ def test_a_start_pose_is_three_numbers(tmp_path):
      'non-empty list'),
     (('description: follow the box', 'descripton: follow the box'), 'descripton',
      'unknown key; expected one of description, world'),
-])
+    (('seeds: [1, 2, 3]', 'seeds: []'), 'seeds', 'must be a non-empty list of integers'),
+    (('duration: 76.2', 'duration: ten'), 'duration', "(a day), got 'ten'"),
+    (('duration: 76.2', 'duration: 1e9'), 'duration', 'at most 86400 (a day), got 1000000000.0'),
+    (('criteria:\n  - laps >= 1\n  - collisions == 0', 'criteria: collisions == 0'),
+     'criteria', "non-empty list of criteria, got the text 'collisions == 0'"),
+    (('  - collisions == 0', '  - 3'), 'criteria[1]', 'must be a text like'),
+    (('  - collisions == 0', '  - __import__("os").system("id") == 0'), 'criteria[1]',
+     'cannot read'),
+    (('  - collisions == 0', '  - speed_of_light > 3'), 'criteria[1]',
+     "unknown metric 'speed_of_light'"),
+    (('params:\n  wall_follow: {side: left, distance: 0.5, seed: $seed}', 'params: [1, 2]'),
+     'params', 'must map node names to parameters, got a list'),
+], ids=lambda value: None)
 def test_every_invalid_field_is_named_with_its_file(tmp_path, change, field, problem):
     path = write(tmp_path, 'broken.yaml', VALID.replace(*change))
     with pytest.raises(ScenarioError) as error:
