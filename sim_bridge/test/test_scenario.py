@@ -209,6 +209,18 @@ def test_a_file_that_is_not_utf8_not_a_file_or_huge_is_named_not_read_without_en
         load_scenario(tmp_path / 'loop.yaml')
 
 
+def test_an_empty_file_and_a_billion_laughs_are_refused_at_once(tmp_path):
+    with pytest.raises(ScenarioError, match='empty.yaml: must be a mapping of keys, got nothing'):
+        load_scenario(write(tmp_path, 'empty.yaml', ''))
+    # Nine lists of nine aliases, nine deep: 9**9 texts if anything expanded it.
+    laughs = ['a0: &a0 [lol, lol, lol, lol, lol, lol, lol, lol, lol]'] + [
+        f"a{level}: &a{level} [{', '.join([f'*a{level - 1}'] * 9)}]" for level in range(1, 9)]
+    bomb = VALID.replace('wall_follow: {side: left, distance: 0.5, seed: $seed}',
+                         'wall_follow:\n' + '\n'.join('    ' + line for line in laughs))
+    with pytest.raises(ScenarioError, match=r'params.wall_follow.a1: must be a bool, number, '):
+        load_scenario(write(tmp_path, 'bomb.yaml', bomb))
+
+
 def test_a_folder_stands_for_its_scenario_files_in_name_order(tmp_path):
     for name in ('b.yaml', 'a.yaml'):
         write(tmp_path, name, VALID)
