@@ -284,6 +284,16 @@ CUBE = {'name': 'box_a', 'type': 'cube', 'size': [1, 1, 1], 'pose': [3, 0]}
     ('floor: {size: [10, -1]}\n', 'floor', 'size', 'must be 2 positive finite numbers'),
     ('bounds: [1, 0, -1, 2]\n', None, 'bounds', 'xmin < xmax'),
     ('name: 42\n', None, 'name', 'must be a non-empty text'),
+    ('obstacles:\n- {name: a, type: cube, size: [0, 0, 0], pose: [3, 0]}\n',
+     'obstacles[0] (a)', 'size', 'must be 3 positive finite numbers, got [0, 0, 0]'),
+    ('obstacles:\n- {name: [x], type: cube, size: [1, 1, 1], pose: [3, 0]}\n', 'obstacles[0]',
+     'name', "must be text, got ['x'] (list)"),
+    ('obstacles:\n- 5\n', 'obstacles[0]', None, 'must be a mapping, got 5 (int)'),
+    ('walls: 5\n', None, 'walls', 'must be a list of entries, got 5 (int)'),
+    ('robot: [0, 0]\n', 'robot', None, 'must be a mapping, got [0, 0] (list)'),
+    ('robot: {model: 5}\n', 'robot', 'model', 'must be a model name, got 5 (int)'),
+    ('obstacles:\n- {name: m, type: model, model: ../../etc, pose: [3, 0]}\n',
+     'obstacles[0] (m)', 'model', "model '../../etc' not found"),
 ])
 def test_broken_world_file_is_rejected_naming_file_entry_and_field(
         tmp_path, text, entry, field, problem):
@@ -308,6 +318,12 @@ def test_a_world_file_that_is_not_utf8_or_too_large_is_named_not_a_traceback(tmp
     (tmp_path / 'huge.yaml').write_text('#' * (FILE_LIMIT_BYTES + 1))
     with pytest.raises(WorldError, match='huge.yaml: cannot read: larger than 1024 KiB'):
         World.load(tmp_path / 'huge.yaml')
+
+
+def test_an_empty_world_file_is_an_endless_floor_with_the_lab_robot(tmp_path):
+    (tmp_path / 'empty.yaml').write_text('')
+    world = World.load(tmp_path / 'empty.yaml')
+    assert (world.name, world.obstacles, world.robot_start) == ('empty', (), (0.0, 0.0, 0.0))
 
 
 def test_the_largest_world_accepted_is_a_lab_sized_one_and_a_yaw_may_be_any_angle():
