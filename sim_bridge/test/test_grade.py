@@ -281,7 +281,8 @@ def test_main_refuses_a_bad_scenario_naming_file_and_field(tmp_path, capsys):
     path = scenario_file(tmp_path, duration=0)
     assert main([str(path), '--out', str(tmp_path / 'out')]) == 2
     assert capsys.readouterr().err == (
-        f'error: {path}: duration: must be a positive number of seconds, got 0\n')
+        f'error: {path}: duration: must be a positive number of seconds, at most 86400 (a day), '
+        'got 0\n')
     assert not (tmp_path / 'out').exists()
 
 
@@ -291,9 +292,17 @@ def test_main_refuses_a_bad_scenario_naming_file_and_field(tmp_path, capsys):
     (['--stall-timeout', 'inf'], '--stall-timeout must be a positive number, got inf'),
     (['--memory-limit', '-1'], '--memory-limit must be a positive number, got -1.0'),
     (['--submissions', 'nowhere'], '--submissions nowhere: not a folder'),
+    (['--timeout', 'nan'], '--timeout must be a positive number, got nan'),
+    (['--submissions', 'box_ccw.yaml'], '--submissions box_ccw.yaml: not a folder'),
+    (['--submissions', 'empty'], '--submissions empty: no student folders in it'),
+    (['--submissions', 'loose'], '--submissions loose: no student folders in it'),
 ])
-def test_main_refuses_bad_options_naming_them(tmp_path, capsys, options, says):
+def test_main_refuses_bad_options_naming_them(tmp_path, capsys, options, says, monkeypatch):
     path = scenario_file(tmp_path)
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / 'empty').mkdir()
+    (tmp_path / 'loose' / '.ana').mkdir(parents=True)  # hidden: no student
+    (tmp_path / 'loose' / 'wall_follow.py').write_text('')  # a file, not a student's folder
     assert main([str(path), '--out', str(tmp_path / 'out'), *options]) == 2
     assert capsys.readouterr().err == f'error: {says}\n'
 

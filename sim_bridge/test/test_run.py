@@ -327,6 +327,15 @@ def test_an_output_that_cannot_be_written_is_named_in_one_line(output, tmp_path,
     assert f"error: cannot write {tmp_path / 'out' / output}: Is a directory" in stderr
 
 
+def test_an_output_folder_with_spaces_unicode_and_a_newline_gets_every_output(tmp_path, run_main):
+    out_dir = tmp_path / 'séance 1\nrun'
+    status, _, stderr = run_main('--world', 'obstacles', '--node', 'scan_ahead', '--duration',
+                                 '0.3', '--quiet', '--out', str(out_dir))
+    assert status == 0, stderr
+    assert {path.name for path in out_dir.iterdir()} == {
+        'metrics.json', 'params.yaml', 'trajectory.png', 'run'}
+
+
 def test_start_error_leaves_a_previous_run_in_the_folder_untouched(tmp_path, run_main):
     out_dir = tmp_path / 'out'
     assert run_main('--world', 'wall_follow_box', '--node', 'wall_follow', '--duration', '0.5',
