@@ -421,15 +421,18 @@ def main(argv: list[str] | None = None) -> int:
                              enabled=not args.quiet)
     names = report_names(args.out, args.submissions,
                          [scenario.path for scenario in scenarios if scenario.path])
-    # SIGTERM (kill, a CI job's timeout) interrupts as Ctrl-C does; the exit status then says
-    # which it was, 128 + the signal's number, as a shell's for a process killed by it.
+    # SIGTERM (kill, a CI job's timeout) and SIGHUP (the terminal or the ssh session closed)
+    # interrupt as Ctrl-C does; the exit status then says which it was, 128 + the signal's
+    # number, as a shell's for a process killed by it.
     interrupted_by = [signal.SIGINT]
 
     def terminate(signum: int, frame: Any) -> None:
         interrupted_by[0] = signum
         raise KeyboardInterrupt
 
-    previous = signal.signal(signal.SIGTERM, terminate)
+    previous = {signum: signal.signal(signum, terminate)
+                for signum in (signal.SIGTERM, signal.SIGHUP)
+                if signal.getsignal(signum) is not signal.SIG_IGN}  # nohup's SIGHUP stays
     try:
         reports = grade_runs(jobs, workers=args.jobs, limits=limits, progress=progress,
                              resume=not args.fresh, names=names, quiet=False,
@@ -437,11 +440,15 @@ def main(argv: list[str] | None = None) -> int:
         # Still interruptible: the reports are written again from the runs' saved results.
         return write_reports(args, batch, reports, names)
     except KeyboardInterrupt:
-        print(f'\ninterrupted: {progress.done} of {len(jobs)} runs finished; the same command '
-              'again resumes from there', file=sys.stderr)
+        try:
+            print(f'\ninterrupted: {progress.done} of {len(jobs)} runs finished; the same '
+                  'command again resumes from there', file=sys.stderr)
+        except OSError:  # the terminal that was closed (SIGHUP)
+            pass
         return 128 + interrupted_by[0]
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
 
 
 def write_reports(args: argparse.Namespace, batch: grade_class.ClassBatch | None,

@@ -249,13 +249,14 @@ def test_a_console_piped_into_head_that_has_exited_costs_no_run_and_no_report(
     assert (tmp_path / 'out' / grade.PAGE_NAME).is_file()
 
 
-@pytest.mark.parametrize('signum', [signal.SIGINT, signal.SIGTERM], ids=['ctrl_c', 'sigterm'])
+@pytest.mark.parametrize('signum', [signal.SIGINT, signal.SIGTERM, signal.SIGHUP],
+                         ids=['ctrl_c', 'sigterm', 'sighup'])
 def test_a_stop_while_the_reports_are_written_is_an_interruption_not_a_traceback(
         tmp_path, monkeypatch, capsys, signum):
     monkeypatch.setattr(grade, 'grade_runs', grade_in_process)
 
     def stopped_while_writing(*args, **kwargs):
-        os.kill(os.getpid(), signum)  # Ctrl-C, or a CI job's timeout, as the JSON is written
+        os.kill(os.getpid(), signum)  # Ctrl-C, a CI job's timeout, a closed ssh session
 
     monkeypatch.setattr(grade, 'write_report', stopped_while_writing)
     status = main([str(scenario_file(tmp_path)), '--out', str(tmp_path / 'out')])
@@ -263,7 +264,7 @@ def test_a_stop_while_the_reports_are_written_is_an_interruption_not_a_traceback
     err = capsys.readouterr().err
     assert 'interrupted: 3 of 3 runs finished; the same command again resumes' in err
     assert 'Traceback' not in err
-    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
+    assert signal.getsignal(signal.SIGTERM) is signal.getsignal(signal.SIGHUP) is signal.SIG_DFL
 
 
 def test_main_exits_zero_when_every_run_passes(tmp_path, monkeypatch, capsys):
