@@ -34,11 +34,13 @@ class ClassBatch:
     def __init__(self, scenarios: list[Scenario], submissions: Path, out: Path) -> None:
         if not submissions.is_dir():
             raise ValueError(f'--submissions {submissions}: not a folder')
-        # --out inside the class folder (class/results) holds the grader's outputs, no student.
-        out_path = out.resolve()
+        # --out inside the class folder (class/results), or the class folder itself (its
+        # students/), holds the grader's outputs, no student.
+        out_path, ours = out.resolve(), (out / STUDENTS_DIR).resolve()
         self.students = sorted(folder.name for folder in submissions.iterdir()
                                if folder.is_dir() and not folder.name.startswith('.')
-                               and not out_path.is_relative_to(folder.resolve()))
+                               and not out_path.is_relative_to(folder.resolve())
+                               and folder.resolve() != ours)
         if not self.students:
             raise ValueError(f'--submissions {submissions}: no student folders in it')
         self.scenarios = scenarios

@@ -114,6 +114,9 @@ def test_only_folders_are_students_and_an_out_folder_inside_the_class_is_none(tm
     (submissions / 'grades' / '2026').mkdir(parents=True)
     batch = ClassBatch(load_scenarios(SCENARIOS), submissions, submissions / 'grades' / '2026')
     assert batch.students == sorted([*CLASS, 'results'])  # now an ordinary folder
+    (submissions / STUDENTS_DIR).mkdir()  # --out is the class folder itself
+    assert ClassBatch(load_scenarios(SCENARIOS), submissions, submissions).students == \
+        sorted([*CLASS, 'grades', 'results'])
 
 
 FIXTURES = Path(__file__).resolve().parent / 'fixtures'
