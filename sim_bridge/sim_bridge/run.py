@@ -422,6 +422,14 @@ class UserInterrupt:
         raise KeyboardInterrupt
 
     def __exit__(self, *exc_info) -> None:
+        if self.pressed and self.previous is not None:
+            # The outputs are written now: an impatient second Ctrl-C must not cut them short.
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
+        else:
+            self.restore()
+
+    def restore(self) -> None:
+        """Give Ctrl-C back its handler from before the block (once the outputs are written)."""
         if self.previous is not None:
             signal.signal(signal.SIGINT, self.previous)
             self.previous = None
@@ -598,15 +606,18 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
             if bag is not None:
                 bag.close()
             run.close()
-    metrics = compute_metrics(observer.finish(), world_model, setpoint=setpoint,
-                              wall_time_s=time.perf_counter() - wall_start,
-                              node_errors=node_errors)
-    metrics['warnings'] = [*metrics.get('warnings', []), *warnings]
-    metrics['ended_by'] = ended_by
-    (out_dir / 'metrics.json').write_text(json.dumps(metrics, indent=2) + '\n')
-    if plot:
-        plot_trajectory(observer.trace, world_model, out_dir / 'trajectory.png',
-                        title=f"{world_model.name}: {', '.join(map(target_name, targets))}")
+    try:
+        metrics = compute_metrics(observer.finish(), world_model, setpoint=setpoint,
+                                  wall_time_s=time.perf_counter() - wall_start,
+                                  node_errors=node_errors)
+        metrics['warnings'] = [*metrics.get('warnings', []), *warnings]
+        metrics['ended_by'] = ended_by
+        (out_dir / 'metrics.json').write_text(json.dumps(metrics, indent=2) + '\n')
+        if plot:
+            plot_trajectory(observer.trace, world_model, out_dir / 'trajectory.png',
+                            title=f"{world_model.name}: {', '.join(map(target_name, targets))}")
+    finally:
+        interrupt.restore()
     if interrupt.pressed:
         raise KeyboardInterrupt(f'run interrupted at {metrics["sim_time_s"]:.1f} s of sim time; '
                                 f'its outputs are in {out_dir}')

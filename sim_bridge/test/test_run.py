@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import get_typestore, Stores
-from sim_bridge.run import main, run_simulation, RunError
+from sim_bridge.run import main, run_simulation, RunError, UserInterrupt
 from sim_bridge.scenario import scenario_from_dict
 from sim_bridge.simulation.geometry import signed_distance
 from sim_bridge.simulation.world import World
@@ -854,3 +854,16 @@ def test_ctrl_c_ends_a_run_with_its_outputs_written(tmp_path):
     assert 0.0 < metrics['sim_time_s'] < 3600 and metrics['node_errors'] == []
     messages = read_bag(out_dir / 'run')
     assert len(messages['/scan']) == pytest.approx(metrics['sim_time_s'] * SCAN_RATE, abs=1)
+
+
+def test_a_second_ctrl_c_while_the_outputs_are_written_does_not_cut_them_short():
+    before = signal.getsignal(signal.SIGINT)
+    interrupt = UserInterrupt()
+    with pytest.raises(KeyboardInterrupt):
+        with interrupt:
+            os.kill(os.getpid(), signal.SIGINT)  # the user's Ctrl-C during the run
+            pytest.fail('Ctrl-C did not interrupt the run')
+    assert interrupt.pressed
+    os.kill(os.getpid(), signal.SIGINT)  # pressed again while metrics.json, the plot, the bag
+    interrupt.restore()                  # are written: nothing happens until they are
+    assert signal.getsignal(signal.SIGINT) is before
