@@ -35,7 +35,8 @@ from sim_bridge.grading import (
 from sim_bridge.isolate import (
     BUDGET_BASE_S, BUDGET_PER_SIM_S, Child, DEFAULT_MEMORY_BYTES, DEFAULT_STALL_S, Job, Limits)
 from sim_bridge.paths import output_folder
-from sim_bridge.report_text import first_line, format_measured, PathNames, printable, reason
+from sim_bridge.report_text import (
+    first_line, format_measured, one_line, PathNames, printable, reason)
 from sim_bridge.scenario import load_scenarios, ScenarioRun, with_node_overrides
 from sim_bridge.simulation.world import World, WorldError
 from sim_bridge.targets import split_target
@@ -103,7 +104,7 @@ class BatchProgress:
         verdict = 'PASS' if report.passed else 'FAIL'
         why = '' if report.passed else f': {reason(report.as_dict())}'
         line = (f'[{self.done:{len(str(self.total))}d}/{self.total}] {verdict} '
-                f'{printable(name)}{why} ({round(report.sim_time_s, 1):g} of '
+                f'{one_line(name)}{why} ({round(report.sim_time_s, 1):g} of '
                 f'{report.run.scenario.duration_s:g} s sim in {report.wall_time_s:.1f} s)')
         left = self.time_left_s()
         if left is not None and self.done < self.total:
@@ -112,8 +113,7 @@ class BatchProgress:
 
     def note(self, line: str) -> None:
         """Print a line above the bar (also when the progress is not shown: a warning)."""
-        self.stream.write(('\r\033[K' if self.live else '') + printable(line) + '\n')
-        self.stream.flush()
+        self._write(('\r\033[K' if self.live else '') + printable(line) + '\n')
         self._draw()
 
     def time_left_s(self) -> float | None:
@@ -132,11 +132,20 @@ class BatchProgress:
         share = done_sim / self.total_sim_s if self.total_sim_s > 0 else self.done / self.total
         filled = round(BAR_WIDTH * min(share, 1.0))
         left = self.time_left_s()
-        self.stream.write(f"\r\033[K[{'#' * filled}{'.' * (BAR_WIDTH - filled)}] "
-                          f'{self.done}/{self.total} runs, {share:.0%} of the simulated time'
-                          + (f', about {format_duration(left)} left' if left is not None else '')
-                          + (f" (running: {', '.join(self.running)})" if self.running else ''))
-        self.stream.flush()
+        self._write(f"\r\033[K[{'#' * filled}{'.' * (BAR_WIDTH - filled)}] "
+                    f'{self.done}/{self.total} runs, {share:.0%} of the simulated time'
+                    + (f', about {format_duration(left)} left' if left is not None else '')
+                    + (f" (running: {', '.join(self.running)})" if self.running else ''))
+
+    def _write(self, text: str) -> None:
+        if self.stream is None:
+            return
+        try:
+            self.stream.write(text)
+            self.stream.flush()
+        except OSError:  # piped into `head`, which has exited: the batch goes on unseen
+            self.stream = None
+            self.live = False
 
 
 def format_duration(seconds: float) -> str:
@@ -290,7 +299,7 @@ def format_table(reports: Iterable[RunReport], *, failures_only: bool = False) -
     for report in reports:
         if failures_only and report.passed:
             continue
-        name = printable(report.run.name)
+        name = one_line(report.run.name)
         metrics = report.metrics or {}
         if report.error is not None:
             rows.append((name, f'error: {first_line(report.error, TABLE_TEXT_CHARS)}', '',
@@ -412,49 +421,71 @@ def main(argv: list[str] | None = None) -> int:
                              enabled=not args.quiet)
     names = report_names(args.out, args.submissions,
                          [scenario.path for scenario in scenarios if scenario.path])
-    # SIGTERM (kill, a CI job's timeout) interrupts as Ctrl-C does; the exit status then says
-    # which it was, 128 + the signal's number, as a shell's for a process killed by it.
+    # SIGTERM (kill, a CI job's timeout) and SIGHUP (the terminal or the ssh session closed)
+    # interrupt as Ctrl-C does; the exit status then says which it was, 128 + the signal's
+    # number, as a shell's for a process killed by it.
     interrupted_by = [signal.SIGINT]
 
     def terminate(signum: int, frame: Any) -> None:
         interrupted_by[0] = signum
         raise KeyboardInterrupt
 
-    previous = signal.signal(signal.SIGTERM, terminate)
+    previous = {signum: signal.signal(signum, terminate)
+                for signum in (signal.SIGTERM, signal.SIGHUP)
+                if signal.getsignal(signum) is not signal.SIG_IGN}  # nohup's SIGHUP stays
     try:
         reports = grade_runs(jobs, workers=args.jobs, limits=limits, progress=progress,
                              resume=not args.fresh, names=names, quiet=False,
                              record=not args.no_record, plot=not args.no_plot)
+        # Still interruptible: the reports are written again from the runs' saved results.
+        return write_reports(args, batch, reports, names)
     except KeyboardInterrupt:
-        print(f'\ninterrupted: {progress.done} of {len(jobs)} runs finished; the same command '
-              'again resumes from there', file=sys.stderr)
+        try:
+            print(f'\ninterrupted: {progress.done} of {len(jobs)} runs finished; the same '
+                  'command again resumes from there', file=sys.stderr)
+        except OSError:  # the terminal that was closed (SIGHUP)
+            pass
         return 128 + interrupted_by[0]
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+
+
+def write_reports(args: argparse.Namespace, batch: grade_class.ClassBatch | None,
+                  reports: list[RunReport], names: PathNames) -> int:
+    """Write and print a finished batch's reports; return the grader's exit status."""
     status = 0 if all(report.passed for report in reports) else 1
     if batch is not None:
         text, unwritten = batch.write_outputs(reports, names)
-        print(text)
+        print_out(text)
         return status if not unwritten else max(status, 1)
     notes = reuse_notes(reports, args.out)
-    table = format_table(reports, failures_only=args.quiet)
-    if not args.quiet or status:
-        print(table)
-    print(summary(reports))
-    for note in notes:
-        print(f'note: {note}')
+    # The files first: a console that has gone (`| head`) must not cost the report.
     unwritten = write_outputs({
         args.out / REPORT_NAME: lambda path: write_report(
             reports, path, overrides=args.node_override, names=names, notes=notes),
         args.out / PAGE_NAME: lambda path: html_report.write_runs_page(
             path, 'Grading report', [report.as_dict(names) for report in reports],
             root=args.out, notes=notes)})
+    lines = [format_table(reports, failures_only=args.quiet)] if not args.quiet or status else []
+    lines.append(summary(reports))
+    lines += [f'note: {note}' for note in notes]
     written = [printable(os.fspath(path)) for path in (args.out / REPORT_NAME,
                                                        args.out / PAGE_NAME)
                if path not in unwritten]
     if written:
-        print(f"report: {' and '.join(written)}")
+        lines.append(f"report: {' and '.join(written)}")
+    print_out('\n'.join(lines))
     return max(status, 1) if unwritten else status
+
+
+def print_out(text: str) -> None:
+    """Print ``text`` on stdout; a pipe whose reader has exited (``| head``) takes no more."""
+    try:
+        print(text, flush=True)
+    except BrokenPipeError:
+        # As Python's documentation advises: stdout to devnull, so the flush at exit is quiet.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
 
 
 if __name__ == '__main__':

@@ -18,7 +18,7 @@ from pathlib import Path
 from sim_bridge import html_report
 from sim_bridge.grading import (
     GradeJob, PAGE_NAME, REPORT_NAME, reuse_notes, RunReport, write_outputs, write_report)
-from sim_bridge.report_text import count_cell, OUTCOME_LEGEND, PathNames, printable
+from sim_bridge.report_text import count_cell, one_line, OUTCOME_LEGEND, PathNames, printable
 from sim_bridge.scenario import Scenario, target_name
 
 CSV_NAME = 'class.csv'
@@ -34,8 +34,13 @@ class ClassBatch:
     def __init__(self, scenarios: list[Scenario], submissions: Path, out: Path) -> None:
         if not submissions.is_dir():
             raise ValueError(f'--submissions {submissions}: not a folder')
+        # --out inside the class folder (class/results), or the class folder itself (its
+        # students/), holds the grader's outputs, no student.
+        out_path, ours = out.resolve(), (out / STUDENTS_DIR).resolve()
         self.students = sorted(folder.name for folder in submissions.iterdir()
-                               if folder.is_dir() and not folder.name.startswith('.'))
+                               if folder.is_dir() and not folder.name.startswith('.')
+                               and not out_path.is_relative_to(folder.resolve())
+                               and folder.resolve() != ours)
         if not self.students:
             raise ValueError(f'--submissions {submissions}: no student folders in it')
         self.scenarios = scenarios
@@ -111,7 +116,7 @@ class ClassBatch:
             cells = [' '.join(filter(None, count_cell(
                 [run for run in runs if run['scenario'] == scenario.name])))
                 for scenario in self.scenarios]
-            rows.append([printable(student), *cells, ' '.join(filter(None, count_cell(runs)))])
+            rows.append([one_line(student), *cells, ' '.join(filter(None, count_cell(runs)))])
         return rows
 
     def write_outputs(self, reports: list[RunReport],

@@ -30,26 +30,36 @@ OUTCOME_LEGEND = {
 }
 #: The unit of a metric, by the end of its name.
 _UNITS = (('_m', 'm'), ('_s', 's'), ('_deg', 'deg'))
+#: Control characters (C0 but newline and tab, DEL, C1) a terminal would act on.
+_CONTROL = re.compile('[\\x00-\\x08\\x0b-\\x1f\\x7f-\\x9f]')
 _METRIC = re.compile(r'(?:(?P<function>\w+)\s*\(\s*)?(?P<path>[A-Za-z_][\w.]*)')
 
 
 def printable(text: str) -> str:
     r"""
-    Return ``text`` encodable as UTF-8: lone surrogates become ``\xNN`` escapes.
+    Return ``text`` encodable as UTF-8 and inert on a terminal: ``\xNN`` escapes for the rest.
 
     A surrogate from ``os.fsdecode`` (a file name that is not UTF-8) shows as the byte it
-    stands for: ``os.fsdecode(b'caf\xe9')`` gives ``'caf\\xe9'``.
+    stands for: ``os.fsdecode(b'caf\xe9')`` gives ``'caf\\xe9'``. A control character but
+    newline and tab shows as its code (``'\x1b[2J'`` as ``'\\x1b[2J'``), so a student's
+    message cannot clear the instructor's terminal, rewrite a line with ``\r`` or put a NUL
+    in a page.
     """
     try:
         text.encode('utf-8')
-        return text
     except UnicodeEncodeError:
-        pass
-    try:
-        raw = text.encode('utf-8', 'surrogateescape')
-    except UnicodeEncodeError:  # a surrogate no file name decoding makes
-        return text.encode('utf-8', 'backslashreplace').decode('utf-8')
-    return raw.decode('utf-8', 'backslashreplace')
+        try:
+            raw = text.encode('utf-8', 'surrogateescape')
+        except UnicodeEncodeError:  # a surrogate no file name decoding makes
+            text = text.encode('utf-8', 'backslashreplace').decode('utf-8')
+        else:
+            text = raw.decode('utf-8', 'backslashreplace')
+    return _CONTROL.sub(lambda match: f'\\x{ord(match.group()):02x}', text)
+
+
+def one_line(name: str) -> str:
+    r"""Return a name (a student's folder, a run) printable on one line: newline as ``\n``."""
+    return printable(name).replace('\n', '\\n').replace('\t', '\\t')
 
 
 def cap_text(text: str, limit: int = TEXT_LIMIT_BYTES) -> str:
@@ -167,8 +177,9 @@ def format_measured(criterion: str, value: Any) -> str:
 
 
 def first_line(text: str, chars: int = REASON_CHARS) -> str:
-    """Return the first non-empty line of ``text``, cut to ``chars`` characters with '...'."""
-    line = next((line.strip() for line in text.splitlines() if line.strip()), '')
+    """Return the first non-empty line of ``text``, printable, cut to ``chars`` with '...'."""
+    line = next((line.strip() for line in text.split('\n') if line.strip()), '')
+    line = printable(line)
     return line if len(line) <= chars else line[:chars - 3].rstrip() + '...'
 
 

@@ -434,6 +434,14 @@ class UserInterrupt:
         raise KeyboardInterrupt
 
     def __exit__(self, *exc_info) -> None:
+        if self.pressed and self.previous is not None:
+            # The outputs are written now: an impatient second Ctrl-C must not cut them short.
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
+        else:
+            self.restore()
+
+    def restore(self) -> None:
+        """Give Ctrl-C back its handler from before the block (once the outputs are written)."""
         if self.previous is not None:
             signal.signal(signal.SIGINT, self.previous)
             self.previous = None
@@ -563,7 +571,7 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
         except TargetError as error:
             failure = import_failure(error)
             if not quiet and failure.traceback:
-                sys.stderr.write(failure.traceback)  # what `python3 node.py` would print
+                to_console(failure.traceback)  # what `python3 node.py` would print
             raise failure from None
         code = StudentCode.of(inspect.getfile(node_class) for node_class in classes)
         params_file = Path(scratch) / 'params.yaml'
@@ -578,7 +586,7 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
             if start_failure is None:
                 warnings += run.undeclared(node_params)
                 for warning in warnings:
-                    print(f'warning: {warning}', file=sys.stderr)
+                    to_console(f'warning: {warning}\n')
             setpoint = run.parameter(SETPOINT_PARAMETER)
             bag = open_outputs(out_dir, params_file, record)
             recorder.record(bag)
@@ -597,7 +605,7 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
             ended_by = str(end)
             warnings.append(f'{end}: the run ended at {bridge.now_ns / NANOSECONDS_PER_SECOND:g} '
                             f's of its {duration_s:g} s')
-            print(f'warning: {warnings[-1]}', file=sys.stderr)
+            to_console(f'warning: {warnings[-1]}\n')
         except NodeError as error:
             student_traceback = error.code.traceback(error.original)
             if not interrupt.pressed:  # a Ctrl-C while a callback ran is the user's
@@ -606,7 +614,7 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
                                               'traceback': student_traceback}))
             if not quiet and not interrupt.pressed:
                 # What the node's own process would print before dying, its own part.
-                sys.stderr.write(student_traceback)
+                to_console(student_traceback)
         except RunStopped as stop:
             if not outputs_open:  # stopped while starting: there is nothing to write yet
                 raise
@@ -615,20 +623,32 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
             if bag is not None:
                 bag.close()
             run.close()
-    metrics = compute_metrics(observer.finish(), world_model, setpoint=setpoint,
-                              wall_time_s=time.perf_counter() - wall_start,
-                              node_errors=node_errors)
-    metrics['warnings'] = [*metrics.get('warnings', []), *warnings]
-    metrics['ended_by'] = ended_by
-    metrics['ignored'] = world_model.ignored
-    (out_dir / 'metrics.json').write_text(json.dumps(metrics, indent=2) + '\n')
-    if plot:
-        plot_trajectory(observer.trace, world_model, out_dir / 'trajectory.png',
-                        title=f"{world_model.name}: {', '.join(map(target_name, targets))}")
+    try:
+        metrics = compute_metrics(observer.finish(), world_model, setpoint=setpoint,
+                                  wall_time_s=time.perf_counter() - wall_start,
+                                  node_errors=node_errors)
+        metrics['warnings'] = [*metrics.get('warnings', []), *warnings]
+        metrics['ended_by'] = ended_by
+        metrics['ignored'] = world_model.ignored
+        (out_dir / 'metrics.json').write_text(json.dumps(metrics, indent=2) + '\n')
+        if plot:
+            plot_trajectory(observer.trace, world_model, out_dir / 'trajectory.png',
+                            title=f"{world_model.name}: {', '.join(map(target_name, targets))}")
+    finally:
+        interrupt.restore()
     if interrupt.pressed:
         raise KeyboardInterrupt(f'run interrupted at {metrics["sim_time_s"]:.1f} s of sim time; '
                                 f'its outputs are in {out_dir}')
     return RunResult(metrics, out_dir)
+
+
+def to_console(text: str) -> None:
+    """Write ``text`` on stderr; a node that closed it (``os.close(2)``) costs its run nothing."""
+    try:
+        sys.stderr.write(text)
+        sys.stderr.flush()
+    except (OSError, ValueError):  # ValueError: sys.stderr.close() in the node's code
+        pass
 
 
 def summary_table(metrics: dict) -> str:
@@ -647,7 +667,7 @@ def summary_table(metrics: dict) -> str:
          f"{wall['mean']:.3f} m / " + ('n/a' if wall['mae'] is None else f"{wall['mae']:.3f} m")),
         ('stop-and-turns', f"{len(metrics['turns_deg'])}"),
         ('longest stationary', f"{metrics['max_stationary_s']:.1f} s"),
-        ('coverage', f"{metrics['coverage']:.0%}"),
+        ('coverage', 'n/a' if metrics['coverage'] is None else f"{metrics['coverage']:.0%}"),
         ('node errors', '; '.join(f"{e['node']}: {e['error']}" for e in metrics['node_errors'])
          or 'none'),
         ('warnings', '; '.join(metrics['warnings']) or 'none'),
@@ -722,6 +742,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             progress=terminal_progress() if sys.stderr.isatty() and not args.quiet else None)
     except RunError as error:
         print(f'error: {error}', file=sys.stderr)
+        return 2
+    except OSError as error:  # an output the run could not write: metrics.json is a folder
+        print(f'error: cannot write {error.filename or args.out}: {error.strerror or error}',
+              file=sys.stderr)
         return 2
     except KeyboardInterrupt as interrupt:
         print(f'\n{interrupt}' if str(interrupt) else '\ninterrupted', file=sys.stderr)

@@ -49,7 +49,7 @@ from typing import Any, Callable
 
 from sim_bridge.metrics import METRIC_KINDS
 from sim_bridge.targets import split_target
-from sim_bridge.yaml_loader import load_yaml
+from sim_bridge.yaml_loader import load_yaml, read_text
 import yaml
 
 SCENARIO_SUFFIX = '.yaml'
@@ -58,6 +58,9 @@ SEED_PLACEHOLDER = '$seed'
 #: The largest seed: a seed is a ROS integer parameter (int64) of the simulator and, through
 #: $seed, of a node; the simulator's generator (numpy) takes any non-negative integer.
 MAX_SEED = 2 ** 63 - 1
+#: The longest simulated run (s): a day. A lab's run lasts minutes; ``duration: 1e9`` (a typo,
+#: or milliseconds) would hold a batch for months of wall time.
+MAX_DURATION_S = 86400.0
 #: What a NODE of ``--node-override NODE=TARGET`` can be: a node's name, no path.
 _OVERRIDE_NODE = re.compile(r'[\w.-]+')
 _KEYS = ('description', 'world', 'nodes', 'params', 'duration', 'seed', 'seeds', 'start',
@@ -319,9 +322,12 @@ def load_scenario(path: str | os.PathLike) -> Scenario:
     path = Path(path)
     label = str(path)
     try:
-        data = load_yaml(path.read_text(encoding='utf-8'))
+        data = load_yaml(read_text(path))
     except OSError as error:
         raise ScenarioError(f'{label}: cannot read: {error.strerror or error}') from None
+    except UnicodeDecodeError as error:  # e.g. a file saved as Latin-1
+        raise ScenarioError(f'{label}: not UTF-8 text: {error.reason} at byte {error.start}'
+                            ) from None
     except yaml.YAMLError as error:
         mark = getattr(error, 'problem_mark', None)
         where = f' at line {mark.line + 1}, column {mark.column + 1}' if mark else ''
@@ -362,8 +368,9 @@ def scenario_from_dict(data: Any, name: str, path: Path | None = None) -> Scenar
             raise fail(f'nodes[{index}]', f'must be a TARGET text, got {_kind(node)}')
 
     duration = data['duration']
-    if not _is_number(duration) or not 0 < duration < math.inf:
-        raise fail('duration', f'must be a positive number of seconds, got {duration!r}')
+    if not _is_number(duration) or not 0 < duration <= MAX_DURATION_S:
+        raise fail('duration', f'must be a positive number of seconds, at most '
+                   f'{MAX_DURATION_S:g} (a day), got {duration!r}')
 
     seeds = data.get('seeds', [data.get('seed', 0)])
     if not isinstance(seeds, list) or not seeds:
@@ -426,7 +433,15 @@ def load_scenarios(paths: list[str | os.PathLike]) -> list[Scenario]:
             files += found
         else:
             files.append(path)
-    return [load_scenario(file) for file in files]
+    # A run's outputs are named after its scenario (<out>/<scenario>/seed_<n>): a file given
+    # twice (a.yaml and a folder holding it) runs once, two files of one name are refused.
+    named: dict[str, Path] = {}
+    for file in files:
+        other = named.setdefault(file.stem, file)
+        if other != file and other.resolve() != file.resolve():
+            raise ScenarioError(f'{file}: its name {file.stem!r} is also the name of {other} '
+                                '(runs are named after their scenario); rename one')
+    return [load_scenario(file) for file in named.values()]
 
 
 def _resolve(reference: str, base: Path | None, suffix: str) -> str:

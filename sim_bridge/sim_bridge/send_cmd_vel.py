@@ -19,11 +19,15 @@ import rclpy
 from rclpy.duration import Duration
 from rclpy.exceptions import InvalidTopicNameException
 from rclpy.executors import ExternalShutdownException
+from rclpy.expand_topic_name import expand_topic_name
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 from rclpy.utilities import remove_ros_args
+from rclpy.validate_full_topic_name import validate_full_topic_name
 from rclpy.validate_topic_name import validate_topic_name
 
+#: The node's name, which a topic name's '~' stands for.
+NODE_NAME = 'send_cmd_vel'
 #: Longest wait (s) for the published commands to be acknowledged before exiting.
 ACK_TIMEOUT_S = 1.0
 
@@ -94,7 +98,9 @@ def parse_arguments(argv: list[str]) -> argparse.Namespace:
         parser.error('argument --times: not allowed with argument --once')
     try:
         validate_topic_name(arguments.topic)
-    except InvalidTopicNameException as error:
+        # As the node will expand it: 'a//b' passes the check above, not rcl's of the result.
+        validate_full_topic_name(expand_topic_name(arguments.topic, NODE_NAME, '/'))
+    except (InvalidTopicNameException, ValueError) as error:
         # The first line of rclpy's message: the others repeat the name with a caret.
         problem = str(error).splitlines()[0].rstrip(': ')
         parser.error(f'argument --topic: {problem}, got {arguments.topic!r}')
@@ -104,7 +110,7 @@ def parse_arguments(argv: list[str]) -> argparse.Namespace:
 class CmdVelSender(Node):
 
     def __init__(self, arguments: argparse.Namespace):
-        super().__init__('send_cmd_vel')
+        super().__init__(NODE_NAME)
         self.arguments = arguments
         self.publisher = self.create_publisher(
             TwistStamped if arguments.stamped else Twist, arguments.topic, 10)

@@ -163,7 +163,11 @@ def load_module(where: str) -> ModuleType:
 
 def describe(error: BaseException, code: StudentCode = StudentCode()) -> str:
     """Say what ``error`` was and the node's own line that raised it (StudentCode.origin)."""
-    text = f'{type(error).__name__}: {error}' if str(error) else type(error).__name__
+    try:
+        message = str(error)
+    except Exception:  # noqa: B902 a student's __str__ that raises; Python's traceback says so
+        message = '<exception str() failed>'
+    text = f'{type(error).__name__}: {message}' if message else type(error).__name__
     if isinstance(error, SystemExit):
         text = f'SystemExit (sys.exit({error.code!r}))'
     elif isinstance(error, SyntaxError):

@@ -16,6 +16,7 @@ import tty
 from geometry_msgs.msg import Twist, TwistStamped
 import rclpy
 from rclpy.duration import Duration
+from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
@@ -54,7 +55,11 @@ def main(args=None):
     signal.signal(signal.SIGTERM, signal.default_int_handler)  # as Ctrl-C: stop, then exit
     # Ctrl-C arrives as a key in raw mode; rclpy's handler would shut down before the stop.
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-    node = TeleopKeyboard()
+    try:
+        node = TeleopKeyboard()
+    except (ValueError, ParameterException) as error:  # -p frame_id without stamped, a type
+        rclpy.try_shutdown()
+        sys.exit(f'teleop_keyboard: {error}')
     keys = TeleopKeys()
     try:
         tty.setraw(fd)

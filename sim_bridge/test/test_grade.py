@@ -5,9 +5,12 @@ Runs in child processes are tested in test_isolation.py; here ``grade_runs`` is 
 in-process runs of the stand-in, so each test is about one piece of the grader.
 """
 
+import contextlib
 import io
 import json
+import os
 from pathlib import Path
+import signal
 from types import SimpleNamespace
 
 import pytest
@@ -177,6 +180,21 @@ def test_table_shows_the_error_of_a_node_that_failed(tmp_path, runs):
     assert lines[2].endswith('FAIL')
 
 
+def test_a_coloured_error_reaches_the_table_and_the_page_as_inert_text(tmp_path, runs):
+    def simulate_coloured_error(world, targets, **options):
+        error = "node 'follower' raised ValueError: \x1b[2J\x1b[91mTOO CLOSE\x1b[0m\r\x00"
+        return SimpleNamespace(metrics={'laps': 0, 'collisions': 0,
+                                        'node_errors': [{'node': 'follower', 'error': error}]})
+
+    report = run_scenario(runs[0], tmp_path, simulate=simulate_coloured_error)
+    table = format_table([report], failures_only=True)
+    assert 'raised ValueError: \\x1b[2J\\x1b[91mTOO' in table
+    assert not any(char in table for char in '\x1b\r\x00')
+    write_report([report], tmp_path / 'report.json')
+    saved = json.loads((tmp_path / 'report.json').read_text())
+    assert '\\x0d\\x00' in saved['runs'][0]['metrics']['node_errors'][0]['error']
+
+
 def test_report_is_json_with_every_run_and_the_verdict(tmp_path, runs):
     reports = graded(runs[:2], tmp_path)
     write_report(reports, tmp_path / 'report.json', overrides=['ana.py'])
@@ -208,6 +226,47 @@ def test_main_exits_non_zero_and_writes_the_report_when_a_run_fails(
     assert json.loads((tmp_path / 'out' / grade.REPORT_NAME).read_text())['summary']['runs'] == 3
 
 
+class ClosedPipe(io.StringIO):
+    """A stream piped into ``head``, which has read its lines and exited."""
+
+    def write(self, text):
+        raise BrokenPipeError(32, 'Broken pipe')
+
+    def fileno(self):
+        return 1
+
+
+def test_a_console_piped_into_head_that_has_exited_costs_no_run_and_no_report(
+        tmp_path, monkeypatch):
+    monkeypatch.setattr(grade, 'grade_runs', grade_in_process)
+    monkeypatch.setattr(grade.sys, 'stderr', ClosedPipe())  # the progress lines' stream
+    monkeypatch.setattr(grade.os, 'dup2', lambda *fds: None)  # pytest's own stdout stays
+    with contextlib.redirect_stdout(ClosedPipe()):
+        status = main([str(scenario_file(tmp_path)), '--out', str(tmp_path / 'out')])
+    assert status == 1
+    document = json.loads((tmp_path / 'out' / grade.REPORT_NAME).read_text())
+    assert document['summary'] == {'runs': 3, 'passed': 1, 'failed': 2, 'reused': 0}
+    assert (tmp_path / 'out' / grade.PAGE_NAME).is_file()
+
+
+@pytest.mark.parametrize('signum', [signal.SIGINT, signal.SIGTERM, signal.SIGHUP],
+                         ids=['ctrl_c', 'sigterm', 'sighup'])
+def test_a_stop_while_the_reports_are_written_is_an_interruption_not_a_traceback(
+        tmp_path, monkeypatch, capsys, signum):
+    monkeypatch.setattr(grade, 'grade_runs', grade_in_process)
+
+    def stopped_while_writing(*args, **kwargs):
+        os.kill(os.getpid(), signum)  # Ctrl-C, a CI job's timeout, a closed ssh session
+
+    monkeypatch.setattr(grade, 'write_report', stopped_while_writing)
+    status = main([str(scenario_file(tmp_path)), '--out', str(tmp_path / 'out')])
+    assert status == 128 + signum
+    err = capsys.readouterr().err
+    assert 'interrupted: 3 of 3 runs finished; the same command again resumes' in err
+    assert 'Traceback' not in err
+    assert signal.getsignal(signal.SIGTERM) is signal.getsignal(signal.SIGHUP) is signal.SIG_DFL
+
+
 def test_main_exits_zero_when_every_run_passes(tmp_path, monkeypatch, capsys):
     monkeypatch.setattr(grade, 'grade_runs', grade_in_process)
     status = main([str(scenario_file(tmp_path, seeds=[1])), '--out', str(tmp_path / 'out'),
@@ -223,7 +282,8 @@ def test_main_refuses_a_bad_scenario_naming_file_and_field(tmp_path, capsys):
     path = scenario_file(tmp_path, duration=0)
     assert main([str(path), '--out', str(tmp_path / 'out')]) == 2
     assert capsys.readouterr().err == (
-        f'error: {path}: duration: must be a positive number of seconds, got 0\n')
+        f'error: {path}: duration: must be a positive number of seconds, at most 86400 (a day), '
+        'got 0\n')
     assert not (tmp_path / 'out').exists()
 
 
@@ -233,9 +293,17 @@ def test_main_refuses_a_bad_scenario_naming_file_and_field(tmp_path, capsys):
     (['--stall-timeout', 'inf'], '--stall-timeout must be a positive number, got inf'),
     (['--memory-limit', '-1'], '--memory-limit must be a positive number, got -1.0'),
     (['--submissions', 'nowhere'], '--submissions nowhere: not a folder'),
+    (['--timeout', 'nan'], '--timeout must be a positive number, got nan'),
+    (['--submissions', 'box_ccw.yaml'], '--submissions box_ccw.yaml: not a folder'),
+    (['--submissions', 'empty'], '--submissions empty: no student folders in it'),
+    (['--submissions', 'loose'], '--submissions loose: no student folders in it'),
 ])
-def test_main_refuses_bad_options_naming_them(tmp_path, capsys, options, says):
+def test_main_refuses_bad_options_naming_them(tmp_path, capsys, options, says, monkeypatch):
     path = scenario_file(tmp_path)
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / 'empty').mkdir()
+    (tmp_path / 'loose' / '.ana').mkdir(parents=True)  # hidden: no student
+    (tmp_path / 'loose' / 'wall_follow.py').write_text('')  # a file, not a student's folder
     assert main([str(path), '--out', str(tmp_path / 'out'), *options]) == 2
     assert capsys.readouterr().err == f'error: {says}\n'
 

@@ -104,11 +104,26 @@ def test_each_job_is_named_after_its_student_and_a_missing_file_is_not_run(tmp_p
                for job in ana for node in job.run.scenario.nodes)
 
 
+def test_only_folders_are_students_and_an_out_folder_inside_the_class_is_none(tmp_path):
+    submissions = make_class(tmp_path / 'class', WORKSPACE)
+    (submissions / 'notes.txt').write_text('a file, no student')
+    (submissions / '.git').mkdir()
+    (submissions / 'results' / STUDENTS_DIR / 'ana').mkdir(parents=True)  # a graded --out
+    batch = ClassBatch(load_scenarios(SCENARIOS), submissions, submissions / 'results')
+    assert batch.students == sorted(CLASS)
+    (submissions / 'grades' / '2026').mkdir(parents=True)
+    batch = ClassBatch(load_scenarios(SCENARIOS), submissions, submissions / 'grades' / '2026')
+    assert batch.students == sorted([*CLASS, 'results'])  # now an ordinary folder
+    (submissions / STUDENTS_DIR).mkdir()  # --out is the class folder itself
+    assert ClassBatch(load_scenarios(SCENARIOS), submissions, submissions).students == \
+        sorted([*CLASS, 'grades', 'results'])
+
+
 FIXTURES = Path(__file__).resolve().parent / 'fixtures'
 SCAN_AHEAD = WORKSPACE / 'scan_pkg' / 'scan_pkg' / 'scan_ahead.py'
 #: Folder names the file system allows: not UTF-8 (a Windows zip), the class's own outputs'
 #: names, the TARGET syntax's ':'.
-AWKWARD_NAMES = [os.fsdecode(b'Jos\xe9'), 'index.html', 'class.csv', 'col:on']
+AWKWARD_NAMES = [os.fsdecode(b'Jos\xe9'), 'index.html', 'class.csv', 'col:on', 'new\nline']
 
 
 @pytest.fixture(scope='module')
@@ -144,15 +159,16 @@ def test_awkward_folder_names_are_graded_under_their_names(awkward):
     root, out, outputs = awkward
     with open(out / CSV_NAME, newline='', encoding='utf-8') as file:
         rows = {row[0]: row[1:] for row in csv.reader(file)}
-    for name in ('Jos\\xe9', 'index.html', 'class.csv', 'col:on'):
+    for name in ('Jos\\xe9', 'index.html', 'class.csv', 'col:on', 'new\\nline'):
         assert rows[name] == ['1/1', '1/1'], name
     assert rows['zoe'] == rows['max'] == ['0/1 node error'] * 2
     links = linked_files(out / INDEX_NAME)
-    assert len(links) == 6 and all(link.is_file() for link in links)
+    assert len(links) == 7 and all(link.is_file() for link in links)
     assert out / STUDENTS_DIR / AWKWARD_NAMES[0] / grade.PAGE_NAME in links
     for status, stdout, stderr in outputs:
         assert status == 1
         assert 'Jos\\xe9' in stdout and 'Traceback' not in stderr
+        assert 'new\\nline ' in stdout  # one row of the table
 
 
 def test_error_texts_that_are_not_utf8_reach_every_report(awkward):
@@ -194,6 +210,6 @@ def test_reports_carry_no_absolute_path_of_the_grader(awkward):
 def test_a_second_invocation_says_it_reused_the_runs(awkward):
     _, out, outputs = awkward
     assert 'reused' not in outputs[0][1]
-    assert 'note: 6 of 6 runs reused from an earlier invocation' in outputs[1][1]
+    assert 'note: 7 of 7 runs reused from an earlier invocation' in outputs[1][1]
     page = (out / STUDENTS_DIR / 'zoe' / grade.PAGE_NAME).read_text(encoding='utf-8')
-    assert '6 of 6 runs reused from an earlier invocation' in page
+    assert '7 of 7 runs reused from an earlier invocation' in page

@@ -102,6 +102,16 @@ def test_sys_exit_in_a_callback_fails_the_run_naming_it(batch):
     assert 'in on_scan' in error['traceback'] and 'sys.exit(3)' in error['traceback']
 
 
+def test_a_node_that_closes_its_console_fails_with_its_own_error(tmp_path):
+    # Not quiet, as the grader runs: the runner writes the node's traceback on the console.
+    closes = scenario('closes', str(FIXTURES / 'closes_stderr_node.py'))
+    [report] = grade_runs(jobs_of(tmp_path, [closes]), limits=Limits(stall_s=STALL_S),
+                          quiet=False, record=False, plot=False)
+    assert report.error is None
+    [error] = report.metrics['node_errors']
+    assert error['error'].startswith("node 'quiet' raised RuntimeError: no wall in sight at ")
+
+
 def test_os_exit_fails_the_run_with_the_exit_status_and_its_log(batch):
     report = batch['os__exit']
     assert report.error == 'exit status 4'

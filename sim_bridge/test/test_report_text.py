@@ -6,13 +6,26 @@ import os
 import pytest
 
 from sim_bridge.report_text import (
-    cap_text, count_cell, format_measured, json_safe, PathNames, printable)
+    cap_text, count_cell, format_measured, json_safe, one_line, PathNames, printable)
 
 
 def test_lone_surrogates_show_the_bytes_they_stand_for():
     assert printable(os.fsdecode(b'caf\xe9')) == 'caf\\xe9'
     assert printable('\ud800 alone') == '\\ud800 alone'
     assert printable('caf\u00e9') == 'caf\u00e9'
+
+
+def test_control_characters_show_as_codes_so_a_terminal_does_nothing_with_them():
+    # A student's coloured or \r-animated message, a NUL: inert on the console and in a page.
+    shown = printable('\x1b[2J\x1b[31mTOO CLOSE\x1b[0m\x00\r\r\x9b1m\x7f')
+    assert shown == '\\x1b[2J\\x1b[31mTOO CLOSE\\x1b[0m\\x00\\x0d\\x0d\\x9b1m\\x7f'
+    assert printable('line 1\n\tline 2 \u00e9') == 'line 1\n\tline 2 \u00e9'
+    assert '\x1b' not in cap_text('\x1b[2J' * 10_000, 1000)
+
+
+def test_a_folder_name_with_a_newline_or_an_escape_stays_one_line_in_a_table():
+    assert one_line('new\nline\tx\x1b[31m') == 'new\\nline\\tx\\x1b[31m'
+    assert one_line(os.fsdecode(b'Jos\xe9')) == 'Jos\\xe9'
 
 
 def test_a_long_text_keeps_its_ends_around_a_marker():

@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import get_typestore, Stores
-from sim_bridge.run import main, run_simulation, RunError
+from sim_bridge.run import main, run_simulation, RunError, UserInterrupt
 from sim_bridge.scenario import scenario_from_dict
 from sim_bridge.simulation.geometry import signed_distance
 from sim_bridge.simulation.world import World
@@ -325,6 +325,24 @@ def test_output_folder_that_cannot_be_created_is_a_start_error(tmp_path, run_mai
     assert f"error: cannot write to {not_a_folder / 'out'}: " in stderr
 
 
+@pytest.mark.parametrize('output', ['metrics.json', 'trajectory.png'])
+def test_an_output_that_cannot_be_written_is_named_in_one_line(output, tmp_path, run_main):
+    (tmp_path / 'out' / output).mkdir(parents=True)  # left there by hand, say
+    status, _, stderr = run_main('--world', 'obstacles', '--node', 'scan_ahead', '--duration',
+                                 '0.2', '--quiet', '--no-record', '--out', str(tmp_path / 'out'))
+    assert status == 2 and 'Traceback' not in stderr
+    assert f"error: cannot write {tmp_path / 'out' / output}: Is a directory" in stderr
+
+
+def test_an_output_folder_with_spaces_unicode_and_a_newline_gets_every_output(tmp_path, run_main):
+    out_dir = tmp_path / 'séance 1\nrun'
+    status, _, stderr = run_main('--world', 'obstacles', '--node', 'scan_ahead', '--duration',
+                                 '0.3', '--quiet', '--out', str(out_dir))
+    assert status == 0, stderr
+    assert {path.name for path in out_dir.iterdir()} == {
+        'metrics.json', 'params.yaml', 'trajectory.png', 'run'}
+
+
 def test_start_error_leaves_a_previous_run_in_the_folder_untouched(tmp_path, run_main):
     out_dir = tmp_path / 'out'
     assert run_main('--world', 'wall_follow_box', '--node', 'wall_follow', '--duration', '0.5',
@@ -392,6 +410,30 @@ def test_node_raising_in_its_callback_fails_the_run(tmp_path, run_main):
     # It raises on its fifth scan, at 0.5 s.
     assert load_metrics(out_dir)['sim_time_s'] == pytest.approx(0.5)
     assert len(read_bag(out_dir / 'run')['/scan']) == 5
+
+
+def test_an_exception_whose_str_raises_fails_the_run_at_the_students_line(tmp_path, run_main):
+    out_dir = tmp_path / 'out'
+    status, _, stderr = run_main('--world', 'obstacles', '--node',
+                                 str(FIXTURES / 'broken_str_error_node.py'), '--duration', '1',
+                                 '--no-record', '--no-plot', '--out', str(out_dir))
+    assert status == 1
+    (error,) = load_metrics(out_dir)['node_errors']
+    assert error['error'].startswith(
+        "node 'checker' raised ScanError: <exception str() failed> at ")
+    assert 'broken_str_error_node.py:27: raise ScanError(msg)' in error['error']
+    assert 'targets.py' not in stderr  # no traceback of the runner's own
+
+
+def test_a_world_too_small_for_a_coverage_cell_runs_and_says_coverage_n_a(tmp_path, run_main):
+    world = tmp_path / 'speck.yaml'
+    world.write_text('bounds: [0, 0, 0.001, 0.001]\n')
+    status, stdout, stderr = run_main('--world', str(world), '--node', 'scan_ahead',
+                                      '--duration', '0.2', '--quiet', '--no-record',
+                                      '--no-plot', '--out', str(tmp_path / 'out'))
+    assert (status, 'Traceback' in stderr) == (0, False)
+    assert load_metrics(tmp_path / 'out')['coverage'] is None
+    assert re.search(r'coverage +n/a', stdout)
 
 
 @pytest.mark.parametrize('how, says', [
@@ -685,7 +727,11 @@ def test_no_record_and_no_plot_leave_only_the_metrics(tmp_path, run_main):
     ('x = 1\ndef broken(:\n', 'SyntaxError: invalid syntax at {path}:2: def broken(:'),
     ('import sys\n\nsys.exit("run me with ros2 run")\n',
      "SystemExit (sys.exit('run me with ros2 run')) at {path}:3: sys.exit("),
-], ids=['import error', 'syntax error', 'exit at import'])
+    ('if True:\n        x = 1\n\ty = 2\n',
+     'TabError: inconsistent use of tabs and spaces in indentation at {path}:3'),
+    ('class ScanError(Exception):\n    def __str__(self):\n        return self.typo\n\n\n'
+     'raise ScanError()\n', 'ScanError: <exception str() failed> at {path}:6: raise ScanError()'),
+], ids=['import error', 'syntax error', 'exit at import', 'tabs and spaces', 'str that raises'])
 def test_a_target_that_fails_to_import_is_a_one_line_start_error(
         source, mentions, tmp_path, run_main):
     path = tmp_path / 'broken.py'
@@ -699,6 +745,25 @@ def test_a_target_that_fails_to_import_is_a_one_line_start_error(
     # Above it, the student's part of the traceback, as `python3 broken.py` shows it: their
     # file and line, not the runner's frames.
     assert f'File "{path}", line ' in stderr and 'sim_bridge' not in stderr
+
+
+def test_a_node_file_of_null_bytes_is_a_one_line_start_error(tmp_path, run_main):
+    path = tmp_path / 'scan_ahead.py'
+    path.write_bytes(bytes(range(256)))  # a .pyc or a zip saved under the node's name
+    status, _, stderr = run_main('--world', 'obstacles', '--node', str(path),
+                                 '--out', str(tmp_path / 'out'))
+    assert status == 2 and 'Traceback' not in stderr
+    assert f"error: '{path}' fails to import: SyntaxError: source code string cannot contain " \
+        'null bytes' in stderr
+
+
+def test_a_node_file_saved_on_windows_with_a_bom_and_crlf_runs(tmp_path, run_main):
+    path = tmp_path / 'scan_ahead.py'
+    path.write_bytes(b'\xef\xbb\xbf' + SCAN_AHEAD_SOURCE.read_bytes().replace(b'\n', b'\r\n'))
+    status, _, stderr = run_main('--world', 'obstacles', '--node', str(path), '--duration',
+                                 '0.3', '--no-record', '--no-plot', '--out', str(tmp_path / 'o'))
+    assert status == 0, stderr
+    assert log_lines(stderr, 'scan_ahead')
 
 
 def test_a_syntax_error_is_reported_at_the_students_line_in_the_grade_report(tmp_path):
@@ -835,3 +900,16 @@ def test_ctrl_c_ends_a_run_with_its_outputs_written(tmp_path):
     assert 0.0 < metrics['sim_time_s'] < 3600 and metrics['node_errors'] == []
     messages = read_bag(out_dir / 'run')
     assert len(messages['/scan']) == pytest.approx(metrics['sim_time_s'] * SCAN_RATE, abs=1)
+
+
+def test_a_second_ctrl_c_while_the_outputs_are_written_does_not_cut_them_short():
+    before = signal.getsignal(signal.SIGINT)
+    interrupt = UserInterrupt()
+    with pytest.raises(KeyboardInterrupt):
+        with interrupt:
+            os.kill(os.getpid(), signal.SIGINT)  # the user's Ctrl-C during the run
+            pytest.fail('Ctrl-C did not interrupt the run')
+    assert interrupt.pressed
+    os.kill(os.getpid(), signal.SIGINT)  # pressed again while metrics.json, the plot, the bag
+    interrupt.restore()                  # are written: nothing happens until they are
+    assert signal.getsignal(signal.SIGINT) is before

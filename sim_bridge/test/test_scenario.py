@@ -1,5 +1,6 @@
 """Scenario files and pass criteria: parsing, judging, validation errors, node overrides."""
 
+import os
 from pathlib import Path
 import textwrap
 
@@ -7,6 +8,7 @@ import pytest
 
 from sim_bridge.scenario import (load_scenario, load_scenarios, MAX_SEED, parse_criterion,
                                  ScenarioError, target_name, with_node_overrides)
+from sim_bridge.yaml_loader import FILE_LIMIT_BYTES
 
 METRICS = {
     'collisions': 0, 'laps': -2, 'min_clearance_m': 0.21, 'turns_deg': [104.5, 171.0, 95.25],
@@ -155,7 +157,19 @@ def test_a_start_pose_is_three_numbers(tmp_path):
      'non-empty list'),
     (('description: follow the box', 'descripton: follow the box'), 'descripton',
      'unknown key; expected one of description, world'),
-])
+    (('seeds: [1, 2, 3]', 'seeds: []'), 'seeds', 'must be a non-empty list of integers'),
+    (('duration: 76.2', 'duration: ten'), 'duration', "(a day), got 'ten'"),
+    (('duration: 76.2', 'duration: 1e9'), 'duration', 'at most 86400 (a day), got 1000000000.0'),
+    (('criteria:\n  - laps >= 1\n  - collisions == 0', 'criteria: collisions == 0'),
+     'criteria', "non-empty list of criteria, got the text 'collisions == 0'"),
+    (('  - collisions == 0', '  - 3'), 'criteria[1]', 'must be a text like'),
+    (('  - collisions == 0', '  - __import__("os").system("id") == 0'), 'criteria[1]',
+     'cannot read'),
+    (('  - collisions == 0', '  - speed_of_light > 3'), 'criteria[1]',
+     "unknown metric 'speed_of_light'"),
+    (('params:\n  wall_follow: {side: left, distance: 0.5, seed: $seed}', 'params: [1, 2]'),
+     'params', 'must map node names to parameters, got a list'),
+], ids=lambda value: None)
 def test_every_invalid_field_is_named_with_its_file(tmp_path, change, field, problem):
     path = write(tmp_path, 'broken.yaml', VALID.replace(*change))
     with pytest.raises(ScenarioError) as error:
@@ -176,11 +190,56 @@ def test_unreadable_files_are_named(tmp_path):
         load_scenarios([tmp_path / 'empty'])
 
 
+def test_a_file_that_is_not_utf8_not_a_file_or_huge_is_named_not_read_without_end(tmp_path):
+    (tmp_path / 'latin1.yaml').write_bytes(VALID.replace('follow the box', 'caf\u00e9')
+                                           .encode('latin-1'))
+    with pytest.raises(ScenarioError, match=r'latin1.yaml: not UTF-8 text: .* at byte \d+$'):
+        load_scenario(tmp_path / 'latin1.yaml')
+    (tmp_path / 'zero.yaml').symlink_to('/dev/zero')
+    with pytest.raises(ScenarioError, match='zero.yaml: cannot read: not a regular file'):
+        load_scenario(tmp_path / 'zero.yaml')
+    os.mkfifo(tmp_path / 'pipe.yaml')  # opening it would wait for a writer for ever
+    with pytest.raises(ScenarioError, match='pipe.yaml: cannot read: not a regular file'):
+        load_scenario(tmp_path / 'pipe.yaml')
+    write(tmp_path, 'huge.yaml', VALID + '#' * FILE_LIMIT_BYTES)
+    with pytest.raises(ScenarioError, match='huge.yaml: cannot read: larger than 1024 KiB'):
+        load_scenario(tmp_path / 'huge.yaml')
+    (tmp_path / 'loop.yaml').symlink_to('loop.yaml')
+    with pytest.raises(ScenarioError, match='loop.yaml: cannot read: Too many levels'):
+        load_scenario(tmp_path / 'loop.yaml')
+
+
+def test_an_empty_file_and_a_billion_laughs_are_refused_at_once(tmp_path):
+    with pytest.raises(ScenarioError, match='empty.yaml: must be a mapping of keys, got nothing'):
+        load_scenario(write(tmp_path, 'empty.yaml', ''))
+    # Nine lists of nine aliases, nine deep: 9**9 texts if anything expanded it.
+    laughs = ['a0: &a0 [lol, lol, lol, lol, lol, lol, lol, lol, lol]'] + [
+        f"a{level}: &a{level} [{', '.join([f'*a{level - 1}'] * 9)}]" for level in range(1, 9)]
+    bomb = VALID.replace('wall_follow: {side: left, distance: 0.5, seed: $seed}',
+                         'wall_follow:\n' + '\n'.join('    ' + line for line in laughs))
+    with pytest.raises(ScenarioError, match=r'params.wall_follow.a1: must be a bool, number, '):
+        load_scenario(write(tmp_path, 'bomb.yaml', bomb))
+
+
 def test_a_folder_stands_for_its_scenario_files_in_name_order(tmp_path):
     for name in ('b.yaml', 'a.yaml'):
         write(tmp_path, name, VALID)
     (tmp_path / 'notes.txt').write_text('not a scenario')
     assert [scenario.name for scenario in load_scenarios([tmp_path])] == ['a', 'b']
+
+
+def test_a_scenario_given_twice_runs_once_and_two_of_one_name_are_refused(tmp_path):
+    for folder in ('a', 'b'):
+        (tmp_path / folder).mkdir()
+    write(tmp_path, 'a/box.yaml', VALID)
+    write(tmp_path, 'a/cyl.yaml', VALID)
+    scenarios = load_scenarios([tmp_path / 'a' / 'box.yaml', tmp_path / 'a',
+                                tmp_path / 'a' / '..' / 'a' / 'box.yaml'])
+    assert [scenario.name for scenario in scenarios] == ['box', 'cyl']
+    write(tmp_path, 'b/box.yaml', VALID)
+    clash = r"b/box.yaml: its name 'box' is also the name of .*a/box.yaml \(runs are named"
+    with pytest.raises(ScenarioError, match=clash):
+        load_scenarios([tmp_path / 'a', tmp_path / 'b' / 'box.yaml'])
 
 
 @pytest.mark.parametrize('target, name', [

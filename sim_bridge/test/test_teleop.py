@@ -106,6 +106,7 @@ def test_ctrl_c_stops_and_quits():
     (['--times', '1.5'], '--times'), (['--wait', '-1'], '--wait'),
     (['--once', '--rate', '5'], '--rate'), (['--once', '--times', '2'], '--times'),
     (['--topic', 'bad topic!'], '--topic'), (['--topic', '/cmd_vel/'], '--topic'),
+    (['--topic', 'robot//cmd_vel'], '--topic'),
     (['--rate', '-1e-3'], '--rate')])
 def test_send_cmd_vel_refuses_a_bad_argument_by_name(argv, named, capsys):
     with pytest.raises(SystemExit) as exit_info:
@@ -305,12 +306,17 @@ def test_teleop_needs_a_terminal_and_frame_id_needs_stamped():
     assert done.stderr.strip().splitlines() == [
         'teleop_keyboard: standard input is not a terminal; it reads key presses, so run it in '
         'a terminal of its own']
-    keyboard = teleop('-p', 'frame_id:=base_link')
-    try:
-        assert keyboard.process.wait(timeout=30) != 0
-        assert "'frame_id' can only be set when 'stamped' is True" in keyboard.text()
-    finally:
-        keyboard.stop()
+    for parameter, says in (
+            ('frame_id:=base_link', "'frame_id' can only be set when 'stamped' is True"),
+            ('stamped:=maybe', "parameter 'stamped' to 'maybe' of type 'STRING', expecting "
+                               "type 'BOOL'")):
+        keyboard = teleop('-p', parameter)
+        try:
+            assert keyboard.process.wait(timeout=30) == 1
+            text = keyboard.text()
+            assert 'teleop_keyboard: ' in text and says in text and 'Traceback' not in text
+        finally:
+            keyboard.stop()
 
 
 def send_cmd_vel(*arguments: str, **kwargs) -> subprocess.Popen:

@@ -7,7 +7,7 @@ import pytest
 from sim_bridge import paths
 from sim_bridge.simulation import world as world_module
 from sim_bridge.simulation.geometry import Footprint, Shape, signed_distance
-from sim_bridge.simulation.world import World, WorldError
+from sim_bridge.simulation.world import World, WORLD_FILE_LIMIT_BYTES, WorldError
 from sim_bridge.yaml_loader import load_yaml
 import yaml
 
@@ -131,6 +131,10 @@ def test_with_robot_start_moves_the_robot_but_refuses_an_overlap():
     assert (caught.value.entry, caught.value.field) == ('robot', 'pose')
     with pytest.raises(WorldError, match='finite'):
         world.with_robot_start(math.nan, 0.0, 0.0)
+    # A scenario's start a km away (written in mm, say) is refused as a world file's pose is.
+    with pytest.raises(WorldError, match='x and y within ±1000 m of the origin'):
+        world.with_robot_start(0.0, 1.0e9, 0.0)
+    assert world.with_robot_start(-1000.0, 1000.0, 0.0).robot_start[:2] == (-1000.0, 1000.0)
 
 
 def test_walls_from_segments_and_the_room_helper():
@@ -280,6 +284,16 @@ CUBE = {'name': 'box_a', 'type': 'cube', 'size': [1, 1, 1], 'pose': [3, 0]}
     ('floor: {size: [10, -1]}\n', 'floor', 'size', 'must be 2 positive finite numbers'),
     ('bounds: [1, 0, -1, 2]\n', None, 'bounds', 'xmin < xmax'),
     ('name: 42\n', None, 'name', 'must be a non-empty text'),
+    ('obstacles:\n- {name: a, type: cube, size: [0, 0, 0], pose: [3, 0]}\n',
+     'obstacles[0] (a)', 'size', 'must be 3 positive finite numbers, got [0, 0, 0]'),
+    ('obstacles:\n- {name: [x], type: cube, size: [1, 1, 1], pose: [3, 0]}\n', 'obstacles[0]',
+     'name', "must be text, got ['x'] (list)"),
+    ('obstacles:\n- 5\n', 'obstacles[0]', None, 'must be a mapping, got 5 (int)'),
+    ('walls: 5\n', None, 'walls', 'must be a list of entries, got 5 (int)'),
+    ('robot: [0, 0]\n', 'robot', None, 'must be a mapping, got [0, 0] (list)'),
+    ('robot: {model: 5}\n', 'robot', 'model', 'must be a model name, got 5 (int)'),
+    ('obstacles:\n- {name: m, type: model, model: ../../etc, pose: [3, 0]}\n',
+     'obstacles[0] (m)', 'model', '../../etc/model.sdf'),
 ])
 def test_broken_world_file_is_rejected_naming_file_entry_and_field(
         tmp_path, text, entry, field, problem):
@@ -295,6 +309,21 @@ def test_broken_world_file_is_rejected_naming_file_entry_and_field(
     for part in (entry, repr(field) if field else None):
         if part:
             assert part in message
+
+
+def test_a_world_file_that_is_not_utf8_or_too_large_is_named_not_a_traceback(tmp_path):
+    (tmp_path / 'latin1.yaml').write_bytes('description: salle de caf\u00e9\n'.encode('latin-1'))
+    with pytest.raises(WorldError, match=r'latin1.yaml: cannot read: not UTF-8 text'):
+        World.load(tmp_path / 'latin1.yaml')
+    (tmp_path / 'huge.yaml').write_text('#' * (WORLD_FILE_LIMIT_BYTES + 1))
+    with pytest.raises(WorldError, match='huge.yaml: cannot read: larger than 16384 KiB'):
+        World.load(tmp_path / 'huge.yaml')
+
+
+def test_an_empty_world_file_is_an_endless_floor_with_the_lab_robot(tmp_path):
+    (tmp_path / 'empty.yaml').write_text('')
+    world = World.load(tmp_path / 'empty.yaml')
+    assert (world.name, world.obstacles, world.robot_start) == ('empty', (), (0.0, 0.0, 0.0))
 
 
 def test_the_largest_world_accepted_is_a_lab_sized_one_and_a_yaw_may_be_any_angle():

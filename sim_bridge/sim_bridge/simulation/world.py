@@ -94,10 +94,12 @@ from sim_bridge.simulation.floor_slice import FloorSlice
 from sim_bridge.simulation.geometry import Footprint, Shape, triangulate, wrap_angle
 from sim_bridge.simulation.sdf import (describe_ignored, Ignored, is_sdf_text, load_model, Model,
                                        parse_world, place, SdfError)
-from sim_bridge.yaml_loader import load_yaml
+from sim_bridge.yaml_loader import load_yaml, read_text
 import yaml
 
 DEFAULT_ROBOT_MODEL = 'lab_robot'
+#: The largest world file read (bytes): an SDF world of a whole house is a few hundred KiB.
+WORLD_FILE_LIMIT_BYTES = 16 * 2 ** 20
 DEFAULT_WALL_THICKNESS = 0.15
 DEFAULT_WALL_HEIGHT = 1.0
 #: Margin (m) around obstacles and robot start for the default bounds of a world without walls.
@@ -203,7 +205,11 @@ class World:
         """
         path = paths.find_world(name_or_path)
         label = _display_path(path)
-        text = path.read_text(encoding='utf-8')
+        try:
+            text = read_text(path, WORLD_FILE_LIMIT_BYTES)
+        except (OSError, UnicodeDecodeError) as error:  # a link to /dev/zero, a Latin-1 file
+            why = getattr(error, 'strerror', None) or f'not UTF-8 text: {error.reason}'
+            raise WorldError(label, None, None, f'cannot read: {why}') from None
         xml = is_sdf_text(text)
         suffix = path.suffix.lower()
         if xml and suffix in ('.yaml', '.yml'):
@@ -276,8 +282,10 @@ class World:
         Raises :class:`WorldError` when the robot would start overlapping an obstacle.
         """
         pose = (float(x), float(y), wrap_angle(float(yaw)))
-        if not all(math.isfinite(value) for value in pose):
-            raise WorldError(self._label(), 'robot', 'pose', f'must be finite, got {pose}')
+        if not all(math.isfinite(value) for value in pose) or \
+                max(map(abs, pose[:2])) > MAX_COORDINATE_M:  # lab-sized, as in a world file
+            raise WorldError(self._label(), 'robot', 'pose', 'must be finite, x and y within '
+                             f'±{MAX_COORDINATE_M:g} m of the origin, got {pose}')
         _check_robot_clear(self._label(), pose, self.floor_slice)
         return replace(self, robot_start=pose)
 
