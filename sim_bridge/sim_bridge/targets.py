@@ -23,7 +23,7 @@ import site
 import sys
 import sysconfig
 import traceback
-from types import ModuleType
+from types import FrameType, ModuleType
 from typing import Iterable
 
 #: Frames under these folders are never a node's own code: this package (the runner), and
@@ -90,6 +90,13 @@ class StudentCode:
         own = [frame for frame in frames
                if os.path.dirname(os.path.abspath(frame.filename)) in self.folders]
         return own or [frame for frame in frames if not is_library_frame(frame.filename)]
+
+    def live_frames(self, error: BaseException) -> list[FrameType]:
+        """Return the frames of ``error``'s traceback that are the node's own, outermost first."""
+        steps = list(traceback.walk_tb(error.__traceback__))
+        summaries = traceback.StackSummary.extract(steps, lookup_lines=False)
+        own = {id(summary) for summary in self.frames(summaries)}
+        return [frame for (frame, _), summary in zip(steps, summaries) if id(summary) in own]
 
     def origin(self, error: BaseException) -> str:
         """
