@@ -66,19 +66,23 @@ def ros_module_hint(error: BaseException) -> str:
     """
     Return what to know about a missing module a ROS 2 installation provides, or ''.
 
+    On a sourced ROS 2 (``ROS_DISTRO`` set), which package to install; otherwise that the
+    module comes with ROS, not the wheels, and what PyPI has instead where it has something.
     '' for any other error, and for a module ROS does not provide either.
     """
-    if not isinstance(error, ModuleNotFoundError) or not error.name:
-        return ''
-    name = error.name.partition('.')[0]
-    if name not in ROS_MODULES:
+    # A folder named like the module (this package's launch/) imports as an empty namespace
+    # package: `from launch import LaunchDescription` then fails 'from launch (unknown
+    # location)'.
+    missing = isinstance(error, ModuleNotFoundError) or (
+        isinstance(error, ImportError) and '(unknown location)' in str(error))
+    name = (getattr(error, 'name', None) or '').partition('.')[0]
+    if not missing or name not in ROS_MODULES:
         return ''
     package = f"ros-jazzy-{name.replace('_', '-')}"
     if os.environ.get('ROS_DISTRO'):  # a sourced ROS 2 installation without that package
-        text = f'{name} is part of ROS 2 but not installed here: sudo apt install {package}'
-    else:
-        text = (f'{name} comes with a ROS 2 Jazzy installation (apt package {package}), not '
-                'with the ROS wheels from PyPI')
+        return f'{name} is part of ROS 2 but not installed here: sudo apt install {package}'
+    text = (f'{name} comes with a ROS 2 Jazzy installation (apt package {package}), not with '
+            'the ROS wheels from PyPI')
     return f'{text}; {ROS_MODULES[name]}' if ROS_MODULES[name] else text
 
 

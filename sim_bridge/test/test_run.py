@@ -898,7 +898,7 @@ def test_a_turtlebot3_scan_read_past_its_end_gets_its_own_geometry_only(tmp_path
     assert status == 1
     (error,) = load_metrics(tmp_path / 'out')['node_errors']
     assert error['error'].endswith(
-        "(this scan has 360 ranges from 0 rad (index 0, ahead) to +6.28 rad (index 359, "
+        '(this scan has 360 ranges from 0 rad (index 0, ahead) to +6.28 rad (index 359, '
         'ahead))')
 
 
