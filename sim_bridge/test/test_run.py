@@ -958,3 +958,23 @@ def test_a_module_neither_ros_nor_installed_keeps_the_plain_message(tmp_path):
     assert str(error.value) == (
         f"'{node_file}' fails to import: ModuleNotFoundError: No module named 'turtle_magic' at "
         f'{node_file}:4: import turtle_magic  # noqa: F401')
+
+
+@pytest.mark.skipif(importlib.util.find_spec('tf_transformations') is not None,
+                    reason='tf_transformations is installed')
+def test_a_ros_module_imported_by_a_module_beside_the_node_is_reported_at_that_import(
+        tmp_path, run_main, monkeypatch):
+    monkeypatch.delenv('ROS_DISTRO', raising=False)
+    (tmp_path / 'geometry_utils.py').write_text(
+        '"""Helpers for the pose."""\n\nfrom tf_transformations import euler_from_quaternion\n')
+    node_file = tmp_path / 'heading.py'
+    node_file.write_text('from rclpy.node import Node\n\nimport geometry_utils\n\n\n'
+                         'class Heading(Node):\n    pass\n')
+    status, _, stderr = run_main('--world', 'obstacles', '--node', str(node_file),
+                                 '--out', str(tmp_path / 'out'))
+    assert status == 2
+    (error,) = [line for line in stderr.splitlines() if line.startswith('error: ')]
+    # The deepest line of the student's own files: the helper's import, not the node's.
+    assert f"No module named 'tf_transformations' at {tmp_path / 'geometry_utils.py'}:3: " \
+           'from tf_transformations import euler_from_quaternion (tf_transformations ' \
+           f'{ROS_MODULE_HINT}tf-transformations)' in error
