@@ -35,6 +35,11 @@ DIRECTIONS = ((0.0, 'ahead'), (math.pi / 2, 'left'), (math.pi, 'behind'),
               (-math.pi / 2, 'right'))
 DIRECTION_TOLERANCE = 0.1
 
+#: Where the pose is without TF (the bridge publishes TF only where tf2_ros imports).
+NO_TF = 'without TF here, read the robot pose from /odom (nav_msgs/Odometry)'
+#: What replaces a launch file without ROS's launch.
+NO_LAUNCH = "launch files are for `ros2 launch` on a ROS machine: here use './lab live'"
+
 #: Modules of a ROS 2 Jazzy installation that the PyPI ROS wheels do not have, with what PyPI
 #: (or this kit) offers instead, where it offers something.
 ROS_MODULES = {
@@ -42,16 +47,15 @@ ROS_MODULES = {
                           '(transforms3d.euler.quat2euler takes w, x, y, z; ROS orders x, y, '
                           'z, w); a yaw alone is math.atan2(2 * (w * z + x * y), '
                           '1 - 2 * (y * y + z * z))',
-    'tf2_ros': 'without TF here, read the robot pose from /odom (nav_msgs/Odometry)',
-    'tf2_py': 'without TF here, read the robot pose from /odom (nav_msgs/Odometry)',
-    'tf2_geometry_msgs': 'without TF here, read the robot pose from /odom '
-                         '(nav_msgs/Odometry); transforms3d from PyPI rotates points',
+    'tf2_ros': NO_TF,
+    'tf2_py': NO_TF,
+    'tf2_geometry_msgs': f'{NO_TF}; transforms3d from PyPI rotates points',
     'tf2_msgs': '',
     'sensor_msgs_py': 'read a PointCloud2 with numpy (numpy.frombuffer on its data)',
     'laser_geometry': "a beam's angle is angle_min + i * angle_increment: numpy gives the "
                       'points as ranges * cos(angle), ranges * sin(angle)',
-    'launch': "launch files are for `ros2 launch` on a ROS machine: here use './lab live'",
-    'launch_ros': "launch files are for `ros2 launch` on a ROS machine: here use './lab live'",
+    'launch': NO_LAUNCH,
+    'launch_ros': NO_LAUNCH,
     'ros2cli': '',
     'rosbag2_py': 'rosbags from PyPI reads and writes rosbag2 bags',
     'cv_bridge': 'convert a sensor_msgs/Image with numpy (numpy.frombuffer on its data, '
