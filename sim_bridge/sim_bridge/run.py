@@ -27,6 +27,7 @@ from typing import Any, Callable, Iterable, Sequence
 from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.parameter import get_parameter_value, Parameter, parameter_value_to_python
 from rclpy.serialization import serialize_message
+from sim_bridge.hints import ros_module_hint, scan_hint
 from sim_bridge.metrics import compute_metrics
 from sim_bridge.paths import find_world
 from sim_bridge.plot import plot_trajectory, SCANS_DRAWN
@@ -485,7 +486,9 @@ def node_failure(error: NodeError) -> str:
     Say how a node failed a run, with what a student needs to fix it.
 
     A watchdog's stop names the callback that did not return; a field check failure explains
-    what Jazzy's default would have done; a MemoryError names the run's memory limit.
+    what Jazzy's default would have done; a MemoryError names the run's memory limit; a module
+    of a ROS installation says so (hints.ros_module_hint); scan code written for another lidar
+    gets the scan's geometry (hints.scan_hint).
     """
     if isinstance(error.original, RunStopped):
         return (f"{error.original}: node '{error.node_name}' did not return from "
@@ -495,6 +498,8 @@ def node_failure(error: NodeError) -> str:
         hint = f' ({FIELD_CHECK_HINT})'
     elif isinstance(error.original, MemoryError) and memory_limit() is not None:
         hint = f' (memory limit {memory_limit()} reached in {error.place})'
+    elif text := ros_module_hint(error.original) or scan_hint(error.original, error.code):
+        hint = f' ({text})'
     return str(error) + hint
 
 
@@ -502,11 +507,14 @@ def import_failure(error: TargetError) -> RunError:
     """
     Return the RunError of a TARGET that failed to import, with the node's part of the traceback.
 
-    A MemoryError names the run's memory limit and the file.
+    A MemoryError names the run's memory limit and the file; a module of a ROS installation
+    says so (hints.ros_module_hint).
     """
     message, cause = str(error), error.__cause__
     if isinstance(cause, MemoryError) and memory_limit() is not None:
         message += f' (memory limit {memory_limit()} reached while importing {error.file})'
+    elif ros_module_hint(cause):
+        message += f' ({ros_module_hint(cause)})'
     if cause is None:
         return RunError(message)
     return RunError(message, StudentCode.of([error.file] if error.file else []).traceback(cause))

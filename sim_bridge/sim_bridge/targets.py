@@ -23,7 +23,7 @@ import site
 import sys
 import sysconfig
 import traceback
-from types import ModuleType
+from types import FrameType, ModuleType
 from typing import Iterable
 
 #: Frames under these folders are never a node's own code: this package (the runner), and
@@ -90,6 +90,13 @@ class StudentCode:
         own = [frame for frame in frames
                if os.path.dirname(os.path.abspath(frame.filename)) in self.folders]
         return own or [frame for frame in frames if not is_library_frame(frame.filename)]
+
+    def live_frames(self, error: BaseException) -> list[FrameType]:
+        """Return the frames of ``error``'s traceback that are the node's own, outermost first."""
+        steps = list(traceback.walk_tb(error.__traceback__))
+        summaries = traceback.StackSummary.extract(steps, lookup_lines=False)
+        own = {id(summary) for summary in self.frames(summaries)}
+        return [frame for (frame, _), summary in zip(steps, summaries) if id(summary) in own]
 
     def origin(self, error: BaseException) -> str:
         """
@@ -161,12 +168,17 @@ def load_module(where: str) -> ModuleType:
         raise TargetError(f"'{where}' is neither a console script, a module nor a .py file")
 
 
+def error_message(error: BaseException) -> str:
+    """Return ``str(error)``, or what Python's traceback says when a student's __str__ raises."""
+    try:
+        return str(error)
+    except Exception:  # noqa: B902 whatever the student's __str__ raised
+        return '<exception str() failed>'
+
+
 def describe(error: BaseException, code: StudentCode = StudentCode()) -> str:
     """Say what ``error`` was and the node's own line that raised it (StudentCode.origin)."""
-    try:
-        message = str(error)
-    except Exception:  # noqa: B902 a student's __str__ that raises; Python's traceback says so
-        message = '<exception str() failed>'
+    message = error_message(error)
     text = f'{type(error).__name__}: {message}' if message else type(error).__name__
     if isinstance(error, SystemExit):
         text = f'SystemExit (sys.exit({error.code!r}))'

@@ -913,3 +913,146 @@ def test_a_second_ctrl_c_while_the_outputs_are_written_does_not_cut_them_short()
     os.kill(os.getpid(), signal.SIGINT)  # pressed again while metrics.json, the plot, the bag
     interrupt.restore()                  # are written: nothing happens until they are
     assert signal.getsignal(signal.SIGINT) is before
+
+
+# --- issue 17: hints for TurtleBot3 scan code and for modules of a ROS installation ----------
+
+LAB_SCAN = ('this scan has 36 ranges from -1.57 rad (index 0, right) to +1.57 rad (index 35, '
+            'left); `--robot turtlebot3_burger` has 360 ranges from 0 rad (index 0, ahead) to '
+            '+6.28 rad (index 359, ahead)')
+ROS_MODULE_HINT = 'comes with a ROS 2 Jazzy installation (apt package ros-jazzy-'
+
+
+@pytest.mark.parametrize('fixture, node, raised, line, code', [
+    ('tb3_obstacle_stop', 'obstacle_stop', 'IndexError: array index out of range', 19,
+     'left = msg.ranges[90]'),
+    # Raised by min() in the student's helper: its line, the deepest of the student's frames.
+    ('tb3_right_gap', 'right_gap', 'ValueError: min() arg is an empty sequence', 10,
+     'return min(ranges[first:last])'),
+    # Raised in numpy, in a timer reading the scan the node kept.
+    ('tb3_timer_left', 'left_watch', 'ValueError: zero-size array to reduction operation '
+     'minimum which has no identity', 25, 'left = ranges[80:100].min()'),
+], ids=['index', 'empty slice in a helper', 'numpy empty slice in a timer'])
+def test_turtlebot3_scan_code_on_the_lab_robot_fails_with_the_scans_geometry(
+        fixture, node, raised, line, code, tmp_path, run_main):
+    node_file = FIXTURES / f'{fixture}.py'
+    status, stdout, _ = run_main('--world', 'obstacles', '--node', str(node_file),
+                                 '--duration', '1', '--no-record', '--no-plot',
+                                 '--out', str(tmp_path))
+    assert status == 1
+    (error,) = load_metrics(tmp_path)['node_errors']
+    assert error['error'] == f"node '{node}' raised {raised} at {node_file}:{line}: {code} " \
+                             f'({LAB_SCAN})'
+    assert LAB_SCAN in stdout      # the summary's node errors
+
+
+def test_the_scan_hint_gives_the_geometry_of_the_scan_the_node_received(tmp_path, run_main):
+    node_file = FIXTURES / 'tb3_obstacle_stop.py'
+    status, _, _ = run_main('--world', 'obstacles', '--node', str(node_file), '--param',
+                            'sim_bridge:lidar_samples=72', '--duration', '1', '--no-record',
+                            '--no-plot', '--out', str(tmp_path))
+    assert status == 1
+    (error,) = load_metrics(tmp_path)['node_errors']
+    assert error['error'].endswith(
+        'left = msg.ranges[90] (this scan has 72 ranges from -1.57 rad (index 0, right) to '
+        '+1.57 rad (index 71, left); `--robot turtlebot3_burger` has 360 ranges from 0 rad '
+        '(index 0, ahead) to +6.28 rad (index 359, ahead))')
+
+
+def test_a_turtlebot3_scan_read_past_its_end_gets_its_own_geometry_only(tmp_path, run_main):
+    node_file = tmp_path / 'behind.py'
+    node_file.write_text(
+        'import rclpy\nfrom rclpy.node import Node\n'
+        'from rclpy.qos import qos_profile_sensor_data\nfrom sensor_msgs.msg import LaserScan\n'
+        '\n\nclass Behind(Node):\n\n    def __init__(self):\n'
+        "        super().__init__('behind')\n"
+        "        self.create_subscription(LaserScan, 'scan', self.scan_callback,\n"
+        '                                 qos_profile_sensor_data)\n\n'
+        '    def scan_callback(self, msg):\n'
+        "        self.get_logger().info(f'{msg.ranges[180]} {msg.ranges[360]}')\n")
+    status, _, _ = run_main('--world', 'obstacles', '--robot', 'turtlebot3_burger', '--node',
+                            str(node_file), '--duration', '1', '--no-record', '--no-plot',
+                            '--out', str(tmp_path / 'out'))
+    assert status == 1
+    (error,) = load_metrics(tmp_path / 'out')['node_errors']
+    assert error['error'].endswith(
+        '(this scan has 360 ranges from 0 rad (index 0, ahead) to +6.28 rad (index 359, '
+        'ahead))')
+
+
+def test_an_index_error_away_from_any_scan_gets_no_scan_hint(tmp_path, run_main):
+    node_file = tmp_path / 'waypoints.py'
+    node_file.write_text(
+        'from rclpy.node import Node\n\n\nclass Waypoints(Node):\n\n'
+        "    def __init__(self):\n        super().__init__('waypoints')\n"
+        '        self.waypoints = [(1.0, 0.0)]\n        self.next = 1\n'
+        '        self.create_timer(0.1, self.timer_callback)\n\n'
+        '    def timer_callback(self):\n        x, y = self.waypoints[self.next]\n')
+    status, _, _ = run_main('--world', 'obstacles', '--node', str(node_file), '--duration', '1',
+                            '--no-record', '--no-plot', '--out', str(tmp_path / 'out'))
+    assert status == 1
+    (error,) = load_metrics(tmp_path / 'out')['node_errors']
+    assert error['error'].endswith(': x, y = self.waypoints[self.next]')
+
+
+@pytest.mark.skipif(importlib.util.find_spec('tf_transformations') is not None,
+                    reason='tf_transformations is installed')
+def test_a_node_file_importing_tf_transformations_says_it_comes_with_ros(
+        tmp_path, run_main, monkeypatch):
+    monkeypatch.delenv('ROS_DISTRO', raising=False)
+    node_file = FIXTURES / 'tf_yaw_node.py'
+    status, stdout, stderr = run_main('--world', 'obstacles', '--node', str(node_file),
+                                      '--out', str(tmp_path))
+    assert status == 2 and stdout == ''
+    (error,) = [line for line in stderr.splitlines() if line.startswith('error: ')]
+    assert error.startswith(
+        f"error: '{node_file}' fails to import: ModuleNotFoundError: No module named "
+        f"'tf_transformations' at {node_file}:6: from tf_transformations import "
+        'euler_from_quaternion (tf_transformations comes with a ROS 2 Jazzy installation '
+        '(apt package ros-jazzy-tf-transformations), not with the ROS wheels from PyPI; ')
+    assert 'transforms3d' in error
+
+
+@pytest.mark.skipif(importlib.util.find_spec('tf2_ros') is not None,
+                    reason='tf2_ros is installed')
+def test_a_callback_importing_tf2_ros_says_it_comes_with_ros(tmp_path, run_main, monkeypatch):
+    monkeypatch.delenv('ROS_DISTRO', raising=False)
+    node_file = FIXTURES / 'tf_lookup_in_callback.py'
+    status, _, _ = run_main('--world', 'obstacles', '--node', str(node_file), '--duration', '1',
+                            '--no-record', '--no-plot', '--out', str(tmp_path))
+    assert status == 1
+    (error,) = load_metrics(tmp_path)['node_errors']
+    assert error['error'] == (
+        "node 'where_am_i' raised ModuleNotFoundError: No module named 'tf2_ros' at "
+        f'{node_file}:18: from tf2_ros import Buffer, TransformListener (tf2_ros '
+        f'{ROS_MODULE_HINT}tf2-ros), not with the ROS wheels from PyPI; without TF here, read '
+        'the robot pose from /odom (nav_msgs/Odometry))')
+
+
+def test_a_module_neither_ros_nor_installed_keeps_the_plain_message(tmp_path):
+    node_file = FIXTURES / 'missing_import_node.py'
+    with pytest.raises(RunError) as error:
+        run_simulation('obstacles', [str(node_file)], duration_s=1.0, out_dir=tmp_path)
+    assert str(error.value) == (
+        f"'{node_file}' fails to import: ModuleNotFoundError: No module named 'turtle_magic' at "
+        f'{node_file}:4: import turtle_magic  # noqa: F401')
+
+
+@pytest.mark.skipif(importlib.util.find_spec('tf_transformations') is not None,
+                    reason='tf_transformations is installed')
+def test_a_ros_module_imported_by_a_module_beside_the_node_is_reported_at_that_import(
+        tmp_path, run_main, monkeypatch):
+    monkeypatch.delenv('ROS_DISTRO', raising=False)
+    (tmp_path / 'geometry_utils.py').write_text(
+        '"""Helpers for the pose."""\n\nfrom tf_transformations import euler_from_quaternion\n')
+    node_file = tmp_path / 'heading.py'
+    node_file.write_text('from rclpy.node import Node\n\nimport geometry_utils\n\n\n'
+                         'class Heading(Node):\n    pass\n')
+    status, _, stderr = run_main('--world', 'obstacles', '--node', str(node_file),
+                                 '--out', str(tmp_path / 'out'))
+    assert status == 2
+    (error,) = [line for line in stderr.splitlines() if line.startswith('error: ')]
+    # The deepest line of the student's own files: the helper's import, not the node's.
+    assert f"No module named 'tf_transformations' at {tmp_path / 'geometry_utils.py'}:3: " \
+           'from tf_transformations import euler_from_quaternion (tf_transformations ' \
+           f'{ROS_MODULE_HINT}tf-transformations)' in error
