@@ -219,7 +219,8 @@ def test_an_overridden_nodes_params_go_to_every_node_the_others_keep_theirs(tmp_
                                '/**': {'side': 'left', 'distance': 0.5, 'seed': '$seed'}}
     assert replaced.runs()[0].params['/**']['seed'] == 1
     # A replaced node without parameters leaves none for every node.
-    assert '/**' not in scenario.with_node_override('wf=ana.py').params
+    plain = load_scenario(write(tmp_path, 'plain.yaml', VALID))
+    assert '/**' not in plain.with_node_override('wf=ana.py').params
 
 
 def test_robot_remap_and_setpoint_are_read(tmp_path):
