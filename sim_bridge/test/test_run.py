@@ -303,8 +303,9 @@ def test_file_target_with_class_name_picks_that_class(tmp_path):
      'seed must be a non-negative integer up to 9223372036854775807 (a ROS integer parameter '
      'is int64), got 9223372036854775808'),
 ], ids=['unknown target', 'missing file', 'no Node subclass', 'two Node subclasses',
-        'unknown class', 'unknown world', 'param type', 'malformed param', 'param the runner sets', 'bad simulator param',
-        'bad lidar param', 'unknown robot', 'robot pose as a param', 'zero duration',
+        'unknown class', 'unknown world', 'param type', 'malformed param',
+        'param the runner sets', 'bad simulator param', 'bad lidar param', 'unknown robot',
+        'robot pose as a param', 'zero duration',
         'infinite duration', 'negative seed', 'remap without :=', 'remap rcl refuses',
         'seed beyond int64'])
 def test_start_error_is_one_line_exit_2_and_writes_nothing(args, mentions, tmp_path, run_main):

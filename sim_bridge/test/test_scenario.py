@@ -224,11 +224,11 @@ def test_an_overridden_nodes_params_go_to_every_node_the_others_keep_theirs(tmp_
 
 
 def test_robot_remap_and_setpoint_are_read(tmp_path):
-    scenario = load_scenario(write(tmp_path, 's.yaml', VALID + textwrap.dedent('''\
+    scenario = load_scenario(write(tmp_path, 's.yaml', VALID + textwrap.dedent("""\
         robot: turtlebot3_burger
         remap: [/robot/scan:=/scan, 'wf:/husky/cmd_vel:=/cmd_vel']
         setpoint: {wall_distance_m: 0.45}
-    ''')))
+    """)))
     assert scenario.robot == 'turtlebot3_burger'
     assert scenario.remap == ('/robot/scan:=/scan', 'wf:/husky/cmd_vel:=/cmd_vel')
     assert scenario.setpoint == {'wall_distance_m': 0.45}
