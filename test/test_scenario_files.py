@@ -47,6 +47,8 @@ def test_wall_follow_scenarios_hold_issue_5_criteria_on_every_world(world_name, 
     params = scenario.params['wall_follow']
     assert (scenario.world, scenario.nodes) == (world_name, ('wall_follow',))
     assert (params['side'], scenario.start) == (side, start)
+    # The setpoint is the scenario's, not read from whatever a graded node calls its parameter.
+    assert scenario.setpoint == {'wall_distance_m': params['distance']}
     assert len(scenario.seeds) == 3
     assert criteria(scenario) == ['len(node_errors) == 0', laps, 'collisions == 0',
                                   'wall_distance_m.mae <= 0.10', 'min_clearance_m >= 0.15']

@@ -170,7 +170,9 @@ def fingerprint(job: GradeJob, options: dict[str, Any], limits: Limits) -> str:
     digest = hashlib.sha256(json.dumps({
         'run': job.run.name, 'seed': job.run.seed, 'params': job.run.params,
         'world': scenario.world, 'nodes': scenario.nodes, 'duration_s': scenario.duration_s,
-        'start': scenario.start, 'criteria': [criterion.text for criterion in scenario.criteria],
+        'start': scenario.start, 'robot': scenario.robot, 'remap': scenario.remap,
+        'setpoint': scenario.setpoint,
+        'criteria': [criterion.text for criterion in scenario.criteria],
         'options': options, 'limits': asdict(limits)}, sort_keys=True, default=str).encode())
     try:
         world_files = World.load(scenario.world).sources

@@ -92,7 +92,8 @@ class RunReport:
             'file': path(scenario.path) if scenario.path else None,
             'world': path(scenario.world), 'nodes': [path(node) for node in scenario.nodes],
             'seed': self.run.seed, 'duration_s': scenario.duration_s,
-            'params': self.run.params, 'start': scenario.start, 'passed': self.passed,
+            'params': self.run.params, 'start': scenario.start, 'robot': scenario.robot,
+            'remap': list(scenario.remap), 'setpoint': scenario.setpoint, 'passed': self.passed,
             'error': self.error, 'traceback': self.traceback,
             'criteria': [result.as_dict() for result in self.results],
             'out_dir': names.path(self.out_dir), 'wall_time_s': self.wall_time_s,
@@ -152,8 +153,9 @@ def run_scenario(run: ScenarioRun, out_dir: Path, *, simulate: Simulate | None =
     try:
         result = simulate(scenario.world, list(scenario.nodes), duration_s=scenario.duration_s,
                           seed=run.seed, params=run.params, out_dir=out_dir,
-                          start=scenario.start, quiet=quiet, record=record, plot=plot,
-                          progress=progress)
+                          start=scenario.start, robot=scenario.robot, remap=scenario.remap,
+                          setpoint=scenario.setpoint.get('wall_distance_m'), quiet=quiet,
+                          record=record, plot=plot, progress=progress)
     except Exception as error:  # one broken run must not stop the batch
         from sim_bridge.run import RunError
         # A run that cannot start keeps the node's part of the traceback (its import failed),

@@ -10,6 +10,7 @@ runs before physics advances, see sim_bridge.stepping), as if each had been star
 
 import argparse
 from dataclasses import dataclass
+import difflib
 import functools
 import inspect
 import json
@@ -36,7 +37,7 @@ from sim_bridge.report_text import json_safe
 from sim_bridge.run_environment import (
     FIELD_CHECK_HINT, is_field_check_failure, run_environment)
 from sim_bridge.run_trace import CollisionEvent, ScanSnapshot, Trace
-from sim_bridge.scenario import is_seed, MAX_SEED, target_name
+from sim_bridge.scenario import EVERY_NODE, is_seed, MAX_SEED, remap_problem, target_name
 from sim_bridge.simulation.world import World, WorldError
 from sim_bridge.stepping import (
     describe, next_timer_ns, NodeEnded, NodeError, spin_until_idle, SteppedExecutor)
@@ -48,7 +49,11 @@ BRIDGE_NODE = 'sim_bridge'
 #: the seed and gui options, the robot's start pose, and the pace (a run is on sim time; --gui
 #: paces it).
 RUNNER_BRIDGE_PARAMETERS = ('world', 'robot', 'robot_pose', 'seed', 'gui', 'real_time_factor')
+#: The node parameter wall_distance_m is measured against when the run is given no setpoint.
 SETPOINT_PARAMETER = 'distance'
+#: ROS's own topics of every node (and /clock, of every use_sim_time node): a node's use of
+#: them says nothing about how it is wired to the simulator.
+ROS_TOPICS = ('/rosout', '/parameter_events', '/clock')
 PROGRESS_AFTER_S = 2.0
 GUI_FRAME_RATE = 60
 NANOSECONDS_PER_SECOND = 10 ** 9
@@ -106,6 +111,23 @@ def parse_param(text: str) -> tuple[str, str, Any]:
         raise RunError(f"--param '{text}': expected NODE:NAME=VALUE, "
                        'e.g. wall_follow:distance=0.6')
     return node, name, parameter_value_to_python(get_parameter_value(value))
+
+
+def check_remap(rule: str) -> str:
+    """Return ``rule`` when it reads as a ROS remapping rule, else raise a one-line RunError."""
+    problem = remap_problem(rule)
+    if problem is not None:
+        raise RunError(f'--remap {problem}')
+    return rule
+
+
+def nearest_topic(topic: str, topics: Iterable[str]) -> str | None:
+    """Return the topic of ``topics`` most like ``topic``: of the same last name, else by text."""
+    topics = sorted(topics)
+    base = topic.rpartition('/')[2]
+    same = [candidate for candidate in topics if candidate.rpartition('/')[2] == base]
+    near = same or difflib.get_close_matches(topic, topics, n=1)
+    return near[0] if near else None
 
 
 def load_world(world: str, robot: str | None = None,
@@ -272,21 +294,33 @@ class SteppedRun:
     The SimBridge node and the target nodes in one process on real rclpy, stepped to an end.
 
     Every node but the bridge gets the command line its own process would have
-    (``--ros-args --params-file <params.yaml> -p use_sim_time:=true``); the bridge reads the
-    same params file. The run's DDS traffic stays in the process
-    (``ROS_AUTOMATIC_DISCOVERY_RANGE=OFF``, see README).
+    (``--ros-args --params-file <params.yaml> -p use_sim_time:=true -r FROM:=TO ...``, the
+    remapping rules ``remap``); the bridge reads only ``bridge_params_file``, and neither it nor
+    the runner's own nodes are remapped. The run's DDS traffic stays in the process
+    (``ROS_AUTOMATIC_DISCOVERY_RANGE=OFF``, see README). RunError when rcl cannot read the
+    arguments (a remapping rule it refuses).
     """
 
-    def __init__(self, params_file: Path, quiet: bool, code: StudentCode = StudentCode()):
+    def __init__(self, params_file: Path, quiet: bool, code: StudentCode = StudentCode(), *,
+                 bridge_params_file: Path | None = None, remap: Sequence[str] = ()):
         import rclpy
+        from rclpy.impl.implementation_singleton import rclpy_implementation
         from rclpy.signals import SignalHandlerOptions
         self.rclpy = rclpy
-        self.node_arguments = ['--ros-args', '--params-file', str(params_file),  # bridge's too
+        self.node_arguments = ['--ros-args', '--params-file', str(params_file),
                                '-p', 'use_sim_time:=true',
-                               *(['--disable-stdout-logs'] if quiet else [])]
+                               *(['--disable-stdout-logs'] if quiet else []),
+                               *(argument for rule in remap for argument in ('-r', rule))]
+        self.bridge_arguments = ['--ros-args', '--params-file',
+                                 str(bridge_params_file or params_file)]
         # The default context, as the nodes' own code uses it. Ctrl-C stays a
         # KeyboardInterrupt: the runner then writes what the run produced.
-        rclpy.init(args=self.node_arguments, signal_handler_options=SignalHandlerOptions.NO)
+        try:
+            rclpy.init(args=self.node_arguments, signal_handler_options=SignalHandlerOptions.NO)
+        except rclpy_implementation.RCLError as error:
+            # rcl's text: 'failed to initialize rcl: <why>, at <file:line>, at ...'
+            why = str(error).partition(': ')[2].split(', at ')[0].split('. Error:')[0]
+            raise RunError(f"rcl cannot read the nodes' arguments: {why}") from None
         self.context = rclpy.utilities.get_default_context()
         self.executor = SteppedExecutor(self.context, code)
         self.nodes = []
@@ -332,7 +366,7 @@ class SteppedRun:
         try:
             self.bridge = self.start(
                 bridge_class, BRIDGE_NODE, stepped=True, use_global_arguments=False,
-                cli_args=self.node_arguments[:3], start_parameter_services=False,
+                cli_args=self.bridge_arguments, start_parameter_services=False,
                 enable_rosout=False, parameter_overrides=[NO_TYPE_DESCRIPTION_SERVICE])
         except NodeError as error:
             raise RunError(f'{BRIDGE_NODE}: {describe(error.original)}') from None
@@ -343,37 +377,74 @@ class SteppedRun:
         """
         Start each (label, Node class) in ``targets``; return the error of one that raised.
 
-        Or the end of one that shut ROS down. RunError when ``params`` names a node that is not
-        running.
+        Or the end of one that shut ROS down.
         """
         try:
             for label, node_class in targets:
                 self.start(node_class, label)
         except (NodeError, NodeEnded) as error:
             return error
-        self.check_params(params)
         return None
 
-    def check_params(self, params: Params) -> None:
-        """Raise RunError when ``params`` names a node that is not running."""
-        unknown = set(params) - {node.get_name() for node in self.nodes}
-        if unknown:
-            raise RunError(f"parameters given for node(s) {', '.join(sorted(unknown))}, but the "
-                           f"nodes are {', '.join(node.get_name() for node in self.nodes)}")
-
-    def undeclared(self, params: Params) -> list[str]:
+    def parameter_warnings(self, params: Params) -> list[str]:
         """
-        Return a warning for each parameter in ``params`` that its node did not declare.
+        Return a warning for each node in ``params`` not running, and each parameter not declared.
 
-        rclpy ignores an override of a parameter a node never declares: a misspelt name would
-        otherwise grade the default in silence.
+        ROS ignores a params file's entry for a node that is not running, and rclpy an override
+        of a parameter a node never declares: a misspelt name would otherwise grade the
+        default in silence. A parameter for every node (EVERY_NODE) is one that none of the
+        target nodes declares.
         """
         nodes = {node.get_name(): node for node in self.nodes}
-        return [f"node '{node_name}' did not declare parameter '{name}' (given by --param or "
-                'the params file); it was ignored'
-                for node_name, values in params.items() for name in values
-                if not (node_name == BRIDGE_NODE and name in RUNNER_BRIDGE_PARAMETERS)
-                and name != 'use_sim_time' and not nodes[node_name].has_parameter(name)]
+        targets = [node for node in self.nodes if node is not self.bridge]
+        absent = [name for name in params if name not in nodes and name != EVERY_NODE]
+        warnings = [f"parameters given for node(s) {', '.join(absent)}, but the nodes are "
+                    f"{', '.join(nodes)}; they were ignored"] if absent else []
+        for node_name, values in params.items():
+            for name in values:
+                if name == 'use_sim_time' or node_name in absent or (
+                        node_name == BRIDGE_NODE and name in RUNNER_BRIDGE_PARAMETERS):
+                    continue
+                if node_name == EVERY_NODE:
+                    if not any(node.has_parameter(name) for node in targets):
+                        warnings.append(f"no node declared parameter '{name}' (given for every "
+                                        f'node, {EVERY_NODE}); it was ignored')
+                elif not nodes[node_name].has_parameter(name):
+                    warnings.append(f"node '{node_name}' did not declare parameter '{name}' "
+                                    '(given by --param or the params file); it was ignored')
+        return warnings
+
+    def unconnected_topics(self) -> list[str]:
+        """
+        Return a warning for each topic a target node uses with nothing at its other end.
+
+        A subscription that nothing publishes, a publisher that nothing subscribes to, read
+        from the ROS graph, each with the simulator's topic most like it and the remapping
+        rule that would connect them. ROS_TOPICS are left out.
+        """
+        bridge = self.bridge
+        ends = {'publishes': {publisher.topic_name for publisher in bridge.publishers},
+                'subscribes to': {sub.topic_name for sub in bridge.subscriptions}}
+        warnings = []
+        for node in self.nodes:
+            if node is bridge:
+                continue
+            name, namespace = node.get_name(), node.get_namespace()
+            uses = (('subscribes to', node.get_subscriber_names_and_types_by_node,
+                     node.count_publishers, 'nothing publishes it', 'publishes'),
+                    ('publishes', node.get_publisher_names_and_types_by_node,
+                     node.count_subscribers, 'nothing subscribes to it', 'subscribes to'))
+            for verb, topics_of, count, nothing, other_end in uses:
+                for topic, _ in topics_of(name, namespace):
+                    if topic in ROS_TOPICS or count(topic):
+                        continue
+                    near = nearest_topic(topic, ends[other_end] - set(ROS_TOPICS))
+                    hint = (f' (the simulator {other_end} {near}: --remap {topic}:={near})'
+                            if near else '')
+                    warning = f'{name} {verb} {topic}: {nothing}{hint}'
+                    if warning not in warnings:
+                        warnings.append(warning)
+        return warnings
 
     def parameter(self, name: str) -> Any:
         """Return the value of parameter ``name`` of the first node that has it, else None."""
@@ -539,6 +610,7 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
                    seed: int = 0, params: Params | None = None,
                    out_dir: Path | str | None = None,
                    start: Sequence[float] | str | None = None, robot: str | None = None,
+                   remap: Sequence[str] = (), setpoint: float | None = None,
                    quiet: bool = False,
                    record: bool = True, plot: bool = True, gui: bool = False,
                    field_checks: bool = True,
@@ -548,7 +620,10 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
 
     ``params`` maps node names to parameter overrides; ``start`` overrides the robot's start
     pose (x m, y m, yaw rad), or is 'mirrored' to put the world's target on the robot's left;
-    ``robot`` names a robot model spawned instead of the world's own (see :func:`load_world`).
+    ``robot`` names a robot model spawned instead of the world's own (see :func:`load_world`);
+    ``remap`` holds ROS remapping rules (``FROM:=TO``, ``NODE:FROM:=TO``) for the target nodes;
+    ``setpoint`` is the wall distance (m) ``wall_distance_m`` is measured against, by default
+    the value of a node's ``distance`` parameter (SETPOINT_PARAMETER), if one has it.
     What the world's files hold that the simulator does not simulate (``World.ignored``) is
     logged once by the simulator at start and kept in ``metrics['ignored']``.
     ``gui`` shows the run in the pybullet window at wall-clock pace. ``field_checks``: rosidl
@@ -559,18 +634,21 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
     unless ``quiet``, with its traceback on stderr, and every output is written up to that
     point. A node that shuts ROS down (``rclpy.shutdown()``) ends the run there, as it would
     end its process: not a node error, but ``metrics['ended_by']`` says which node and where.
-    A parameter its node did not declare is ignored, with a line in ``metrics['warnings']``
-    (one-line texts, also printed on stderr).
+    A parameter its node did not declare, or given for a node that is not running, is
+    ignored, with a line in ``metrics['warnings']`` (one-line texts, also printed on stderr),
+    as is each topic a target node uses with nothing at its other end when the run ends
+    (:meth:`SteppedRun.unconnected_topics`).
     """
     if not (math.isfinite(duration_s) and duration_s > 0):
         raise RunError(f'duration must be a positive number of seconds, got {duration_s}')
+    remap = [check_remap(rule) for rule in remap]
     world_model = load_world(world, robot, start)
     node_params = node_parameters(world_model, params, seed=seed, gui=gui, start=start,
                                   robot=robot)
     out_dir = Path(out_dir) if out_dir is not None else default_out_dir(world_model, targets)
 
     node_errors, warnings, ended_by = [], [], None
-    setpoint, wall_start = None, time.perf_counter()
+    wall_start = time.perf_counter()
     with run_environment(field_checks), tempfile.TemporaryDirectory() as scratch:
         from rclpy.node import Node
         from sim_bridge.bridge import SimBridge
@@ -584,7 +662,11 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
         code = StudentCode.of(inspect.getfile(node_class) for node_class in classes)
         params_file = Path(scratch) / 'params.yaml'
         write_params_file(params_file, node_params)
-        run = SteppedRun(params_file, quiet, code)
+        # The bridge reads its own entry alone: EVERY_NODE's parameters are the targets'.
+        bridge_params_file = Path(scratch) / f'{BRIDGE_NODE}.yaml'
+        write_params_file(bridge_params_file, {BRIDGE_NODE: node_params[BRIDGE_NODE]})
+        run = SteppedRun(params_file, quiet, code, bridge_params_file=bridge_params_file,
+                         remap=remap)
         bag, interrupt, outputs_open = None, UserInterrupt(), False
         try:
             bridge = run.start_simulator(SimBridge)
@@ -592,10 +674,11 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
             recorder = RunRecorder(run, observer, record)
             start_failure = run.start_nodes(zip(targets, classes), node_params)
             if start_failure is None:
-                warnings += run.undeclared(node_params)
+                warnings += run.parameter_warnings(node_params)
                 for warning in warnings:
                     to_console(f'warning: {warning}\n')
-            setpoint = run.parameter(SETPOINT_PARAMETER)
+            if setpoint is None:
+                setpoint = run.parameter(SETPOINT_PARAMETER)
             bag = open_outputs(out_dir, params_file, record)
             recorder.record(bag)
             outputs_open = True
@@ -628,6 +711,10 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
                 raise
             node_errors.append({'node': BRIDGE_NODE, 'error': f'{stop} (in the simulator)'})
         finally:
+            if outputs_open and run.context.ok():  # a node's rclpy.shutdown() ends the graph
+                for warning in run.unconnected_topics():
+                    warnings.append(warning)
+                    to_console(f'warning: {warning}\n')
             if bag is not None:
                 bag.close()
             run.close()
@@ -719,6 +806,9 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     parser.add_argument('--seed', type=int, default=0, help='seed of the run (default 0)')
     parser.add_argument('--param', action='append', default=[], metavar='NODE:NAME=VALUE',
                         help='parameter override, typed as --ros-args -p types it (repeatable)')
+    parser.add_argument('--remap', action='append', default=[], metavar='[NODE:]FROM:=TO',
+                        help="ROS remapping rule for the nodes, as ros2 run's --ros-args -r "
+                             '(repeatable), e.g. /robot/scan:=/scan')
     parser.add_argument('--out', type=Path, metavar='DIR',
                         help='output folder (default out/<world>-<node>)')
     parser.add_argument('--gui', action='store_true',
@@ -744,7 +834,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             params.setdefault(node, {})[name] = value
         result = run_simulation(
             args.world, args.nodes, duration_s=args.duration, seed=args.seed, params=params,
-            start=args.robot_pose, robot=args.robot,
+            start=args.robot_pose, robot=args.robot, remap=args.remap,
             out_dir=args.out, quiet=args.quiet, gui=args.gui, record=not args.no_record,
             plot=not args.no_plot, field_checks=not args.no_field_checks,
             progress=terminal_progress() if sys.stderr.isatty() and not args.quiet else None)

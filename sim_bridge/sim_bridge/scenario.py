@@ -18,6 +18,11 @@ A scenario is a YAML mapping; every key not listed here is an error::
     seeds: [1, 2, 3]              # one run per seed; or  seed: 1  (default 0)
     start: mirrored               # optional robot start: 'mirrored' (turned round on the
                                   # world's start: the target on its left) or [x, y, yaw]
+    robot: turtlebot3_burger      # optional robot model instead of the world's (as --robot)
+    remap: [/robot/scan:=/scan]   # optional ROS remapping rules for the nodes (as --remap):
+                                  # FROM:=TO, or NODE:FROM:=TO for one node
+    setpoint:                     # optional: the value a metric is measured against, whatever
+      wall_distance_m: 0.5        # the node's own parameters are called (m)
     criteria:                     # every one must hold for a run to pass
       - len(node_errors) == 0
       - collisions == 0
@@ -27,6 +32,15 @@ A scenario is a YAML mapping; every key not listed here is an error::
 
 Relative paths (a world file, a node file) are relative to the scenario file. The scenario's
 name is the file name without ``.yaml``. A seed is an integer from 0 to MAX_SEED (2**63 - 1).
+
+``setpoint: wall_distance_m`` is the distance (m) ``wall_distance_m.mae`` and ``.rms`` measure
+the robot's wall distance against. Without it, the runner falls back to the value of a
+``distance`` parameter of a node, if one has it.
+
+When ``--node-override`` replaces a node (a student's node, with a node name and parameters of
+its own), the scenario's parameters for the replaced node are given to every node it runs
+under ``/**`` in the params file, as ROS does for a node whatever its name; a parameter the
+student's node does not declare is ignored with a warning, as ROS ignores it.
 
 Criteria
 --------
@@ -64,7 +78,11 @@ MAX_DURATION_S = 86400.0
 #: What a NODE of ``--node-override NODE=TARGET`` can be: a node's name, no path.
 _OVERRIDE_NODE = re.compile(r'[\w.-]+')
 _KEYS = ('description', 'world', 'nodes', 'params', 'duration', 'seed', 'seeds', 'start',
-         'criteria')
+         'robot', 'remap', 'setpoint', 'criteria')
+#: The params file key of parameters for every node (ROS's wildcard node name).
+EVERY_NODE = '/**'
+#: What a scenario's ``setpoint:`` can set, and the unit of each.
+SETPOINTS = {'wall_distance_m': 'm'}
 _REQUIRED = ('world', 'nodes', 'duration', 'criteria')
 _OPERATORS: dict[str, Callable[[Any, Any], bool]] = {
     '<=': operator.le, '>=': operator.ge, '==': operator.eq, '!=': operator.ne,
@@ -213,7 +231,9 @@ class Scenario:
     A loaded scenario file (see the module docstring for the format).
 
     ``duration_s`` in s; ``start`` is None, 'mirrored' or (x m, y m, yaw rad); ``params`` maps
-    node names to parameter values; ``world`` and file ``nodes`` are resolved paths or names.
+    node names to parameter values; ``world`` and file ``nodes`` are resolved paths or names;
+    ``robot`` a robot model or None; ``remap`` ROS remapping rules; ``setpoint`` maps metrics
+    of SETPOINTS to the value (m) they measure against.
     """
 
     name: str
@@ -226,6 +246,9 @@ class Scenario:
     params: dict[str, dict[str, Any]] = field(default_factory=dict)
     start: str | tuple[float, float, float] | None = None
     description: str = ''
+    robot: str | None = None
+    remap: tuple[str, ...] = ()
+    setpoint: dict[str, float] = field(default_factory=dict)
 
     def runs(self) -> list[ScenarioRun]:
         """Return one run per seed."""
@@ -249,7 +272,9 @@ class Scenario:
         returned unchanged. Without it, the nodes of the same name as TARGET are replaced, or
         else the only node; a scenario with several nodes and none of that name is an error.
         An override naming an existing file is that file, '=' or not (``/tmp/a=b/wf.py``);
-        one that could be read either way is an error, as is one that is neither.
+        one that could be read either way is an error, as is one that is neither. The
+        replaced nodes' parameters go to every node (EVERY_NODE): the new node's name is
+        its own.
         """
         node, equals, target = split_override(override)
         wanted = node if equals else target_name(target)
@@ -262,9 +287,14 @@ class Scenario:
                     f"{', '.join(self.nodes)}; say which one to replace with NODE={target}")
             matching = [0]
         nodes = list(self.nodes)
+        params = dict(self.params)
         for index in matching:
+            replaced = params.pop(target_name(nodes[index]), {})
+            params[EVERY_NODE] = {**params.get(EVERY_NODE, {}), **replaced}
             nodes[index] = target
-        return replace(self, nodes=tuple(nodes))
+        if not params.get(EVERY_NODE, True):
+            del params[EVERY_NODE]  # a replaced node without parameters
+        return replace(self, nodes=tuple(nodes), params=params)
 
 
 def with_node_overrides(scenarios: list[Scenario], overrides: list[str]) -> list[Scenario]:
@@ -307,6 +337,21 @@ def split_override(override: str) -> tuple[str, bool, str]:
         raise ScenarioError(f'{label}: no such file, and not NODE=TARGET (NODE a node name '
                             'without a path, TARGET a console script, module or file)')
     return node, True, target
+
+
+def remap_problem(rule: Any) -> str | None:
+    """
+    Return what makes ``rule`` not a ROS remapping rule ``FROM:=TO`` or ``NODE:FROM:=TO``.
+
+    None when it has that form; rcl checks the names themselves when the run starts.
+    """
+    if not isinstance(rule, str):
+        return f'must be a remapping rule text, got {_kind(rule)}'
+    match, _, to = rule.partition(':=')
+    if not (match and to) or match.endswith(':') or ':=' in to or match.count(':') > 1:
+        return (f"'{rule}' is not a remapping rule: expected FROM:=TO or NODE:FROM:=TO, "
+                'e.g. /robot/scan:=/scan')
+    return None
 
 
 def target_name(target: str) -> str:
@@ -411,6 +456,29 @@ def scenario_from_dict(data: Any, name: str, path: Path | None = None) -> Scenar
         except ValueError as error:
             raise fail(f'criteria[{index}]', str(error)) from None
 
+    robot = data.get('robot')
+    if robot is not None and not (isinstance(robot, str) and robot):
+        raise fail('robot', f'must be a robot model name, got {_kind(robot)}')
+    remap = data.get('remap') or []
+    if isinstance(remap, str):
+        remap = [remap]
+    if not isinstance(remap, list):
+        raise fail('remap', f'must be a list of remapping rules, got {_kind(remap)}')
+    for index, rule in enumerate(remap):
+        problem = remap_problem(rule)
+        if problem is not None:
+            raise fail(f'remap[{index}]', problem)
+    setpoint = data.get('setpoint') or {}
+    if not isinstance(setpoint, Mapping):
+        raise fail('setpoint', f'must map metrics to values, e.g. wall_distance_m: 0.5, got '
+                   f'{_kind(setpoint)}')
+    for metric, value in setpoint.items():
+        if metric not in SETPOINTS:
+            raise fail(f'setpoint.{metric}', f"unknown; setpoints are {', '.join(SETPOINTS)}")
+        if not _is_number(value) or not math.isfinite(value):
+            raise fail(f'setpoint.{metric}', f'must be a number ({SETPOINTS[metric]}), got '
+                       f'{_kind(value)}')
+
     description = data.get('description', '')
     if not isinstance(description, str):
         raise fail('description', f'must be text, got {_kind(description)}')
@@ -419,7 +487,8 @@ def scenario_from_dict(data: Any, name: str, path: Path | None = None) -> Scenar
                     nodes=tuple(_resolve(node, base, '.py') for node in nodes),
                     duration_s=float(duration), criteria=tuple(parsed), seeds=tuple(seeds),
                     params={str(node): dict(values) for node, values in params.items()},
-                    start=start, description=description)
+                    start=start, description=description, robot=robot, remap=tuple(remap),
+                    setpoint={str(metric): float(value) for metric, value in setpoint.items()})
 
 
 def load_scenarios(paths: list[str | os.PathLike]) -> list[Scenario]:

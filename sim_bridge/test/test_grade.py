@@ -332,6 +332,27 @@ def test_a_run_is_resumed_only_while_its_world_and_models_are_unchanged(tmp_path
     assert digest() not in (found, missing_model)
 
 
+@pytest.mark.parametrize('key, value', [
+    ('robot', 'turtlebot3_burger'), ('remap', ['/robot/scan:=/scan']),
+    ('setpoint', {'wall_distance_m': 0.4})])
+def test_a_scenarios_robot_remap_and_setpoint_reach_the_run_and_its_fingerprint(
+        key, value, tmp_path):
+    plain = scenario_from_dict(SCENARIO, 'box_ccw')
+    changed = scenario_from_dict({**SCENARIO, key: value}, 'box_ccw')
+
+    def digest(scenario):
+        return grade.fingerprint(GradeJob(scenario.runs()[0], tmp_path), {}, grade.Limits())
+
+    assert digest(changed) != digest(plain)
+    CALLS.clear()
+    report = run_scenario(changed.runs()[0], tmp_path, simulate=fake_simulate)
+    options = CALLS[-1][2]
+    given = {'robot': options['robot'], 'remap': list(options['remap']),
+             'setpoint': {'wall_distance_m': options['setpoint']}}
+    assert given[key] == value
+    assert report.as_dict()[key] == value
+
+
 def test_a_run_that_never_started_says_why_and_that_it_simulated_nothing(tmp_path, runs):
     stream = io.StringIO()
     progress = BatchProgress(1, 30.0, stream)

@@ -282,8 +282,6 @@ def test_file_target_with_class_name_picks_that_class(tmp_path):
     (['--node', 'scan_ahead', '--world', 'no_such_world'], "unknown world 'no_such_world'"),
     (['--node', 'wall_follow', '--param', 'wall_follow:distance=1'],
      "parameter 'distance' to '1' of type 'INTEGER', expecting type 'DOUBLE'"),
-    (['--node', 'scan_ahead', '--param', 'wall_follow:distance=0.6'],
-     'parameters given for node(s) wall_follow'),
     (['--node', 'scan_ahead', '--param', 'distance=0.6'], 'expected NODE:NAME=VALUE'),
     (['--node', 'scan_ahead', '--param', 'sim_bridge:seed=3'], 'sim_bridge:seed'),
     (['--node', 'scan_ahead', '--param', 'sim_bridge:physics_rate=0.0'],
@@ -297,14 +295,19 @@ def test_file_target_with_class_name_picks_that_class(tmp_path):
     (['--node', 'scan_ahead', '--duration', '0'], 'duration must be a positive number'),
     (['--node', 'scan_ahead', '--duration', 'inf'], 'duration must be a positive number'),
     (['--node', 'scan_ahead', '--seed', '-1'], 'seed must be a non-negative integer'),
+    (['--node', 'scan_ahead', '--remap', '/scan'],
+     "--remap '/scan' is not a remapping rule: expected FROM:=TO or NODE:FROM:=TO"),
+    (['--node', 'scan_ahead', '--remap', '/a b:=/c'],
+     "rcl cannot read the nodes' arguments: Couldn't parse remap rule: '-r /a b:=/c'"),
     (['--node', 'scan_ahead', '--seed', str(2 ** 63)],
      'seed must be a non-negative integer up to 9223372036854775807 (a ROS integer parameter '
      'is int64), got 9223372036854775808'),
 ], ids=['unknown target', 'missing file', 'no Node subclass', 'two Node subclasses',
-        'unknown class', 'unknown world', 'param type', 'param for absent node',
-        'malformed param', 'param the runner sets', 'bad simulator param',
-        'bad lidar param', 'unknown robot', 'robot pose as a param', 'zero duration',
-        'infinite duration', 'negative seed', 'seed beyond int64'])
+        'unknown class', 'unknown world', 'param type', 'malformed param',
+        'param the runner sets', 'bad simulator param', 'bad lidar param', 'unknown robot',
+        'robot pose as a param', 'zero duration',
+        'infinite duration', 'negative seed', 'remap without :=', 'remap rcl refuses',
+        'seed beyond int64'])
 def test_start_error_is_one_line_exit_2_and_writes_nothing(args, mentions, tmp_path, run_main):
     out_dir = tmp_path / 'out'
     argv = ['--world', 'wall_follow_box', '--duration', '1', *args, '--out', str(out_dir)]
@@ -524,6 +527,95 @@ def test_a_parameter_no_node_declared_is_a_warning(tmp_path, run_main):
     assert load_metrics(tmp_path)['warnings'] == warnings
     assert [line[len('warning: '):] for line in stderr.splitlines()
             if line.startswith('warning: ')] == warnings
+
+
+def test_parameters_for_a_node_that_is_not_running_are_a_warning_as_ros_ignores_them(
+        tmp_path, run_main):
+    status, _, _ = run_main('--world', 'wall_follow_box', '--node', 'scan_ahead', '--param',
+                            'wall_follow:distance=0.6', '--duration', '0.2', '--no-record',
+                            '--no-plot', '--out', str(tmp_path))
+    assert status == 0
+    assert load_metrics(tmp_path)['warnings'] == [
+        'parameters given for node(s) wall_follow, but the nodes are sim_bridge, scan_ahead; '
+        'they were ignored']
+
+
+HUSKY_FOLLOWER = str(FIXTURES / 'husky_wall_follower.py')
+HUSKY_REMAPS = ('--remap', '/robot/scan:=/scan', '--remap', '/husky/cmd_vel:=/cmd_vel')
+
+
+def test_a_node_on_other_topics_drives_with_remapping_rules(tmp_path, run_main):
+    status, _, stderr = run_main(
+        '--world', 'wall_follow_box', '--node', HUSKY_FOLLOWER, *HUSKY_REMAPS,
+        '--duration', '10', '--quiet', '--no-plot', '--out', str(tmp_path))
+    assert status == 0
+    metrics = load_metrics(tmp_path)
+    assert metrics['distance_m'] > 1.0 and metrics['warnings'] == []
+    assert 'warning' not in stderr
+    # Recorded under the simulator's name: the runner's own nodes are not remapped.
+    assert len(read_bag(tmp_path / 'run')['/cmd_vel']) > 10
+
+
+def test_a_remapping_rule_can_name_the_node(tmp_path, run_main):
+    status, _, _ = run_main(
+        '--world', 'wall_follow_box', '--node', HUSKY_FOLLOWER, '--remap',
+        'wall_follower_node:/robot/scan:=/scan', '--remap', 'other_node:/husky/cmd_vel:=/x',
+        '--remap', 'wall_follower_node:/husky/cmd_vel:=/cmd_vel', '--duration', '5',
+        '--quiet', '--no-record', '--no-plot', '--out', str(tmp_path))
+    assert status == 0
+    assert load_metrics(tmp_path)['distance_m'] > 0.5
+
+
+def test_topics_nothing_is_at_the_other_end_of_are_warned_with_the_rule_to_fix_them(
+        tmp_path, run_main):
+    status, _, stderr = run_main(
+        '--world', 'wall_follow_box', '--node', HUSKY_FOLLOWER, '--duration', '1',
+        '--no-record', '--no-plot', '--out', str(tmp_path))
+    assert status == 0
+    warnings = [
+        'wall_follower_node subscribes to /robot/scan: nothing publishes it (the simulator '
+        'publishes /scan: --remap /robot/scan:=/scan)',
+        'wall_follower_node publishes /husky/cmd_vel: nothing subscribes to it (the simulator '
+        'subscribes to /cmd_vel: --remap /husky/cmd_vel:=/cmd_vel)']
+    assert load_metrics(tmp_path)['warnings'] == warnings
+    assert [line[len('warning: '):] for line in stderr.splitlines()
+            if line.startswith('warning: ')] == warnings
+
+
+def test_the_simulator_is_not_remapped(tmp_path, run_main):
+    status, _, _ = run_main(
+        '--world', 'wall_follow_box', '--node', 'wall_follow', '--remap',
+        '/cmd_vel:=/wall_follow/cmd_vel', '--duration', '3', '--quiet', '--no-record',
+        '--no-plot', '--out', str(tmp_path))
+    assert status == 0
+    metrics = load_metrics(tmp_path)
+    assert metrics['distance_m'] < 0.01
+    assert metrics['warnings'] == [
+        'wall_follow publishes /wall_follow/cmd_vel: nothing subscribes to it (the simulator '
+        'subscribes to /cmd_vel: --remap /wall_follow/cmd_vel:=/cmd_vel)']
+
+
+def test_a_students_wall_follower_is_graded_by_the_scenarios_params_remaps_and_setpoint(
+        tmp_path):
+    from sim_bridge.grading import run_scenario
+    scenario = scenario_from_dict({
+        'world': 'wall_follow_box', 'nodes': ['wall_follow'], 'duration': 30,
+        # The scenario's parameters for its own node: the student's node names itself
+        # wall_follower_node, declares target_distance but no distance.
+        'params': {'wall_follow': {'target_distance': 0.5, 'distance': 0.5}},
+        'remap': ['/robot/scan:=/scan', '/husky/cmd_vel:=/cmd_vel'],
+        'setpoint': {'wall_distance_m': 0.5},
+        'criteria': ['collisions == 0', 'wall_distance_m.mae < 0.2']}, 'husky')
+    scenario = scenario.with_node_override(f'wall_follow={HUSKY_FOLLOWER}')
+    report = run_scenario(scenario.runs()[0], tmp_path, record=False, plot=False)
+    assert report.error is None
+    wall = report.metrics['wall_distance_m']
+    assert wall['setpoint'] == 0.5 and isinstance(wall['mae'], float)
+    # target_distance reached the node (its default is 0.8 m).
+    assert wall['mean'] == pytest.approx(0.5, abs=0.1)
+    assert report.metrics['warnings'] == [
+        "no node declared parameter 'distance' (given for every node, /**); it was ignored"]
+    assert report.passed
 
 
 def test_a_run_with_only_declared_parameters_has_no_warnings(wall_follow_runs):

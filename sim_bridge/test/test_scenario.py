@@ -155,6 +155,17 @@ def test_a_start_pose_is_three_numbers(tmp_path):
     (('  - collisions == 0', '  - collisions = 0'), 'criteria[1]', "cannot read 'collisions = 0'"),
     (('criteria:\n  - laps >= 1\n  - collisions == 0', 'criteria: []'), 'criteria',
      'non-empty list'),
+    (('start: mirrored', 'start: mirrored\nrobot: [a]'), 'robot', 'must be a robot model name'),
+    (('start: mirrored', 'start: mirrored\nremap: {a: b}'), 'remap', 'list of remapping rules'),
+    (('start: mirrored', 'start: mirrored\nremap: [/a:=/b, /scan]'), 'remap[1]',
+     "'/scan' is not a remapping rule: expected FROM:=TO or NODE:FROM:=TO"),
+    (('start: mirrored', 'start: mirrored\nremap: [n:a:b:=c]'), 'remap[0]', 'not a remapping'),
+    (('start: mirrored', 'start: mirrored\nremap: [/a:=]'), 'remap[0]', 'not a remapping'),
+    (('start: mirrored', 'start: mirrored\nsetpoint: 0.5'), 'setpoint', 'must map metrics'),
+    (('start: mirrored', 'start: mirrored\nsetpoint: {distance: 0.5}'), 'setpoint.distance',
+     'unknown; setpoints are wall_distance_m'),
+    (('start: mirrored', 'start: mirrored\nsetpoint: {wall_distance_m: .inf}'),
+     'setpoint.wall_distance_m', 'must be a number (m)'),
     (('description: follow the box', 'descripton: follow the box'), 'descripton',
      'unknown key; expected one of description, world'),
     (('seeds: [1, 2, 3]', 'seeds: []'), 'seeds', 'must be a non-empty list of integers'),
@@ -255,7 +266,33 @@ def test_an_override_replaces_the_node_of_the_same_name(tmp_path):
     scenario = load_scenario(write(tmp_path, 's.yaml', VALID))
     replaced = scenario.with_node_override('students/bo/wall_follow.py')
     assert replaced.nodes == ('students/bo/wall_follow.py', scenario.nodes[1])
-    assert replaced.params == scenario.params
+    # The student's node may name itself anything: ROS's own wildcard reaches it.
+    assert replaced.params == {'/**': scenario.params['wall_follow']}
+
+
+def test_an_overridden_nodes_params_go_to_every_node_the_others_keep_theirs(tmp_path):
+    scenario = load_scenario(write(tmp_path, 's.yaml', VALID.replace(
+        'params:', 'params:\n  wf: {gain: 2.0}\n  sim_bridge: {lidar_samples: 360}')))
+    replaced = scenario.with_node_override('wall_follow=students/ana/follower.py')
+    assert replaced.params == {'wf': {'gain': 2.0}, 'sim_bridge': {'lidar_samples': 360},
+                               '/**': {'side': 'left', 'distance': 0.5, 'seed': '$seed'}}
+    assert replaced.runs()[0].params['/**']['seed'] == 1
+    # A replaced node without parameters leaves none for every node.
+    plain = load_scenario(write(tmp_path, 'plain.yaml', VALID))
+    assert '/**' not in plain.with_node_override('wf=ana.py').params
+
+
+def test_robot_remap_and_setpoint_are_read(tmp_path):
+    scenario = load_scenario(write(tmp_path, 's.yaml', VALID + textwrap.dedent("""\
+        robot: turtlebot3_burger
+        remap: [/robot/scan:=/scan, 'wf:/husky/cmd_vel:=/cmd_vel']
+        setpoint: {wall_distance_m: 0.45}
+    """)))
+    assert scenario.robot == 'turtlebot3_burger'
+    assert scenario.remap == ('/robot/scan:=/scan', 'wf:/husky/cmd_vel:=/cmd_vel')
+    assert scenario.setpoint == {'wall_distance_m': 0.45}
+    plain = load_scenario(write(tmp_path, 'p.yaml', VALID))
+    assert (plain.robot, plain.remap, plain.setpoint) == (None, (), {})
 
 
 def test_an_override_of_another_name_replaces_the_only_node(tmp_path):
