@@ -513,6 +513,13 @@ def test_a_node_spinning_its_own_executor_in_a_callback_fails_the_run(tmp_path, 
     assert metrics['sim_time_s'] < 0.2
 
 
+def assert_warned(out_dir, stderr, warnings):
+    """Check a run's warnings: in metrics.json and as ``warning:`` lines on stderr, in order."""
+    assert load_metrics(out_dir)['warnings'] == warnings
+    assert [line[len('warning: '):] for line in stderr.splitlines()
+            if line.startswith('warning: ')] == warnings
+
+
 def test_a_parameter_no_node_declared_is_a_warning(tmp_path, run_main):
     status, _, stderr = run_main(
         '--world', 'wall_follow_box', '--node', 'wall_follow', '--param', 'wall_follow:nosuch=1',
@@ -524,9 +531,7 @@ def test_a_parameter_no_node_declared_is_a_warning(tmp_path, run_main):
         'file); it was ignored',
         "node 'sim_bridge' did not declare parameter 'nosuch_either' (given by --param or the "
         'params file); it was ignored']
-    assert load_metrics(tmp_path)['warnings'] == warnings
-    assert [line[len('warning: '):] for line in stderr.splitlines()
-            if line.startswith('warning: ')] == warnings
+    assert_warned(tmp_path, stderr, warnings)
 
 
 def test_parameters_for_a_node_that_is_not_running_are_a_warning_as_ros_ignores_them(
@@ -577,9 +582,7 @@ def test_topics_nothing_is_at_the_other_end_of_are_warned_with_the_rule_to_fix_t
         'publishes /scan: --remap /robot/scan:=/scan)',
         'wall_follower_node publishes /husky/cmd_vel: nothing subscribes to it (the simulator '
         'subscribes to /cmd_vel: --remap /husky/cmd_vel:=/cmd_vel)']
-    assert load_metrics(tmp_path)['warnings'] == warnings
-    assert [line[len('warning: '):] for line in stderr.splitlines()
-            if line.startswith('warning: ')] == warnings
+    assert_warned(tmp_path, stderr, warnings)
 
 
 def test_the_simulator_is_not_remapped(tmp_path, run_main):
