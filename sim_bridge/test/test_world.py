@@ -293,7 +293,7 @@ CUBE = {'name': 'box_a', 'type': 'cube', 'size': [1, 1, 1], 'pose': [3, 0]}
     ('robot: [0, 0]\n', 'robot', None, 'must be a mapping, got [0, 0] (list)'),
     ('robot: {model: 5}\n', 'robot', 'model', 'must be a model name, got 5 (int)'),
     ('obstacles:\n- {name: m, type: model, model: ../../etc, pose: [3, 0]}\n',
-     'obstacles[0] (m)', 'model', '../../etc/model.sdf'),
+     'obstacles[0] (m)', 'model', 'model file not found: ../../etc'),
 ])
 def test_broken_world_file_is_rejected_naming_file_entry_and_field(
         tmp_path, text, entry, field, problem):
