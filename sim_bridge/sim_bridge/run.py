@@ -796,7 +796,7 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
     from sim_bridge.bridge import SimBridge
     where, _ = split_target(target)
     path = Path(module_file(where))
-    node_errors, warnings = [], []
+    node_errors, warnings, ended_by = [], [], None
     domain = private_domain()
     env = process_environment(os.environ, domain)
     env['ROS_PYTHON_CHECK_FIELDS'] = '1' if field_checks else ''
@@ -843,7 +843,8 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
                              f'its {duration_s:g} s')
                     if code:
                         node_errors.append({'node': target_name(target), 'error': ended})
-                    else:
+                    else:  # its own rclpy.shutdown() ended it: the run ends there
+                        ended_by = ended
                         warnings.append(ended)
         finally:
             executor.shutdown()
@@ -854,7 +855,7 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
                               wall_time_s=time.perf_counter() - wall_start,
                               node_errors=node_errors)
     metrics['warnings'] = [*metrics.get('warnings', []), *warnings]
-    metrics['ended_by'] = None
+    metrics['ended_by'] = ended_by
     metrics['ignored'] = world_model.ignored
     metrics['run_mode'] = {'mode': 'process', 'reason': mode.reason}
     (out_dir / 'metrics.json').write_text(json.dumps(metrics, indent=2) + '\n')
