@@ -16,6 +16,7 @@ import textwrap
 import pytest
 from sim_bridge.node_styles import decide
 from sim_bridge.process_run import node_spec
+from sim_bridge.run import run_simulation, RunError
 from sim_bridge.targets import run_mode
 
 FIXTURES = Path(__file__).parent / 'fixtures'
@@ -150,3 +151,12 @@ def test_a_stepped_run_says_so(tmp_path):
     metrics, console = run_file(tmp_path, 'quitter.py', 1.0)
     assert metrics['run_mode'] == {'mode': 'stepped',
                                    'reason': 'main() only spins its one Node subclass'}
+
+
+def test_a_process_run_takes_one_node_file(tmp_path):
+    with pytest.raises(RunError, match=r'spin_once_loop\.py: main\(\) loops on rclpy\.spin_once '
+                                       r'\(line 22\), so it runs as its own process; a process '
+                                       'run takes one node file: run it alone'):
+        run_simulation('obstacles', ['scan_ahead', str(FIXTURES / 'spin_once_loop.py')],
+                       duration_s=1.0, out_dir=tmp_path / 'out')
+    assert not (tmp_path / 'out').exists()
