@@ -664,7 +664,7 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
         return run_as_process(
             world_model, target, mode, node_params, duration_s=duration_s, out_dir=out_dir,
             remap=remap, setpoint=setpoint, quiet=quiet, record=record, plot=plot,
-            field_checks=field_checks)
+            field_checks=field_checks, progress=progress)
     run_modes = {'mode': 'stepped', 'reason': '; '.join(mode.reason for mode in modes)}
 
     node_errors, warnings, ended_by = [], [], None
@@ -778,7 +778,8 @@ class LiveGraph:
 def run_as_process(world_model: World, target: str, mode: Decision, node_params: Params, *,
                    duration_s: float, out_dir: Path, remap: Sequence[str],
                    setpoint: float | None, quiet: bool, record: bool, plot: bool,
-                   field_checks: bool) -> RunResult:
+                   field_checks: bool,
+                   progress: Callable[[float, float], None] | None = None) -> RunResult:
     """
     Run the node file ``target`` as its own process against the simulator run live here.
 
@@ -787,7 +788,9 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
     own timer. Simulated time starts when the node is in the ROS graph (bounded by
     NODE_START_TIMEOUT_S of wall time) and the process is stopped (SIGINT, then SIGTERM, then
     SIGKILL, as launch does) after ``duration_s`` of it. Outputs as a stepped run's; what the
-    node prints is the run's console output. ``mode`` says why the file is not stepped.
+    node prints is the run's console output. ``mode`` says why the file is not stepped;
+    ``progress(sim_s, duration_s)`` is called as simulated time passes. Ctrl-C and RunStopped
+    end it as they end a stepped run: the node stopped, the outputs written.
     """
     import rclpy
     from rclpy.context import Context
@@ -814,7 +817,7 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
         with private_ros_environment(domain):
             rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
         executor = SingleThreadedExecutor(context=context)
-        bag = None
+        bag, outputs_open, interrupt = None, False, UserInterrupt()
         try:
             bridge = SimBridge(stepped=False, context=context, use_global_arguments=False,
                                cli_args=['--ros-args', '--params-file', str(bridge_params_file)],
@@ -825,8 +828,9 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
             recorder = RunRecorder(LiveGraph(bridge, executor), observer, record)
             bag = open_outputs(out_dir, params_file, record)
             recorder.record(bag)
+            outputs_open = True
             out = (lambda line: None) if quiet else print_line
-            with LiveRun([spec], env=env, out=out) as live:
+            with LiveRun([spec], env=env, out=out) as live, interrupt:
                 live.start()
                 name = live.names[0]
                 deadline = time.monotonic() + NODE_START_TIMEOUT_S
@@ -837,6 +841,8 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
                 spinner.start()
                 while bridge.sim.time < duration_s and name not in live.returncodes:
                     live.pump(0.05)
+                    if progress is not None:
+                        progress(min(bridge.sim.time, duration_s), duration_s)
                 if name in live.returncodes:
                     code = live.returncodes[name]
                     ended = (f'{name} ended (exit status {code}) at {bridge.sim.time:g} s of '
@@ -846,6 +852,14 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
                     else:  # its own rclpy.shutdown() ended it: the run ends there
                         ended_by = ended
                         warnings.append(ended)
+        except KeyboardInterrupt:
+            if not interrupt.pressed:
+                raise
+            # Ctrl-C: the node is stopped, the outputs are written, then it goes on.
+        except RunStopped as stop:
+            if not outputs_open:
+                raise
+            node_errors.append({'node': BRIDGE_NODE, 'error': f'{stop} (in the simulator)'})
         finally:
             executor.shutdown()
             if bag is not None:
@@ -859,9 +873,15 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
     metrics['ignored'] = world_model.ignored
     metrics['run_mode'] = {'mode': 'process', 'reason': mode.reason}
     (out_dir / 'metrics.json').write_text(json.dumps(metrics, indent=2) + '\n')
-    if plot:
-        plot_trajectory(observer.trace, world_model, out_dir / 'trajectory.png',
-                        title=f'{world_model.name}: {target_name(target)}')
+    try:
+        if plot:
+            plot_trajectory(observer.trace, world_model, out_dir / 'trajectory.png',
+                            title=f'{world_model.name}: {target_name(target)}')
+    finally:
+        interrupt.restore()
+    if interrupt.pressed:
+        raise KeyboardInterrupt(f'run interrupted at {metrics["sim_time_s"]:.1f} s of sim time; '
+                                f'its outputs are in {out_dir}')
     return RunResult(metrics, out_dir)
 
 

@@ -9,6 +9,7 @@ its own) are checked for doing what their authors meant.
 import json
 import os
 from pathlib import Path
+import signal
 import subprocess
 import sys
 import textwrap
@@ -160,3 +161,32 @@ def test_a_process_run_takes_one_node_file(tmp_path):
         run_simulation('obstacles', ['scan_ahead', str(FIXTURES / 'spin_once_loop.py')],
                        duration_s=1.0, out_dir=tmp_path / 'out')
     assert not (tmp_path / 'out').exists()
+
+
+def test_a_process_run_reports_its_progress_in_simulated_time(tmp_path):
+    seen = []
+    result = run_simulation('obstacles', [str(FIXTURES / 'function_node.py')], duration_s=2.0,
+                            out_dir=tmp_path / 'out', quiet=True, plot=False,
+                            progress=lambda sim_s, duration_s: seen.append((sim_s, duration_s)))
+    assert result.metrics['run_mode']['mode'] == 'process'
+    assert seen == sorted(seen) and seen[-1] == (2.0, 2.0)  # the grader's stall watch sees it
+
+
+def test_ctrl_c_stops_a_process_run_and_writes_its_outputs(tmp_path):
+    runner = subprocess.Popen(
+        [sys.executable, '-m', 'sim_bridge.run', '--world', 'obstacles', '--node',
+         str(FIXTURES / 'spin_once_loop.py'), '--duration', '600', '--out',
+         str(tmp_path / 'out'), '--no-plot'],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=dict(os.environ))
+    try:
+        for line in runner.stdout:  # its node is up: simulated time runs
+            if 'loop driver started' in line:
+                break
+        runner.send_signal(signal.SIGINT)
+        _, stderr = runner.communicate(timeout=60)
+    finally:
+        runner.kill()
+    assert runner.returncode == 130, stderr
+    assert 'its outputs are in' in stderr
+    metrics = json.loads((tmp_path / 'out' / 'metrics.json').read_text())
+    assert metrics['run_mode']['mode'] == 'process' and metrics['sim_time_s'] < 600
