@@ -15,6 +15,7 @@ import sys
 import textwrap
 
 import pytest
+from rosbags.rosbag2 import Reader
 from sim_bridge.node_styles import decide
 from sim_bridge.process_run import node_spec
 from sim_bridge.run import run_simulation, RunError
@@ -144,7 +145,9 @@ def test_a_file_that_cannot_be_stepped_runs_its_main_and_drives(tmp_path, name, 
     assert metrics['distance_m'] > 0.3
     assert metrics['sim_time_s'] >= 3.0
     assert printed in console
-    assert (tmp_path / 'out' / 'run').is_dir()  # the recording, as a stepped run's
+    with Reader(tmp_path / 'out' / 'run') as bag:  # the recording, as a stepped run's
+        counts = {connection.topic: connection.msgcount for connection in bag.connections}
+    assert counts['/cmd_vel'] > 0 and counts['/scan'] > 0  # the node's, over DDS; the bridge's
     assert 'run mode' in console and 'process (' in console
 
 
