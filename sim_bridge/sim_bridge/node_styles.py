@@ -66,23 +66,24 @@ def _entry_reason(entry: list[ast.stmt], node_classes: set[str]) -> str | None:
     """Return why the entry code (main() and the __main__ block) cannot be stepped, or None."""
     constructed = []
     for statement in entry:
+        where = 'main()' if isinstance(statement, ast.FunctionDef) else 'the __main__ block'
         for item in ast.walk(statement):
             if isinstance(item, (ast.While, ast.For)):
                 body_calls = {_call_name(c) for c in ast.walk(item) if isinstance(c, ast.Call)}
                 what = 'rclpy.spin_once' if 'spin_once' in body_calls else 'a loop'
-                return f'main() loops on {what} (line {item.lineno})'
+                return f'{where} loops on {what} (line {item.lineno})'
             if not isinstance(item, ast.Call):
                 continue
             name = _call_name(item)
             if name == 'MultiThreadedExecutor':
-                return f'main() spins a MultiThreadedExecutor (line {item.lineno})'
+                return f'{where} spins a MultiThreadedExecutor (line {item.lineno})'
             if name in ('create_node', 'Node'):
-                return (f'main() builds its node with {ast.unparse(item.func)}(...) '
+                return (f'{where} builds its node with {ast.unparse(item.func)}(...) '
                         f'(line {item.lineno}), not a Node subclass')
             if name in ('spin_once', 'spin_until_future_complete'):
-                return f'main() calls {name} (line {item.lineno})'
+                return f'{where} calls {name} (line {item.lineno})'
             if _sleep_seconds(item) is not None:
-                return f'main() sleeps (line {item.lineno})'
+                return f'{where} sleeps (line {item.lineno})'
             if name in node_classes:
                 constructed.append(item.lineno)
     if len(constructed) > 1:

@@ -193,3 +193,19 @@ def test_ctrl_c_stops_a_process_run_and_writes_its_outputs(tmp_path):
     assert 'its outputs are in' in stderr
     metrics = json.loads((tmp_path / 'out' / 'metrics.json').read_text())
     assert metrics['run_mode']['mode'] == 'process' and metrics['sim_time_s'] < 600
+
+
+def test_logic_in_the_main_block_itself_is_read_too():
+    script = HEADER + textwrap.dedent("""
+
+        if __name__ == '__main__':
+            rclpy.init()
+            node = Driver()
+            while rclpy.ok():
+                rclpy.spin_once(node)
+        """)
+    assert tuple(decide(script)) == (
+        False, 'the __main__ block loops on rclpy.spin_once (line 21)')
+    canonical = HEADER + "\n\nif __name__ == '__main__':\n    rclpy.init()\n"
+    canonical += '    rclpy.spin(Driver())\n'
+    assert decide(canonical).steppable
