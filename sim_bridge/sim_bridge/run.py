@@ -15,6 +15,7 @@ import functools
 import inspect
 import json
 import math
+import os
 from pathlib import Path
 import resource
 import shutil
@@ -29,9 +30,13 @@ from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.parameter import get_parameter_value, Parameter, parameter_value_to_python
 from rclpy.serialization import serialize_message
 from sim_bridge.hints import ros_module_hint, scan_hint
+from sim_bridge.live import LiveRun, print_line
 from sim_bridge.metrics import compute_metrics
+from sim_bridge.node_styles import Decision
 from sim_bridge.paths import find_world
 from sim_bridge.plot import plot_trajectory, SCANS_DRAWN
+from sim_bridge.process_run import (
+    node_spec, private_domain, private_ros_environment, process_environment)
 from sim_bridge.record import BagRecorder, DEFAULT_TOPICS, message_type_name
 from sim_bridge.report_text import json_safe
 from sim_bridge.run_environment import (
@@ -41,7 +46,8 @@ from sim_bridge.scenario import EVERY_NODE, is_seed, MAX_SEED, remap_problem, ta
 from sim_bridge.simulation.world import World, WorldError
 from sim_bridge.stepping import (
     describe, next_timer_ns, NodeEnded, NodeError, spin_until_idle, SteppedExecutor)
-from sim_bridge.targets import load_node_class, StudentCode, TargetError
+from sim_bridge.targets import (
+    load_node_class, module_file, run_mode, split_target, StudentCode, TargetError)
 import yaml
 
 BRIDGE_NODE = 'sim_bridge'
@@ -56,6 +62,8 @@ SETPOINT_PARAMETER = 'distance'
 ROS_TOPICS = ('/rosout', '/parameter_events', '/clock')
 PROGRESS_AFTER_S = 2.0
 GUI_FRAME_RATE = 60
+#: Longest wait (wall s) for a node run as a process to join the ROS graph.
+NODE_START_TIMEOUT_S = 20.0
 NANOSECONDS_PER_SECOND = 10 ** 9
 
 Params = dict[str, dict[str, Any]]
@@ -646,6 +654,18 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
     node_params = node_parameters(world_model, params, seed=seed, gui=gui, start=start,
                                   robot=robot)
     out_dir = Path(out_dir) if out_dir is not None else default_out_dir(world_model, targets)
+    modes = [run_mode(target) for target in targets]
+    process = [(t, mode) for t, mode in zip(targets, modes) if not mode.steppable]
+    if process:
+        target, mode = process[0]
+        if len(targets) > 1:
+            raise RunError(f'{target}: {mode.reason}, so it runs as its own process; a process '
+                           'run takes one node file: run it alone')
+        return run_as_process(
+            world_model, target, mode, node_params, duration_s=duration_s, out_dir=out_dir,
+            remap=remap, setpoint=setpoint, quiet=quiet, record=record, plot=plot,
+            field_checks=field_checks, progress=progress)
+    run_modes = {'mode': 'stepped', 'reason': '; '.join(mode.reason for mode in modes)}
 
     node_errors, warnings, ended_by = [], [], None
     wall_start = time.perf_counter()
@@ -725,10 +745,138 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
         metrics['warnings'] = [*metrics.get('warnings', []), *warnings]
         metrics['ended_by'] = ended_by
         metrics['ignored'] = world_model.ignored
+        metrics['run_mode'] = run_modes
         (out_dir / 'metrics.json').write_text(json.dumps(metrics, indent=2) + '\n')
         if plot:
             plot_trajectory(observer.trace, world_model, out_dir / 'trajectory.png',
                             title=f"{world_model.name}: {', '.join(map(target_name, targets))}")
+    finally:
+        interrupt.restore()
+    if interrupt.pressed:
+        raise KeyboardInterrupt(f'run interrupted at {metrics["sim_time_s"]:.1f} s of sim time; '
+                                f'its outputs are in {out_dir}')
+    return RunResult(metrics, out_dir)
+
+
+class LiveGraph:
+    """The runner's side of a process run: the live bridge and the runner's own nodes."""
+
+    def __init__(self, bridge, executor):
+        self.bridge = bridge
+        self.executor = executor
+
+    def node(self, name: str):
+        """Create one of the runner's own nodes in the bridge's context and executor."""
+        from rclpy.node import Node
+        node = Node(name, context=self.bridge.context, use_global_arguments=False,
+                    start_parameter_services=False, enable_rosout=False,
+                    parameter_overrides=[NO_TYPE_DESCRIPTION_SERVICE])
+        self.executor.add_node(node)
+        return node
+
+
+def run_as_process(world_model: World, target: str, mode: Decision, node_params: Params, *,
+                   duration_s: float, out_dir: Path, remap: Sequence[str],
+                   setpoint: float | None, quiet: bool, record: bool, plot: bool,
+                   field_checks: bool,
+                   progress: Callable[[float, float], None] | None = None) -> RunResult:
+    """
+    Run the node file ``target`` as its own process against the simulator run live here.
+
+    The file's own ``main()`` runs (sim_bridge.process_run), on a ROS domain private to the
+    run; the SimBridge node runs in this process at real time (``real_time_factor`` 1) on its
+    own timer. Simulated time starts when the node is in the ROS graph (bounded by
+    NODE_START_TIMEOUT_S of wall time) and the process is stopped (SIGINT, then SIGTERM, then
+    SIGKILL, as launch does) after ``duration_s`` of it. Outputs as a stepped run's; what the
+    node prints is the run's console output. ``mode`` says why the file is not stepped;
+    ``progress(sim_s, duration_s)`` is called as simulated time passes. Ctrl-C and RunStopped
+    end it as they end a stepped run: the node stopped, the outputs written.
+    """
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.signals import SignalHandlerOptions
+    from sim_bridge.bridge import SimBridge
+    where, _ = split_target(target)
+    path = Path(module_file(where))
+    node_errors, warnings, ended_by = [], [], None
+    domain = private_domain()
+    env = process_environment(os.environ, domain)
+    env['ROS_PYTHON_CHECK_FIELDS'] = '1' if field_checks else ''
+    to_console(f'{target_name(target)} runs as its own process: {mode.reason}\n')
+    wall_start = time.perf_counter()
+    with tempfile.TemporaryDirectory() as scratch:
+        params_file = Path(scratch) / 'params.yaml'
+        write_params_file(params_file, node_params)
+        bridge_params_file = Path(scratch) / f'{BRIDGE_NODE}.yaml'
+        write_params_file(bridge_params_file, {BRIDGE_NODE: node_params[BRIDGE_NODE]})
+        spec = node_spec(path, ['--ros-args', '--params-file', str(params_file),
+                                '-p', 'use_sim_time:=true',
+                                *(argument for rule in remap for argument in ('-r', rule))])
+        context = Context()
+        with private_ros_environment(domain):
+            rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
+        executor = SingleThreadedExecutor(context=context)
+        bag, outputs_open, interrupt = None, False, UserInterrupt()
+        try:
+            bridge = SimBridge(stepped=False, context=context, use_global_arguments=False,
+                               cli_args=['--ros-args', '--params-file', str(bridge_params_file)],
+                               start_parameter_services=False, enable_rosout=False,
+                               parameter_overrides=[NO_TYPE_DESCRIPTION_SERVICE])
+            executor.add_node(bridge)
+            observer = Observer(bridge.sim, duration_s)
+            recorder = RunRecorder(LiveGraph(bridge, executor), observer, record)
+            bag = open_outputs(out_dir, params_file, record)
+            recorder.record(bag)
+            outputs_open = True
+            out = (lambda line: None) if quiet else print_line
+            with LiveRun([spec], env=env, out=out) as live, interrupt:
+                live.start()
+                name = live.names[0]
+                deadline = time.monotonic() + NODE_START_TIMEOUT_S
+                while (set(bridge.get_node_names()) <= {BRIDGE_NODE}
+                       and time.monotonic() < deadline and not live.pump(0.05)):
+                    pass
+                spinner = threading.Thread(target=executor.spin, name='live-bridge', daemon=True)
+                spinner.start()
+                while bridge.sim.time < duration_s and name not in live.returncodes:
+                    live.pump(0.05)
+                    if progress is not None:
+                        progress(min(bridge.sim.time, duration_s), duration_s)
+                if name in live.returncodes:
+                    code = live.returncodes[name]
+                    ended = (f'{name} ended (exit status {code}) at {bridge.sim.time:g} s of '
+                             f'its {duration_s:g} s')
+                    if code:
+                        node_errors.append({'node': target_name(target), 'error': ended})
+                    else:  # its own rclpy.shutdown() ended it: the run ends there
+                        ended_by = ended
+                        warnings.append(ended)
+        except KeyboardInterrupt:
+            if not interrupt.pressed:
+                raise
+            # Ctrl-C: the node is stopped, the outputs are written, then it goes on.
+        except RunStopped as stop:
+            if not outputs_open:
+                raise
+            node_errors.append({'node': BRIDGE_NODE, 'error': f'{stop} (in the simulator)'})
+        finally:
+            executor.shutdown()
+            if bag is not None:
+                bag.close()
+            context.try_shutdown()
+    metrics = compute_metrics(observer.finish(), world_model, setpoint=setpoint,
+                              wall_time_s=time.perf_counter() - wall_start,
+                              node_errors=node_errors)
+    metrics['warnings'] = [*metrics.get('warnings', []), *warnings]
+    metrics['ended_by'] = ended_by
+    metrics['ignored'] = world_model.ignored
+    metrics['run_mode'] = {'mode': 'process', 'reason': mode.reason}
+    (out_dir / 'metrics.json').write_text(json.dumps(metrics, indent=2) + '\n')
+    try:
+        if plot:
+            plot_trajectory(observer.trace, world_model, out_dir / 'trajectory.png',
+                            title=f'{world_model.name}: {target_name(target)}')
     finally:
         interrupt.restore()
     if interrupt.pressed:
@@ -767,6 +915,9 @@ def summary_table(metrics: dict) -> str:
          or 'none'),
         ('warnings', '; '.join(metrics['warnings']) or 'none'),
     ]
+    if 'run_mode' in metrics:
+        mode = metrics['run_mode']
+        rows.append(('run mode', f"{mode['mode']} ({mode['reason']})"))
     width = max(len(name) for name, _ in rows)
     return '\n'.join(f'  {name:<{width}}  {value}' for name, value in rows)
 

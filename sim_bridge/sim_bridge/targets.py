@@ -26,6 +26,8 @@ import traceback
 from types import FrameType, ModuleType
 from typing import Iterable
 
+from sim_bridge.node_styles import decide, Decision
+
 #: Frames under these folders are never a node's own code: this package (the runner), and
 #: Python's library and installed packages (a node calling random.choice([]) raised the
 #: IndexError, not random.py).
@@ -196,6 +198,23 @@ def module_file(where: str) -> str | None:
     except (ImportError, ValueError):
         return None
     return spec.origin if spec is not None and spec.has_location else None
+
+
+def run_mode(target: str) -> Decision:
+    """
+    Return whether TARGET's file allows stepping (sim_bridge.node_styles), with the reason.
+
+    A TARGET naming its class (``FILE:ClassName``) asks for that class to be stepped; a TARGET
+    whose file cannot be read is left to the loader, which says why.
+    """
+    where, class_name = split_target(target)
+    path = module_file(where)
+    if class_name is not None:
+        return Decision(True, f'the target names its class {class_name}')
+    try:
+        return decide(Path(path).read_text(encoding='utf-8'))
+    except (OSError, TypeError, UnicodeDecodeError):
+        return Decision(True, 'the loader reads the file')
 
 
 def node_classes(module: ModuleType, node_base: type) -> dict[str, type]:

@@ -1,0 +1,74 @@
+"""
+Run a node file as its own process, as ``python3 FILE`` or ``ros2 run`` starts it.
+
+The pieces a runner needs for a file it cannot step (sim_bridge.node_styles): the command line
+that runs the file's own ``main()``, and a ROS environment private to the run (a domain of its
+own, discovery on this machine only), so the node and the runner's live simulator see each
+other and nothing else. Starting, printing and stopping the process is sim_bridge.live's.
+"""
+
+from contextlib import contextmanager
+import os
+from pathlib import Path
+import sys
+from typing import Iterator, Mapping, Sequence
+
+from sim_bridge.live import DISCOVERY_VARIABLE, ProcessSpec
+from sim_bridge.node_styles import has_main_guard
+
+#: Private domains are taken from [DOMAIN_BASE, DOMAIN_BASE + DOMAIN_COUNT): ids Fast DDS can
+#: open ports for on Linux, away from the default domain 0.
+DOMAIN_BASE = 1
+DOMAIN_COUNT = 100
+
+
+def private_domain(pid: int | None = None) -> int:
+    """Return the ROS_DOMAIN_ID of a run in process ``pid`` (default: this process)."""
+    return DOMAIN_BASE + (os.getpid() if pid is None else pid) % DOMAIN_COUNT
+
+
+def process_environment(base: Mapping[str, str], domain_id: int) -> dict[str, str]:
+    """Return ``base`` on domain ``domain_id`` with discovery on this machine only."""
+    env = dict(base)
+    env['ROS_DOMAIN_ID'] = str(domain_id)
+    env[DISCOVERY_VARIABLE] = 'LOCALHOST'
+    env.pop('ROS_STATIC_PEERS', None)
+    return env
+
+
+def node_spec(path: Path, ros_arguments: Sequence[str], python: str = sys.executable
+              ) -> ProcessSpec:
+    """
+    Return the process running the node file ``path`` with ``ros_arguments`` (``--ros-args``).
+
+    Its ``if __name__ == '__main__'`` block when it has one, as ``python3 FILE`` runs it;
+    otherwise its ``main()`` called as ``ros2 run``'s console script calls it, with the file's
+    folder first on the import path, as ``python3 FILE`` would have it.
+    """
+    path = Path(path).resolve()
+    if has_main_guard(path.read_text(encoding='utf-8')):
+        cmd = (python, str(path), *ros_arguments)
+    else:
+        code = ('import runpy, sys; sys.argv[0] = {0!r}; sys.path.insert(0, {1!r}); '
+                "sys.exit(runpy.run_path({0!r}, run_name='node_file')['main']())").format(
+                    str(path), str(path.parent))
+        cmd = (python, '-c', code, *ros_arguments)
+    return ProcessSpec(path.stem, cmd)
+
+
+@contextmanager
+def private_ros_environment(domain_id: int) -> Iterator[None]:
+    """Put this process on domain ``domain_id``, discovery local, while rclpy starts in it."""
+    names = ('ROS_DOMAIN_ID', DISCOVERY_VARIABLE, 'ROS_STATIC_PEERS')
+    saved = {name: os.environ.get(name) for name in names}
+    private = process_environment({}, domain_id)
+    os.environ.pop('ROS_STATIC_PEERS', None)
+    os.environ.update(private)
+    try:
+        yield
+    finally:
+        for name, value in saved.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
