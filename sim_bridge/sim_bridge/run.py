@@ -36,7 +36,7 @@ from sim_bridge.node_styles import Decision
 from sim_bridge.paths import find_world
 from sim_bridge.plot import plot_trajectory, SCANS_DRAWN
 from sim_bridge.process_run import (
-    node_spec, private_domain, private_ros_environment, process_environment)
+    DomainReservation, node_spec, private_ros_environment, process_environment)
 from sim_bridge.record import BagRecorder, DEFAULT_TOPICS, message_type_name
 from sim_bridge.report_text import json_safe
 from sim_bridge.run_environment import (
@@ -738,6 +738,23 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
             if bag is not None:
                 bag.close()
             run.close()
+    return write_outputs(
+        out_dir, observer, world_model, interrupt, plot=plot,
+        title=f"{world_model.name}: {', '.join(map(target_name, targets))}", setpoint=setpoint,
+        wall_start=wall_start, node_errors=node_errors, warnings=warnings, ended_by=ended_by,
+        run_mode=run_modes)
+
+
+def write_outputs(out_dir: Path, observer: Observer, world_model: World,
+                  interrupt: 'UserInterrupt', *, plot: bool, title: str,
+                  setpoint: float | None, wall_start: float, node_errors: list,
+                  warnings: list[str], ended_by: str | None, run_mode: Any) -> RunResult:
+    """
+    Score a finished run and write ``metrics.json`` and the plot; return the RunResult.
+
+    ``wall_start`` is the run's start on the perf counter (s). A Ctrl-C while they are written
+    waits for them (``interrupt``); one pressed during the run is raised after them.
+    """
     try:
         metrics = compute_metrics(observer.finish(), world_model, setpoint=setpoint,
                                   wall_time_s=time.perf_counter() - wall_start,
@@ -745,11 +762,11 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
         metrics['warnings'] = [*metrics.get('warnings', []), *warnings]
         metrics['ended_by'] = ended_by
         metrics['ignored'] = world_model.ignored
-        metrics['run_mode'] = run_modes
+        metrics['run_mode'] = run_mode
         (out_dir / 'metrics.json').write_text(json.dumps(metrics, indent=2) + '\n')
         if plot:
             plot_trajectory(observer.trace, world_model, out_dir / 'trajectory.png',
-                            title=f"{world_model.name}: {', '.join(map(target_name, targets))}")
+                            title=title)
     finally:
         interrupt.restore()
     if interrupt.pressed:
@@ -800,8 +817,8 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
     where, _ = split_target(target)
     path = Path(module_file(where))
     node_errors, warnings, ended_by = [], [], None
-    domain = private_domain()
-    env = process_environment(os.environ, domain)
+    domain = DomainReservation()
+    env = process_environment(os.environ, domain.domain_id)
     env['ROS_PYTHON_CHECK_FIELDS'] = '1' if field_checks else ''
     to_console(f'{target_name(target)} runs as its own process: {mode.reason}\n')
     wall_start = time.perf_counter()
@@ -814,7 +831,7 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
                                 '-p', 'use_sim_time:=true',
                                 *(argument for rule in remap for argument in ('-r', rule))])
         context = Context()
-        with private_ros_environment(domain):
+        with private_ros_environment(domain.domain_id):
             rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
         executor = SingleThreadedExecutor(context=context)
         bag, outputs_open, interrupt = None, False, UserInterrupt()
@@ -865,24 +882,12 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
             if bag is not None:
                 bag.close()
             context.try_shutdown()
-    metrics = compute_metrics(observer.finish(), world_model, setpoint=setpoint,
-                              wall_time_s=time.perf_counter() - wall_start,
-                              node_errors=node_errors)
-    metrics['warnings'] = [*metrics.get('warnings', []), *warnings]
-    metrics['ended_by'] = ended_by
-    metrics['ignored'] = world_model.ignored
-    metrics['run_mode'] = {'mode': 'process', 'reason': mode.reason}
-    (out_dir / 'metrics.json').write_text(json.dumps(metrics, indent=2) + '\n')
-    try:
-        if plot:
-            plot_trajectory(observer.trace, world_model, out_dir / 'trajectory.png',
-                            title=f'{world_model.name}: {target_name(target)}')
-    finally:
-        interrupt.restore()
-    if interrupt.pressed:
-        raise KeyboardInterrupt(f'run interrupted at {metrics["sim_time_s"]:.1f} s of sim time; '
-                                f'its outputs are in {out_dir}')
-    return RunResult(metrics, out_dir)
+            domain.release()
+    return write_outputs(
+        out_dir, observer, world_model, interrupt, plot=plot,
+        title=f'{world_model.name}: {target_name(target)}', setpoint=setpoint,
+        wall_start=wall_start, node_errors=node_errors, warnings=warnings, ended_by=ended_by,
+        run_mode={'mode': 'process', 'reason': mode.reason})
 
 
 def to_console(text: str) -> None:
