@@ -1,0 +1,44 @@
+"""
+Node files in the styles students write, each doing what its author meant on its own robot.
+
+A TurtleBot3 avoider (360 beams, index 0 ahead) on the Burger; a node that publishes only when
+its decision changes (the base keeps the last command, as Gazebo's DiffDrive does); a node on a
+MultiThreadedExecutor (its own main(), run as a process).
+"""
+
+from pathlib import Path
+
+from sim_bridge.run import run_simulation
+
+FIXTURES = Path(__file__).parent / 'fixtures'
+
+
+def test_a_turtlebot3_avoider_drives_and_avoids_on_the_burger(tmp_path):
+    result = run_simulation('obstacles', [str(FIXTURES / 'tb3_avoider.py')], duration_s=30.0,
+                            robot='turtlebot3_burger', out_dir=tmp_path, quiet=True,
+                            record=False, plot=False)
+    metrics = result.metrics
+    assert metrics['node_errors'] == [] and metrics['collisions'] == 0
+    assert metrics['distance_m'] > 2.0          # not stuck: it went round the cube
+    assert metrics['min_clearance_m'] < 0.5     # and it did meet it
+    assert metrics['run_mode']['mode'] == 'stepped'
+
+
+def test_a_node_that_publishes_only_on_change_drives_up_to_the_cube_and_stops(tmp_path):
+    result = run_simulation('obstacles', [str(FIXTURES / 'on_change_driver.py')],
+                            duration_s=20.0, out_dir=tmp_path, quiet=True, record=False,
+                            plot=False)
+    metrics = result.metrics
+    assert metrics['node_errors'] == [] and metrics['collisions'] == 0
+    # Two commands in all (go, stop): the cube's face is 2.0 m ahead, the robot 0.15 m round.
+    assert 1.0 < metrics['distance_m'] < 1.85
+    assert metrics['max_stationary_s'] > 5.0
+
+
+def test_a_node_on_a_multithreaded_executor_runs_its_main_and_drives(tmp_path):
+    result = run_simulation('obstacles', [str(FIXTURES / 'multithreaded_driver.py')],
+                            duration_s=3.0, out_dir=tmp_path, quiet=True, plot=False)
+    metrics = result.metrics
+    assert metrics['run_mode']['mode'] == 'process'
+    assert 'MultiThreadedExecutor' in metrics['run_mode']['reason']
+    assert metrics['node_errors'] == [] and metrics['distance_m'] > 0.3
