@@ -7,15 +7,15 @@ own, discovery on this machine only), so the node and the runner's live simulato
 other and nothing else. Starting, printing and stopping the process is sim_bridge.live's.
 """
 
-from contextlib import contextmanager
 import fcntl
 import os
 from pathlib import Path
 import sys
-from typing import Iterator, Mapping, Sequence
+from typing import ContextManager, Mapping, Sequence
 
 from sim_bridge.live import DISCOVERY_VARIABLE, ProcessSpec
 from sim_bridge.node_styles import has_main_guard
+from sim_bridge.run_environment import environment_set
 
 #: Private domains are taken from [DOMAIN_BASE, DOMAIN_BASE + DOMAIN_COUNT): ids Fast DDS can
 #: open ports for on Linux, away from the default domain 0.
@@ -86,19 +86,6 @@ def node_spec(path: Path, ros_arguments: Sequence[str], python: str = sys.execut
     return ProcessSpec(path.stem, cmd)
 
 
-@contextmanager
-def private_ros_environment(domain_id: int) -> Iterator[None]:
+def private_ros_environment(domain_id: int) -> ContextManager[None]:
     """Put this process on domain ``domain_id``, discovery local, while rclpy starts in it."""
-    names = ('ROS_DOMAIN_ID', DISCOVERY_VARIABLE, 'ROS_STATIC_PEERS')
-    saved = {name: os.environ.get(name) for name in names}
-    private = process_environment({}, domain_id)
-    os.environ.pop('ROS_STATIC_PEERS', None)
-    os.environ.update(private)
-    try:
-        yield
-    finally:
-        for name, value in saved.items():
-            if value is None:
-                os.environ.pop(name, None)
-            else:
-                os.environ[name] = value
+    return environment_set({**process_environment({}, domain_id), 'ROS_STATIC_PEERS': None})

@@ -16,7 +16,7 @@ from contextlib import contextmanager
 from importlib import metadata
 import os
 import sys
-from typing import Iterator
+from typing import Iterator, Mapping
 
 CHECK_FIELDS_VARIABLE = 'ROS_PYTHON_CHECK_FIELDS'
 #: What a run's error adds when a field check fails.
@@ -32,26 +32,39 @@ def _message_modules() -> list:
 
 
 @contextmanager
-def run_environment(field_checks: bool = True) -> Iterator[None]:
-    """Set the run's variables (and message modules' field-check flag); restore them after."""
-    values = {'ROS_AUTOMATIC_DISCOVERY_RANGE': 'OFF',
-              CHECK_FIELDS_VARIABLE: '1' if field_checks else ''}
+def environment_set(values: Mapping[str, str | None]) -> Iterator[None]:
+    """Set the environment variables ``values`` (None: unset them) for the block; restore after."""
     saved = {name: os.environ.get(name) for name in values}
-    modules = {module: module.ros_python_check_fields for module in _message_modules()}
-    os.environ.update(values)
-    for module in modules:
-        module.ros_python_check_fields = values[CHECK_FIELDS_VARIABLE]
+    for name, value in values.items():
+        _put(name, value)
     try:
         yield
     finally:
         for name, value in saved.items():
-            if value is None:
-                os.environ.pop(name, None)
-            else:
-                os.environ[name] = value
-        default = os.environ.get(CHECK_FIELDS_VARIABLE, '')
-        for module in _message_modules():
-            module.ros_python_check_fields = modules.get(module, default)
+            _put(name, value)
+
+
+def _put(name: str, value: str | None) -> None:
+    if value is None:
+        os.environ.pop(name, None)
+    else:
+        os.environ[name] = value
+
+
+@contextmanager
+def run_environment(field_checks: bool = True) -> Iterator[None]:
+    """Set the run's variables (and message modules' field-check flag); restore them after."""
+    check = '1' if field_checks else ''
+    modules = {module: module.ros_python_check_fields for module in _message_modules()}
+    with environment_set({'ROS_AUTOMATIC_DISCOVERY_RANGE': 'OFF', CHECK_FIELDS_VARIABLE: check}):
+        for module in modules:
+            module.ros_python_check_fields = check
+        try:
+            yield
+        finally:
+            default = os.environ.get(CHECK_FIELDS_VARIABLE, '')
+            for module in _message_modules():
+                module.ros_python_check_fields = modules.get(module, default)
 
 
 def is_field_check_failure(error: BaseException) -> bool:

@@ -32,6 +32,7 @@ from rosbags.rosbag2 import Reader
 from rosbags.typesys import get_typestore, Stores
 
 from sim_bridge.run import run_simulation
+from sim_bridge.run_environment import environment_set
 from sim_bridge.simulation.simulator import Simulator
 from sim_bridge.simulation.world import World
 
@@ -81,9 +82,9 @@ def drive_turtlebots(assets: Path, duration_s: float) -> float | None:
     burger_rtf = None
     for generation in GENERATIONS:
         world_file = assets / GENERATIONS[generation][0] / 'worlds' / 'turtlebot3_world.world'
+        paths_of_generation = model_paths(assets, generation)
         for robot in ('turtlebot3_burger', 'turtlebot3_waffle'):
-            with tempfile.TemporaryDirectory() as out, environment(model_paths(assets,
-                                                                               generation)):
+            with tempfile.TemporaryDirectory() as out, environment_set(paths_of_generation):
                 start = time.perf_counter()
                 result = run_simulation(str(world_file), ['wanderbot'], duration_s=duration_s,
                                         seed=1, start=SPAWN, robot=robot, out_dir=out,
@@ -102,7 +103,7 @@ def drive_turtlebots(assets: Path, duration_s: float) -> float | None:
 
 def under_the_table_and_the_cone(assets: Path) -> None:
     """Print a Burger's run under cafe_table's top and the cone's floor size."""
-    with tempfile.TemporaryDirectory() as folder, environment(model_paths(assets, 'Sim')):
+    with tempfile.TemporaryDirectory() as folder, environment_set(model_paths(assets, 'Sim')):
         world_file = Path(folder) / 'cafe.yaml'
         # The table's centre 0.42 m to the robot's left: under its top (0.913 m square), clear
         # of its base plate (0.56 m square, 4 cm high) and column.
@@ -131,7 +132,7 @@ def under_the_table_and_the_cone(assets: Path) -> None:
 def load_time(assets: Path) -> None:
     """Print how long turtlebot3_world.world takes to load (best of 3)."""
     world_file = assets / 'turtlebot3_gazebo_sim' / 'worlds' / 'turtlebot3_world.world'
-    with environment(model_paths(assets, 'Sim')):
+    with environment_set(model_paths(assets, 'Sim')):
         best = math.inf
         for _ in range(3):
             start = time.perf_counter()
@@ -147,26 +148,6 @@ def wall_follow_rtf(checkout: Path, duration_s: float) -> float:
                             env={**os.environ, 'PYTHONPATH': pythonpath}, check=True,
                             capture_output=True, text=True).stdout
     return float(output.split()[-1])
-
-
-class environment:
-    """Set environment variables for a block (the model search reads them when loading)."""
-
-    def __init__(self, values: dict[str, str]) -> None:
-        self.values = values
-        self.saved: dict[str, str | None] = {}
-
-    def __enter__(self) -> None:
-        for name, value in self.values.items():
-            self.saved[name] = os.environ.get(name)
-            os.environ[name] = value
-
-    def __exit__(self, *exc_info) -> None:
-        for name, value in self.saved.items():
-            if value is None:
-                os.environ.pop(name, None)
-            else:
-                os.environ[name] = value
 
 
 def main() -> int:
