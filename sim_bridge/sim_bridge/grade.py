@@ -8,9 +8,11 @@ prints a pass/fail table with what was measured per criterion, writes ``report.j
 ``report.html`` and each run's outputs (metrics, plot, recording, log) below ``--out``, and
 exits non-zero when any run fails. ``--node-override path/to/student.py`` grades someone
 else's node on the same scenarios; ``--submissions DIR`` grades a whole class
-(:mod:`sim_bridge.grade_class`). A second invocation with the same ``--out`` resumes: runs
-already finished with the same inputs are not run again. See :mod:`sim_bridge.scenario` for
-the scenario format.
+(:mod:`sim_bridge.grade_class`), ``--submission DIR`` one student's folder the same way, and
+``--gradescope results.json`` writes Gradescope's results too (:mod:`sim_bridge.gradescope`);
+the scenarios' marks (:mod:`sim_bridge.marks`) are in the summary line and every report. A
+second invocation with the same ``--out`` resumes: runs already finished with the same inputs
+are not run again. See :mod:`sim_bridge.scenario` for the scenario format.
 """
 
 import argparse
@@ -502,8 +504,9 @@ def failed_gradescope(args: argparse.Namespace, why: str) -> None:
     """Write Gradescope's results of a grading that failed (0 and why), if asked for."""
     if args.gradescope is None:
         return
+    names = report_names(args.out, args.submission)  # the student reads it: none of our paths
     try:
-        gradescope.write_results(args.gradescope, gradescope.failed_results(why))
+        gradescope.write_results(args.gradescope, gradescope.failed_results(names(why)))
     except OSError as error:
         print(f'error: cannot write {printable(os.fspath(args.gradescope))}: '
               f'{error.strerror or error}', file=sys.stderr)

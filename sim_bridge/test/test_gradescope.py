@@ -111,13 +111,14 @@ def test_a_submission_without_the_node_file_scores_0_saying_which_file(
 
 @pytest.mark.parametrize('arguments, says', [
     (['no_such_scenarios/'], 'no_such_scenarios: cannot read'),
+    (['TMP/missing.yaml'], 'The submission could not be graded: missing.yaml: cannot read'),
     (['SCENARIOS', '--submission', 'nowhere'], '--submission nowhere: not a folder'),
 ])
 def test_results_are_written_with_0_and_why_when_the_grading_cannot_start(
         tmp_path, monkeypatch, scenarios, arguments, says):
     monkeypatch.chdir(tmp_path)
-    arguments = [str(scenarios) if argument == 'SCENARIOS' else argument
-                 for argument in arguments]
+    arguments = [str(scenarios) if argument == 'SCENARIOS'
+                 else argument.replace('TMP', str(tmp_path)) for argument in arguments]
     status, results = graded(tmp_path, monkeypatch, *arguments)
     assert status == 2
     assert results['score'] == 0 and results['tests'] == []
