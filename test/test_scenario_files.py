@@ -64,3 +64,18 @@ def test_wanderbot_runs_five_seeds_of_ten_minutes_in_the_room():
     assert len(scenario.seeds) == 5
     assert {run.params['wanderbot']['seed'] for run in scenario.runs()} == set(scenario.seeds)
     assert {'min(turns_deg) > 90', 'max_stationary_s <= 5'} <= set(criteria(scenario))
+
+
+def test_the_shipped_scenarios_carry_the_labs_marks():
+    from sim_bridge.marks import task_marks, total
+    scenarios = load_scenarios([SCENARIOS])
+    tasks = {task.title: task for task in task_marks(scenarios, [])}
+    assert {title: (task.scenarios if len(task.scenarios) == 1 else len(task.scenarios),
+                    task.marks, task.marking) for title, task in tasks.items()} == {
+        'task 1': (('scan_ahead',), 2.0, 'all'),
+        'task 2': (('wanderbot',), 3.0, 'proportional'),
+        'task 3': (('scan_around',), 2.0, 'all'),
+        'task 4': (len(WALL_FOLLOW_WORLDS) * 2, 3.0, 'proportional'),
+        'extra': (('closest_obstacle',), None, 'all'),
+    }
+    assert total(tasks.values())[1] == 10.0

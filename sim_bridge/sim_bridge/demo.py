@@ -4,7 +4,8 @@ The README's demo: every lab task in the simulator, stepped on real rclpy, then 
 ``python -m sim_bridge.demo`` (``./lab demo``) runs each lab task's node in its world (see
 sim_bridge.lab_tasks), showing the node's log lines as a student sees them in a terminal and a
 summary of the run, then grades the shipped scenarios (test/scenarios/), then a small class of
-four submissions (:func:`make_class`, ``--submissions``), and prints where every plot,
+four submissions (:func:`make_class`, ``--submissions``: its table shows the runs passed and
+the marks of task 1 and task 4), and prints where every plot,
 recording and report is. It ends with a short live run of ``wall_follow`` (sim_bridge.live): the
 simulator and the node as two ROS 2 processes, their lines interleaved as ros2 launch prints them.
 """

@@ -8,9 +8,11 @@ prints a pass/fail table with what was measured per criterion, writes ``report.j
 ``report.html`` and each run's outputs (metrics, plot, recording, log) below ``--out``, and
 exits non-zero when any run fails. ``--node-override path/to/student.py`` grades someone
 else's node on the same scenarios; ``--submissions DIR`` grades a whole class
-(:mod:`sim_bridge.grade_class`). A second invocation with the same ``--out`` resumes: runs
-already finished with the same inputs are not run again. See :mod:`sim_bridge.scenario` for
-the scenario format.
+(:mod:`sim_bridge.grade_class`), ``--submission DIR`` one student's folder the same way, and
+``--gradescope results.json`` writes Gradescope's results too (:mod:`sim_bridge.gradescope`);
+the scenarios' marks (:mod:`sim_bridge.marks`) are in the summary line and every report. A
+second invocation with the same ``--out`` resumes: runs already finished with the same inputs
+are not run again. See :mod:`sim_bridge.scenario` for the scenario format.
 """
 
 import argparse
@@ -28,7 +30,7 @@ import sysconfig
 import time
 from typing import Any, TextIO
 
-from sim_bridge import grade_class, html_report
+from sim_bridge import grade_class, gradescope, html_report, marks
 from sim_bridge.grading import (
     GradeJob, PAGE_NAME, REPORT_NAME, RESULT_NAME, reuse_notes, RunReport, write_outputs,
     write_report)
@@ -37,7 +39,7 @@ from sim_bridge.isolate import (
 from sim_bridge.paths import output_folder
 from sim_bridge.report_text import (
     first_line, format_measured, one_line, PathNames, printable, reason)
-from sim_bridge.scenario import load_scenarios, ScenarioRun, with_node_overrides
+from sim_bridge.scenario import load_scenarios, Scenario, ScenarioRun, with_node_overrides
 from sim_bridge.simulation.world import World, WorldError
 from sim_bridge.targets import split_target
 
@@ -328,10 +330,12 @@ def format_table(reports: Iterable[RunReport], *, failures_only: bool = False) -
     return '\n'.join(line.rstrip() for line in lines)
 
 
-def summary(reports: list[RunReport]) -> str:
-    """Return the one-line verdict of a batch, naming the failed runs."""
+def summary(reports: list[RunReport], tasks: list[marks.TaskMarks] | None = None) -> str:
+    """Return the one-line verdict of a batch, with its marks by task, naming the failed runs."""
     failed = [report.run.name for report in reports if not report.passed]
     text = f'{len(reports) - len(failed)} of {len(reports)} runs passed'
+    earned = marks.summary(tasks or [])
+    text += f', {earned}' if earned else ''
     return text + (f"; failed: {', '.join(failed)}" if failed else '')
 
 
@@ -371,6 +375,12 @@ def build_parser() -> argparse.ArgumentParser:
                         help='grade a class: DIR holds one folder per student with node files '
                         "named as the lab names them (wall_follow.py, ...); each scenario's "
                         "node is replaced by the student's file of the same name")
+    parser.add_argument('--submission', type=Path, metavar='DIR',
+                        help="grade one student's folder as --submissions grades each: each "
+                        "scenario's node is replaced by DIR's file of the same name")
+    parser.add_argument('--gradescope', type=Path, metavar='RESULTS_JSON',
+                        help="also write Gradescope's results.json (marks as the score, a test "
+                        'per scenario); written even when the grading fails')
     parser.add_argument('--out', type=output_folder, default=DEFAULT_OUT, metavar='DIR',
                         help=f'folder for {REPORT_NAME}, {PAGE_NAME} and the outputs of each '
                         f'run (default {DEFAULT_OUT}); the same folder again resumes')
@@ -406,9 +416,27 @@ def limits_from(args: argparse.Namespace) -> Limits:
 def main(argv: list[str] | None = None) -> int:
     """Grade the scenarios named on the command line; return 0 when every run passed."""
     args = build_parser().parse_args(argv)
+    if args.gradescope is not None:
+        # Written first and replaced at the end: Gradescope always finds a grade, even when
+        # this process is killed on the way.
+        try:
+            gradescope.write_results(args.gradescope, gradescope.failed_results(
+                'the grading did not finish (stopped, or out of time or memory)'))
+        except OSError as error:
+            print(f'error: --gradescope {args.gradescope}: {error.strerror or error}',
+                  file=sys.stderr)
+            return 2
     try:
         if args.jobs < 1:
             raise ValueError('--jobs must be at least 1')
+        if args.submission is not None and args.submissions is not None:
+            raise ValueError('--submission grades one student and --submissions a class: '
+                             'give one of them')
+        if args.gradescope is not None and args.submissions is not None:
+            raise ValueError("--gradescope writes one submission's results: grade it with "
+                             '--submission DIR, not --submissions')
+        if args.submission is not None and not args.submission.is_dir():
+            raise ValueError(f'--submission {args.submission}: not a folder')
         limits = limits_from(args)
         scenarios = load_scenarios(args.scenarios)
         scenarios = with_node_overrides(scenarios, args.node_override)
@@ -416,12 +444,21 @@ def main(argv: list[str] | None = None) -> int:
                  if args.submissions is not None else None)
     except (ValueError, OSError) as error:
         print(f'error: {error}', file=sys.stderr)
+        failed_gradescope(args, str(error))
         return 2
-    jobs = batch.jobs if batch is not None else [
-        GradeJob(run, args.out / run.name) for scenario in scenarios for run in scenario.runs()]
+    missing: list[RunReport] = []
+    if batch is not None:
+        jobs = batch.jobs
+    elif args.submission is not None:
+        jobs, missing = grade_class.submission_runs(
+            scenarios, args.submission.resolve(), args.out,
+            args.submission.resolve().name or 'submission')
+    else:
+        jobs = [GradeJob(run, args.out / run.name)
+                for scenario in scenarios for run in scenario.runs()]
     progress = BatchProgress(len(jobs), sum(job.run.scenario.duration_s for job in jobs),
                              enabled=not args.quiet)
-    names = report_names(args.out, args.submissions,
+    names = report_names(args.out, args.submissions or args.submission,
                          [scenario.path for scenario in scenarios if scenario.path])
     # SIGTERM (kill, a CI job's timeout) and SIGHUP (the terminal or the ssh session closed)
     # interrupt as Ctrl-C does; the exit status then says which it was, 128 + the signal's
@@ -439,22 +476,45 @@ def main(argv: list[str] | None = None) -> int:
         reports = grade_runs(jobs, workers=args.jobs, limits=limits, progress=progress,
                              resume=not args.fresh, names=names, quiet=False,
                              record=not args.no_record, plot=not args.no_plot)
+        if missing:  # one submission's runs in the scenarios' order (a class's: its batch's)
+            order = {scenario.name: index for index, scenario in enumerate(scenarios)}
+            reports = sorted(reports + missing, key=lambda report: (
+                order[report.run.scenario.name],
+                report.run.scenario.seeds.index(report.run.seed)))
         # Still interruptible: the reports are written again from the runs' saved results.
-        return write_reports(args, batch, reports, names)
+        return write_reports(args, batch, reports, names, scenarios)
     except KeyboardInterrupt:
+        failed_gradescope(args, f'the grading was stopped after {progress.done} of '
+                          f'{len(jobs)} runs')
         try:
             print(f'\ninterrupted: {progress.done} of {len(jobs)} runs finished; the same '
                   'command again resumes from there', file=sys.stderr)
         except OSError:  # the terminal that was closed (SIGHUP)
             pass
         return 128 + interrupted_by[0]
+    except Exception as error:  # noqa: B902 a grader's bug still leaves Gradescope a grade
+        failed_gradescope(args, f'the grader failed: {type(error).__name__}: {error}')
+        raise
     finally:
         for signum, handler in previous.items():
             signal.signal(signum, handler)
 
 
+def failed_gradescope(args: argparse.Namespace, why: str) -> None:
+    """Write Gradescope's results of a grading that failed (0 and why), if asked for."""
+    if args.gradescope is None:
+        return
+    names = report_names(args.out, args.submission)  # the student reads it: none of our paths
+    try:
+        gradescope.write_results(args.gradescope, gradescope.failed_results(names(why)))
+    except OSError as error:
+        print(f'error: cannot write {printable(os.fspath(args.gradescope))}: '
+              f'{error.strerror or error}', file=sys.stderr)
+
+
 def write_reports(args: argparse.Namespace, batch: grade_class.ClassBatch | None,
-                  reports: list[RunReport], names: PathNames) -> int:
+                  reports: list[RunReport], names: PathNames,
+                  scenarios: list[Scenario] | None = None) -> int:
     """Write and print a finished batch's reports; return the grader's exit status."""
     status = 0 if all(report.passed for report in reports) else 1
     if batch is not None:
@@ -462,21 +522,27 @@ def write_reports(args: argparse.Namespace, batch: grade_class.ClassBatch | None
         print_out(text)
         return status if not unwritten else max(status, 1)
     notes = reuse_notes(reports, args.out)
+    scenarios = scenarios or []
+    tasks = marks.task_marks(scenarios, [report.as_dict(names) for report in reports])
     # The files first: a console that has gone (`| head`) must not cost the report.
-    unwritten = write_outputs({
+    writers = {
         args.out / REPORT_NAME: lambda path: write_report(
-            reports, path, overrides=args.node_override, names=names, notes=notes),
+            reports, path, overrides=args.node_override, names=names, notes=notes,
+            marks=tasks),
         args.out / PAGE_NAME: lambda path: html_report.write_runs_page(
             path, 'Grading report', [report.as_dict(names) for report in reports],
-            root=args.out, notes=notes)})
+            root=args.out, notes=notes, marks=tasks)}
+    if getattr(args, 'gradescope', None) is not None:
+        writers[args.gradescope] = lambda path: gradescope.write_results(
+            path, gradescope.results(reports, scenarios, format_table, names, notes))
+    unwritten = write_outputs(writers)
     lines = [format_table(reports, failures_only=args.quiet)] if not args.quiet or status else []
-    lines.append(summary(reports))
+    lines.append(summary(reports, tasks))
     lines += [f'note: {note}' for note in notes]
-    written = [printable(os.fspath(path)) for path in (args.out / REPORT_NAME,
-                                                       args.out / PAGE_NAME)
-               if path not in unwritten]
+    written = [printable(os.fspath(path)) for path in writers if path not in unwritten]
     if written:
-        lines.append(f"report: {' and '.join(written)}")
+        lines.append(f"report: {' and '.join([', '.join(written[:-1]), written[-1]][-2:])}"
+                     if len(written) > 1 else f'report: {written[0]}')
     print_out('\n'.join(lines))
     return max(status, 1) if unwritten else status
 

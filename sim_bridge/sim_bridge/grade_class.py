@@ -7,8 +7,9 @@ the same name (``DIR/<student>/wall_follow.py``); a student without that file fa
 scenario's runs as "not submitted". Any folder name the file system allows is a student's
 name (``col:on``, ``index.html``, bytes that are not UTF-8). Outputs below ``--out``:
 ``class.csv`` (a row per student, a column per scenario: passed runs of total and why the
-others failed, then the total) and ``index.html``, the class's page; ``students/<student>/``
-with each run's outputs, ``report.json`` and ``report.html``.
+others failed, then the runs in all and, when the scenarios carry marks
+(:mod:`sim_bridge.marks`), the marks per task and in all) and ``index.html``, the class's
+page; ``students/<student>/`` with each run's outputs, ``report.json`` and ``report.html``.
 """
 
 import csv
@@ -18,6 +19,7 @@ from pathlib import Path
 from sim_bridge import html_report
 from sim_bridge.grading import (
     GradeJob, PAGE_NAME, REPORT_NAME, reuse_notes, RunReport, write_outputs, write_report)
+from sim_bridge.marks import format_marks, task_marks, TaskMarks, total
 from sim_bridge.report_text import count_cell, one_line, OUTCOME_LEGEND, PathNames, printable
 from sim_bridge.scenario import Scenario, target_name
 
@@ -50,25 +52,11 @@ class ClassBatch:
         self.student_of: dict[str, str] = {}
         self.missing: list[tuple[str, RunReport]] = []
         for student in self.students:
-            source = self.source_folder(submissions / student)
-            for scenario in scenarios:
-                files = {target_name(node): source / f'{target_name(node)}.py'
-                         for node in scenario.nodes}
-                absent = [path.name for path in files.values() if not path.is_file()]
-                graded = scenario
-                for name, path in files.items():
-                    # An existing file is taken as a file whatever its path holds (targets).
-                    graded = graded.with_node_override(f'{name}={os.path.abspath(path)}')
-                for run in graded.runs():
-                    job = GradeJob(run, self.folder(student) / run.name,
-                                   f'{student}/{run.name}')
-                    if absent:
-                        self.missing.append((student, RunReport(
-                            run, job.out_dir, [], None,
-                            f"not submitted: no {', '.join(absent)} in {student}/", 0.0)))
-                    else:
-                        self.jobs.append(job)
-                        self.student_of[str(job.out_dir)] = student
+            jobs, missing = submission_runs(scenarios, self.source_folder(submissions / student),
+                                            self.folder(student), student)
+            self.jobs += jobs
+            self.missing += [(student, report) for report in missing]
+            self.student_of.update({str(job.out_dir): student for job in jobs})
 
     def source_folder(self, folder: Path) -> Path:
         """
@@ -103,20 +91,33 @@ class ClassBatch:
             runs.sort(key=lambda report: (order[report.run.scenario.name], report.run.seed))
         return students
 
+    def marks(self, entries: dict[str, list[dict]]) -> dict[str, list[TaskMarks]]:
+        """Return each student's marks per task from their run entries."""
+        return {student: task_marks(self.scenarios, runs) for student, runs in entries.items()}
+
     def table(self, entries: dict[str, list[dict]]) -> list[list[str]]:
         """
-        Return the class table: a header, then per student a cell per scenario and a total.
+        Return the class table: a header, then per student a cell per scenario and the runs.
 
         ``entries`` are each student's run entries (``RunReport.as_dict``). A cell is
         'passed/total' runs, followed by the worst reason of a failed one: ``0/3 not
-        submitted`` (see :data:`OUTCOME_LEGEND`).
+        submitted`` (see :data:`OUTCOME_LEGEND`). When the scenarios carry marks, a column per
+        task with marks (``task 1 (of 2)``) and the total (``marks (of 5)``) follow.
         """
-        rows = [['student', *(scenario.name for scenario in self.scenarios), 'total']]
+        marks = self.marks(entries)
+        marked = [task for task in task_marks(self.scenarios, []) if task.marks is not None]
+        _, maximum = total(marked)
+        rows = [['student', *(scenario.name for scenario in self.scenarios), 'runs',
+                 *(f'{task.title} (of {format_marks(task.marks)})' for task in marked),
+                 *([f'marks (of {format_marks(maximum)})'] if marked else [])]]
         for student, runs in entries.items():
             cells = [' '.join(filter(None, count_cell(
                 [run for run in runs if run['scenario'] == scenario.name])))
                 for scenario in self.scenarios]
-            rows.append([one_line(student), *cells, ' '.join(filter(None, count_cell(runs)))])
+            tasks = [task for task in marks[student] if task.marks is not None]
+            rows.append([one_line(student), *cells, ' '.join(filter(None, count_cell(runs))),
+                         *(format_marks(task.earned) for task in tasks),
+                         *([format_marks(total(tasks)[0])] if tasks else [])])
         return rows
 
     def write_outputs(self, reports: list[RunReport],
@@ -130,25 +131,29 @@ class ClassBatch:
         students = self.by_student(reports)
         entries = {student: [report.as_dict(names) for report in runs]
                    for student, runs in students.items()}
+        marks = self.marks(entries)
         index = self.out / INDEX_NAME
         pages = {student: self.folder(student) / PAGE_NAME for student in students}
         notes = reuse_notes(reports, self.out / STUDENTS_DIR)
         writers = {}
         for student, runs in students.items():
             writers[self.folder(student) / REPORT_NAME] = (
-                lambda path, runs=runs: write_report(runs, path, names=names, notes=notes))
+                lambda path, runs=runs, student=student: write_report(
+                    runs, path, names=names, notes=notes, marks=marks[student]))
             writers[pages[student]] = (
                 lambda path, student=student: html_report.write_runs_page(
                     path, f'Grading report: {student}', entries[student], up=index,
-                    root=self.out, notes=notes))
+                    root=self.out, notes=notes, marks=marks[student]))
         rows = self.table(entries)
         writers[self.out / CSV_NAME] = lambda path: write_csv(path, rows)
         writers[index] = lambda path: html_report.write_class_index(
             path, 'Class grading report', entries,
             [scenario.name for scenario in self.scenarios],
-            {student: page for student, page in pages.items() if page.is_file()})
+            {student: page for student, page in pages.items() if page.is_file()}, marks)
         unwritten = write_outputs(writers)
         legend = [f'  {name}: {text}' for name, text in OUTCOME_LEGEND.items()]
+        legend += [f'  {task.rule()}' for task in next(iter(marks.values()), [])
+                   if task.marks is not None]
         lines = [format_rows(rows), *legend, *(f'note: {note}' for note in notes),
                  f'class: {printable(os.fspath(self.out / CSV_NAME))} and '
                  f'{printable(os.fspath(index))}; each student: '
@@ -157,6 +162,35 @@ class ClassBatch:
             lines.append(f'{len(unwritten)} files not written (see above): '
                          + ', '.join(printable(os.fspath(path)) for path in unwritten))
         return '\n'.join(lines), unwritten
+
+
+def submission_runs(scenarios: list[Scenario], source: Path, out: Path,
+                    name: str) -> tuple[list[GradeJob], list[RunReport]]:
+    """
+    Return the runs of one submission: the jobs to run, and the failed runs of missing files.
+
+    Each scenario's node is replaced by the file of the same name in the folder ``source``
+    (``wall_follow`` by ``source/wall_follow.py``); a scenario with a file missing is not
+    run and its runs fail as ``not submitted: no wall_follow.py in <name>/``. Outputs go to
+    ``out/<scenario>/seed_<n>``; the progress calls a run ``<name>/<run>``.
+    """
+    jobs, missing = [], []
+    for scenario in scenarios:
+        files = {target_name(node): source / f'{target_name(node)}.py' for node in scenario.nodes}
+        absent = [path.name for path in files.values() if not path.is_file()]
+        graded = scenario
+        for node, path in files.items():
+            # An existing file is taken as a file whatever its path holds (targets).
+            graded = graded.with_node_override(f'{node}={os.path.abspath(path)}')
+        for run in graded.runs():
+            job = GradeJob(run, out / run.name, f'{name}/{run.name}')
+            if absent:
+                missing.append(RunReport(run, job.out_dir, [], None,
+                                         f"not submitted: no {', '.join(absent)} in {name}/",
+                                         0.0))
+            else:
+                jobs.append(job)
+    return jobs, missing
 
 
 def write_csv(path: Path, rows: list[list[str]]) -> None:

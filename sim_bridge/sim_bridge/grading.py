@@ -19,6 +19,7 @@ import time
 import traceback
 from typing import Any
 
+from sim_bridge.marks import as_dict as marks_as_dict, TaskMarks
 from sim_bridge.report_text import cap_text, json_safe, outcome, PathNames, printable
 from sim_bridge.scenario import CriterionResult, ScenarioRun
 
@@ -219,8 +220,13 @@ def reuse_notes(reports: list[RunReport], out: Path) -> list[str]:
 
 
 def write_report(reports: list[RunReport], path: Path, *, overrides: Iterable[str] = (),
-                 names: PathNames | None = None, notes: Iterable[str] = ()) -> None:
-    """Write the JSON report of a batch; ``names`` names its paths (see report_names)."""
+                 names: PathNames | None = None, notes: Iterable[str] = (),
+                 marks: list[TaskMarks] | None = None) -> None:
+    """
+    Write the JSON report of a batch; ``names`` names its paths (see report_names).
+
+    ``marks`` (:func:`sim_bridge.marks.task_marks`) add the batch's marks per task and in all.
+    """
     document = {
         'passed': all(report.passed for report in reports),
         'summary': {'runs': len(reports), 'passed': sum(report.passed for report in reports),
@@ -230,6 +236,8 @@ def write_report(reports: list[RunReport], path: Path, *, overrides: Iterable[st
         'node_overrides': [printable(override) for override in overrides],
         'runs': [report.as_dict(names) for report in reports],
     }
+    if marks is not None:
+        document['marks'] = marks_as_dict(marks)
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps(document, indent=2, allow_nan=False) + '\n', encoding='utf-8')
 

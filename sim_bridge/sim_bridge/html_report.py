@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any
 from urllib.parse import quote, unquote_to_bytes, urlsplit
 
+from sim_bridge.marks import format_marks, TaskMarks, total as marks_total
 from sim_bridge.report_text import (
     count_cell, format_measured, outcome, OUTCOME_LEGEND, printable)
 
@@ -143,14 +144,36 @@ def _run_section(index: int, run: dict[str, Any], folder: Path, root: Path) -> s
     return '\n'.join([*parts, '</section>'])
 
 
+def _marks_table(tasks: list[TaskMarks]) -> list[str]:
+    """Return the marks line and table of a page: per task its runs passed and marks."""
+    marked = [task for task in tasks if task.marks is not None]
+    if not marked:
+        return []
+    earned, maximum = marks_total(marked)
+    rows = [f'<tr><td>{escape(task.title)}</td><td>{escape(", ".join(task.scenarios))}</td>'
+            f'<td>{task.passed}/{task.runs}</td>{_marks_cell(task.earned, task.marks)}'
+            f'<td>{escape(task.rule())}</td></tr>' for task in marked]
+    return [f'<p><b>marks {format_marks(earned)}/{format_marks(maximum)}</b></p>',
+            _table(['task', 'scenarios', 'runs passed', 'marks', 'how'], rows)]
+
+
+def _marks_cell(earned: float, maximum: float, bold: bool = False) -> str:
+    """Return a cell 'earned/maximum' marks: green when all, amber when some, red when none."""
+    colour = 'pass' if earned >= maximum else 'some' if earned > 0 else 'fail'
+    text = f'{format_marks(earned)}/{format_marks(maximum)}'
+    return f'<td class="{colour}">{f"<b>{text}</b>" if bold else text}</td>'
+
+
 def write_runs_page(path: Path, title: str, runs: list[dict], *, up: Path | None = None,
-                    root: Path | None = None, notes: list[str] = ()) -> Path:
+                    root: Path | None = None, notes: list[str] = (),
+                    marks: list[TaskMarks] | None = None) -> Path:
     """
     Write one page of runs (a student's report, or one grading batch) and return its path.
 
     The page holds a summary line, ``notes`` (e.g. runs reused from an earlier invocation), the
     pass/fail table (a row per criterion of each run, the error of a run that did not complete)
-    and a section per run with its plot and outputs. ``up`` is the index page to link back to;
+    and a section per run with its plot and outputs; ``marks`` (per task) add the marks earned
+    and how. ``up`` is the index page to link back to;
     it is linked even if not written yet. Relative paths in ``runs`` are relative to ``root``.
     """
     folder = path.parent
@@ -158,6 +181,7 @@ def write_runs_page(path: Path, title: str, runs: list[dict], *, up: Path | None
     passed = sum(bool(run['passed']) for run in runs)
     rows = [row for index, run in enumerate(runs) for row in _run_rows(index, run)]
     body = [f'<p>{passed} of {len(runs)} runs passed</p>',
+            *_marks_table(marks or []),
             *(f'<p class="warn">{escape(note)}</p>' for note in notes),
             _table(['run', 'criterion', 'measured', 'result'], rows),
             *(_run_section(index, run, folder, root) for index, run in enumerate(runs))]
@@ -176,26 +200,36 @@ def _count_cell(runs: list[dict]) -> str:
 
 
 def write_class_index(path: Path, title: str, students: dict[str, list[dict]],
-                      scenarios: list[str], pages: dict[str, Path]) -> Path:
+                      scenarios: list[str], pages: dict[str, Path],
+                      marks: dict[str, list[TaskMarks]] | None = None) -> Path:
     """
     Write the class index and return its path.
 
     One row per student (sorted by name) with 'passed/total' runs per scenario and in all,
-    and the worst reason a run failed (see :data:`OUTCOME_LEGEND`, under the table); a
-    student's name links to ``pages[student]`` when that page exists.
+    and the worst reason a run failed (see :data:`OUTCOME_LEGEND`, under the table), then,
+    with ``marks`` (each student's, per task), the marks per task and in all out of the
+    maximum; a student's name links to ``pages[student]`` when that page exists.
     """
+    marks = marks or {}
+    marked = [task for task in next(iter(marks.values()), []) if task.marks is not None]
+    header = ['student', *scenarios, 'runs', *(task.title for task in marked)]
     rows = []
     for student in sorted(students, key=lambda name: (name.casefold(), name)):
         runs = students[student]
         name = _link(pages.get(student), path.parent, student) or escape(student)
         cells = [_count_cell([run for run in runs if run['scenario'] == scenario])
                  for scenario in scenarios]
-        rows.append(f"<tr><td>{name}</td>{''.join(cells)}{_count_cell(runs)}</tr>")
+        tasks = [task for task in marks.get(student, []) if task.marks is not None]
+        cells += [_count_cell(runs), *(_marks_cell(task.earned, task.marks) for task in tasks)]
+        if tasks:
+            cells.append(_marks_cell(*marks_total(tasks), bold=True))
+        rows.append(f"<tr><td>{name}</td>{''.join(cells)}</tr>")
     total = sum(len(runs) for runs in students.values())
     passed = sum(bool(run['passed']) for runs in students.values() for run in runs)
     rate = f', {passed} passed ({100.0 * passed / total:.0f} %)' if total else ''
     body = [f'<p>{len(students)} students, {total} runs{rate}</p>',
-            _table(['student', *scenarios, 'total'], rows),
+            _table(header + (['marks'] if marked else []), rows),
+            *(f'<p>{escape(task.rule())}</p>' for task in marked),
             '<p>' + '<br>\n'.join(f'<b>{escape(name)}</b>: {escape(text)}'
                                   for name, text in OUTCOME_LEGEND.items()) + '</p>']
     return _page(path, title, body)

@@ -7,6 +7,10 @@ Scenario file format (YAML)
 A scenario is a YAML mapping; every key not listed here is an error::
 
     description: wall_follow clockwise around the box    # optional free text
+    task: 4                       # optional: the lab task it grades (a number or a label)
+    marks: 3                      # optional: the task's marks (> 0), shared by its scenarios
+    marking: proportional         # optional: how runs become marks: 'all' (default: every run
+                                  # of the task passes, or none) or 'proportional'
     world: wall_follow_box        # a shipped world's name, or a world file's path
     nodes: [wall_follow]          # TARGETs run with the simulator: a console script, a module
                                   # or a file path.py[:ClassName]
@@ -32,6 +36,11 @@ A scenario is a YAML mapping; every key not listed here is an error::
 
 Relative paths (a world file, a node file) are relative to the scenario file. The scenario's
 name is the file name without ``.yaml``. A seed is an integer from 0 to MAX_SEED (2**63 - 1).
+
+``marks:`` are the marks of the scenario's ``task:`` (default: a task of its own, named after
+the scenario): every scenario of a task states the same ``marks:`` and ``marking:``, and the
+task's marks are earned over all of its scenarios' runs (:mod:`sim_bridge.marks`). A scenario
+without ``marks:`` is graded and reported, and counts in no total.
 
 ``setpoint: wall_distance_m`` is the distance (m) ``wall_distance_m.mae`` and ``.rms`` measure
 the robot's wall distance against. Without it, the runner falls back to the value of a
@@ -78,9 +87,11 @@ MAX_DURATION_S = 86400.0
 #: What a NODE of ``--node-override NODE=TARGET`` can be: a node's name, no path.
 _OVERRIDE_NODE = re.compile(r'[\w.-]+')
 _KEYS = ('description', 'world', 'nodes', 'params', 'duration', 'seed', 'seeds', 'start',
-         'robot', 'remap', 'setpoint', 'criteria')
+         'robot', 'remap', 'setpoint', 'criteria', 'task', 'marks', 'marking')
 #: The params file key of parameters for every node (ROS's wildcard node name).
 EVERY_NODE = '/**'
+#: How a task's runs become marks: all must pass for its marks, or marks in proportion.
+MARKINGS = ('all', 'proportional')
 #: What a scenario's ``setpoint:`` can set, and the unit of each.
 SETPOINTS = {'wall_distance_m': 'm'}
 _REQUIRED = ('world', 'nodes', 'duration', 'criteria')
@@ -233,7 +244,9 @@ class Scenario:
     ``duration_s`` in s; ``start`` is None, 'mirrored' or (x m, y m, yaw rad); ``params`` maps
     node names to parameter values; ``world`` and file ``nodes`` are resolved paths or names;
     ``robot`` a robot model or None; ``remap`` ROS remapping rules; ``setpoint`` maps metrics
-    of SETPOINTS to the value (m) they measure against.
+    of SETPOINTS to the value (m) they measure against; ``task`` the lab task it grades (None:
+    a task of its own), ``marks`` that task's marks (None: no marks) and ``marking`` one of
+    MARKINGS.
     """
 
     name: str
@@ -249,6 +262,14 @@ class Scenario:
     robot: str | None = None
     remap: tuple[str, ...] = ()
     setpoint: dict[str, float] = field(default_factory=dict)
+    task: str | None = None
+    marks: float | None = None
+    marking: str = MARKINGS[0]
+
+    @property
+    def task_name(self) -> str:
+        """Return the task the scenario grades: its ``task:``, or the scenario's own name."""
+        return self.task if self.task is not None else self.name
 
     def runs(self) -> list[ScenarioRun]:
         """Return one run per seed."""
@@ -482,13 +503,29 @@ def scenario_from_dict(data: Any, name: str, path: Path | None = None) -> Scenar
     description = data.get('description', '')
     if not isinstance(description, str):
         raise fail('description', f'must be text, got {_kind(description)}')
+    task = data.get('task')
+    if task is not None and not (isinstance(task, (int, str)) and not isinstance(task, bool)
+                                 and str(task).strip()):
+        raise fail('task', f'must be a task number or label, e.g. 1 or wall_follow, got '
+                   f'{_kind(task)}')
+    marks = data.get('marks')
+    if marks is not None and not (_is_number(marks) and 0 < marks < float('inf')):
+        raise fail('marks', f'must be a positive number, got {_kind(marks)}')
+    marking = data.get('marking', MARKINGS[0])
+    if marking not in MARKINGS:
+        raise fail('marking', f"must be one of {', '.join(MARKINGS)} (all: every run passes for "
+                   f'the marks; proportional: marks x runs passed / runs), got {_kind(marking)}')
+    if 'marking' in data and marks is None:
+        raise fail('marking', 'says how runs become marks, but the scenario has no marks:')
     return Scenario(name=name, path=path,
                     world=_resolve(world, base, SCENARIO_SUFFIX),
                     nodes=tuple(_resolve(node, base, '.py') for node in nodes),
                     duration_s=float(duration), criteria=tuple(parsed), seeds=tuple(seeds),
                     params={str(node): dict(values) for node, values in params.items()},
                     start=start, description=description, robot=robot, remap=tuple(remap),
-                    setpoint={str(metric): float(value) for metric, value in setpoint.items()})
+                    setpoint={str(metric): float(value) for metric, value in setpoint.items()},
+                    task=str(task).strip() if task is not None else None,
+                    marks=float(marks) if marks is not None else None, marking=marking)
 
 
 def load_scenarios(paths: list[str | os.PathLike]) -> list[Scenario]:
@@ -510,7 +547,33 @@ def load_scenarios(paths: list[str | os.PathLike]) -> list[Scenario]:
         if other != file and other.resolve() != file.resolve():
             raise ScenarioError(f'{file}: its name {file.stem!r} is also the name of {other} '
                                 '(runs are named after their scenario); rename one')
-    return [load_scenario(file) for file in named.values()]
+    scenarios = [load_scenario(file) for file in named.values()]
+    check_tasks(scenarios)
+    return scenarios
+
+
+def check_tasks(scenarios: list[Scenario]) -> None:
+    """
+    Refuse scenarios of one task that disagree on its ``marks:`` or ``marking:``.
+
+    A task's marks are earned over all its scenarios' runs: two values would make its maximum
+    depend on which scenarios a batch grades. ScenarioError names both files.
+    """
+    first: dict[str, Scenario] = {}
+    for scenario in scenarios:
+        other = first.setdefault(scenario.task_name, scenario)
+        for key in ('marks', 'marking'):
+            mine, theirs = getattr(scenario, key), getattr(other, key)
+            if mine != theirs:
+                raise ScenarioError(
+                    f'{scenario.path or scenario.name}: {key}: {_shown(mine)}, but '
+                    f'{other.path or other.name} of the same task {scenario.task_name!r} says '
+                    f'{_shown(theirs)}; a task has one {key}')
+
+
+def _shown(value: Any) -> str:
+    return 'none' if value is None else format_value(value) if isinstance(value, float) \
+        else str(value)
 
 
 def _resolve(reference: str, base: Path | None, suffix: str) -> str:

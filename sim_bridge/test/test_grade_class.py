@@ -29,11 +29,12 @@ from sim_bridge.scenario import load_scenarios
 WORKSPACE = Path(__file__).resolve().parents[2]
 SCENARIOS = [WORKSPACE / 'test' / 'scenarios' / name for name in CLASS_SCENARIOS]
 EXPECTED_TABLE = [
-    ['student', 'scan_ahead', 'wall_follow_box_cw', 'total'],
-    ['ana', '1/1', '3/3', '4/4'],
-    ['ben', '1/1', '0/3 criteria failed', '1/4 criteria failed'],
-    ['cleo', '0/1 node error', '0/3 not submitted', '0/4 not submitted'],
-    ['dev', '0/1 node error', '0/3 error', '0/4 error'],
+    ['student', 'scan_ahead', 'wall_follow_box_cw', 'runs', 'task 1 (of 2)', 'task 4 (of 3)',
+     'marks (of 5)'],
+    ['ana', '1/1', '3/3', '4/4', '2', '3', '5'],
+    ['ben', '1/1', '0/3 criteria failed', '1/4 criteria failed', '2', '0', '2'],
+    ['cleo', '0/1 node error', '0/3 not submitted', '0/4 not submitted', '0', '0', '0'],
+    ['dev', '0/1 node error', '0/3 error', '0/4 error', '0', '0', '0'],
 ]
 
 
@@ -58,6 +59,22 @@ def test_the_class_table_is_printed_and_written_as_csv(graded):
     for row in EXPECTED_TABLE:
         assert ' '.join(row) == ' '.join(next(line for line in stdout.splitlines()
                                               if line.startswith(row[0])).split())
+
+
+def test_the_class_page_and_each_students_report_show_the_marks(graded):
+    out, _, stdout = graded
+    assert '  task 1: 2 marks when its run passes' in stdout.splitlines()
+    assert '  task 4: 3 marks x runs passed / 3 runs' in stdout.splitlines()
+    index = (out / INDEX_NAME).read_text(encoding='utf-8')
+    assert '<th>task 1</th><th>task 4</th><th>marks</th>' in index
+    assert '<td class="pass"><b>5/5</b></td>' in index  # ana
+    assert '<td class="some"><b>2/5</b></td>' in index  # ben
+    ben = json.loads((out / STUDENTS_DIR / 'ben' / grade.REPORT_NAME).read_text())['marks']
+    assert (ben['total'], ben['max']) == (2.0, 5.0)
+    assert [(task['task'], task['marks'], task['max'], task['runs'], task['passed'])
+            for task in ben['tasks']] == [('1', 2.0, 2.0, 1, 1), ('4', 0.0, 3.0, 3, 0)]
+    page = (out / STUDENTS_DIR / 'ben' / grade.PAGE_NAME).read_text(encoding='utf-8')
+    assert '<b>marks 2/5</b>' in page and '<td class="fail">0/3</td>' in page
 
 
 def test_each_student_has_a_report_with_the_reasons(graded):

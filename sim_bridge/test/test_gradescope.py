@@ -1,0 +1,260 @@
+"""
+Gradescope: ``grade --gradescope results.json`` and the autograder.zip's ``run_autograder``.
+
+The results follow Gradescope's autograder specification: a score, and tests with name,
+score, max_score, status ('passed' or 'failed'), output and visibility. ``run_autograder`` is
+run as Gradescope runs it, on a root laid out as Gradescope lays it out (``source/`` from the
+zip, ``submission/``, ``results/``), with real runs of the project's nodes.
+"""
+
+import json
+import os
+from pathlib import Path
+import shutil
+import stat
+import subprocess
+import sys
+from types import SimpleNamespace
+import zipfile
+
+import pytest
+
+from sim_bridge import grade, gradescope
+from sim_bridge.grading import run_scenario
+
+WORKSPACE = Path(__file__).resolve().parents[2]
+FIXTURES = Path(__file__).resolve().parent / 'fixtures'
+SCENARIO = """\
+world: wall_follow_box
+nodes: [wall_follow]
+task: {task}
+marks: {marks}
+marking: proportional
+duration: 30
+seeds: [1, 2, 3]
+criteria: [laps >= 1, collisions == 0]
+"""
+
+
+def fake_simulate(world, targets, **options):
+    """Stand in for run_simulation: seed 2 collides, seed 3 never completes a lap."""
+    seed = options['seed']
+    return SimpleNamespace(metrics={'laps': 0 if seed == 3 else 1, 'sim_time_s': 30.0,
+                                    'collisions': 1 if seed == 2 else 0, 'node_errors': []})
+
+
+def grade_in_process(jobs, *, progress=None, **options):
+    """Stand in for grade_runs: each job's run in this process with fake_simulate."""
+    return [run_scenario(job.run, job.out_dir, simulate=fake_simulate) for job in jobs]
+
+
+@pytest.fixture
+def scenarios(tmp_path):
+    folder = tmp_path / 'scenarios'
+    folder.mkdir()
+    # Written in the opposite order of their tasks: the tests come ordered by task.
+    (folder / 'a_box.yaml').write_text(SCENARIO.format(task=4, marks=3))
+    (folder / 'b_box.yaml').write_text(SCENARIO.format(task=1, marks=2))
+    return folder
+
+
+def graded(tmp_path, monkeypatch, *arguments):
+    monkeypatch.setattr(grade, 'grade_runs', grade_in_process)
+    results = tmp_path / 'results' / 'results.json'
+    status = grade.main([*map(str, arguments), '--gradescope', str(results),
+                         '--out', str(tmp_path / 'out'), '--quiet'])
+    return status, json.loads(results.read_text(encoding='utf-8'))
+
+
+def test_results_score_the_marks_with_a_test_per_scenario_ordered_by_task(
+        tmp_path, monkeypatch, scenarios, capsys):
+    submission = tmp_path / 'submission'
+    submission.mkdir()
+    (submission / 'wall_follow.py').write_text('# graded by the stand-in simulator\n')
+    status, results = graded(tmp_path, monkeypatch, scenarios, '--submission', submission)
+    assert status == 1
+    # 1 of 3 runs passes in each: 2/3 of task 1's marks 2, 1/3 of task 4's 3.
+    assert results['score'] == pytest.approx(2 / 3 + 1, abs=1e-4)
+    assert [(test['name'], test['score'], test['max_score'], test['status'])
+            for test in results['tests']] == [
+        ('task 1: b_box', pytest.approx(2 / 3, abs=1e-4), 2.0, 'failed'),
+        ('task 4: a_box', 1.0, 3.0, 'failed')]
+    output = results['tests'][0]['output']
+    assert output.splitlines()[:4] == [
+        '1 of 3 runs passed, 0.67 of 2 marks', 'b_box/seed_2: collisions == 0',
+        'b_box/seed_3: laps >= 1', 'task 1: 2 marks x runs passed / 3 runs']
+    assert 'laps >= 1' in output and str(tmp_path) not in json.dumps(results)
+    assert results['output'].splitlines()[:2] == [
+        'marks 1.67/5 (task 1: 0.67/2, task 4: 1/3)', '2 of 6 runs passed']
+    assert {test['visibility'] for test in results['tests']} == {'visible'}
+    # The summary line and the report show the marks too.
+    assert '2 of 6 runs passed, marks 1.67/5 (task 1: 0.67/2, task 4: 1/3)' in \
+        capsys.readouterr().out
+    report = json.loads((tmp_path / 'out' / grade.REPORT_NAME).read_text())
+    assert (report['marks']['total'], report['marks']['max']) == (pytest.approx(5 / 3), 5.0)
+    assert 'marks 1.67/5' in (tmp_path / 'out' / grade.PAGE_NAME).read_text()
+
+
+def test_a_submission_without_the_node_file_scores_0_saying_which_file(
+        tmp_path, monkeypatch, scenarios):
+    submission = tmp_path / 'submission'
+    submission.mkdir()
+    (submission / 'wallfollow.py').write_text('# misnamed\n')
+    status, results = graded(tmp_path, monkeypatch, scenarios, '--submission', submission)
+    assert status == 1
+    assert results['score'] == 0
+    assert [(test['score'], test['max_score'], test['status']) for test in results['tests']] \
+        == [(0, 2.0, 'failed'), (0, 3.0, 'failed')]
+    assert results['tests'][1]['output'].splitlines()[1] == \
+        'a_box/seed_1: not submitted: no wall_follow.py in submission/'
+
+
+@pytest.mark.parametrize('arguments, says', [
+    (['no_such_scenarios/'], 'no_such_scenarios: cannot read'),
+    (['TMP/missing.yaml'], 'The submission could not be graded: missing.yaml: cannot read'),
+    (['SCENARIOS', '--submission', 'nowhere'], '--submission nowhere: not a folder'),
+])
+def test_results_are_written_with_0_and_why_when_the_grading_cannot_start(
+        tmp_path, monkeypatch, scenarios, arguments, says):
+    monkeypatch.chdir(tmp_path)
+    arguments = [str(scenarios) if argument == 'SCENARIOS'
+                 else argument.replace('TMP', str(tmp_path)) for argument in arguments]
+    status, results = graded(tmp_path, monkeypatch, *arguments)
+    assert status == 2
+    assert results['score'] == 0 and results['tests'] == []
+    assert results['output'].startswith('The submission could not be graded: ')
+    assert says in results['output']
+
+
+def test_results_say_so_when_the_grading_is_stopped(tmp_path, monkeypatch, scenarios):
+    def interrupted(jobs, **options):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(grade, 'grade_runs', interrupted)
+    results = tmp_path / 'results.json'
+    assert grade.main([str(scenarios), '--gradescope', str(results), '--out',
+                       str(tmp_path / 'out'), '--quiet']) == 130
+    written = json.loads(results.read_text())
+    assert written['score'] == 0
+    assert 'the grading was stopped after 0 of 6 runs' in written['output']
+
+
+def test_gradescope_results_are_for_one_submission_not_a_class(tmp_path, scenarios, capsys):
+    results = tmp_path / 'results.json'
+    assert grade.main([str(scenarios), '--submissions', str(tmp_path), '--gradescope',
+                       str(results)]) == 2
+    assert 'grade it with --submission DIR' in capsys.readouterr().err
+    assert 'grade it with --submission DIR, not --submissions' in \
+        json.loads(results.read_text())['output']
+
+
+# run_autograder on a Gradescope-like root, with real runs.
+AHEAD = """\
+world: obstacles
+nodes: [scan_ahead]
+task: 1
+marks: 2
+duration: 2.0
+seed: 1
+criteria: [len(node_errors) == 0, collisions == 0]
+"""
+WANDER = """\
+world: room
+nodes: [wanderbot]
+task: 2
+marks: 3
+marking: proportional
+params:
+  wanderbot: {seed: $seed}
+duration: 3.0
+seeds: [1, 2]
+criteria: [len(node_errors) == 0, collisions == 0]
+"""
+
+
+@pytest.fixture(scope='module')
+def autograder(tmp_path_factory):
+    """Build autograder.zip from two short scenarios; return the zip's path and its names."""
+    folder = tmp_path_factory.mktemp('build')
+    (folder / 'ahead.yaml').write_text(AHEAD)
+    (folder / 'wander.yaml').write_text(WANDER)
+    zip_path = folder / 'autograder.zip'
+    assert gradescope.main(['build', str(folder / 'ahead.yaml'), str(folder / 'wander.yaml'),
+                            '-o', str(zip_path)]) == 0
+    return zip_path
+
+
+def gradescope_root(folder: Path, zip_path: Path, files: dict[str, Path]) -> Path:
+    """Lay out a root as Gradescope does: source/ (the zip), submission/, results/."""
+    root = folder / 'autograder'
+    with zipfile.ZipFile(zip_path) as archive:
+        archive.extractall(root / 'source')
+        for info in archive.infolist():  # extractall drops the modes; Gradescope keeps them
+            os.chmod(root / 'source' / info.filename, info.external_attr >> 16 & 0o777)
+    shutil.copy(root / 'source' / 'run_autograder', root / 'run_autograder')
+    (root / 'submission').mkdir()
+    (root / 'results').mkdir()
+    for name, source in files.items():
+        shutil.copy(source, root / 'submission' / name)
+    return root
+
+
+def run_autograder(root: Path, python: str | None = sys.executable) -> dict:
+    environment = {**os.environ, 'AUTOGRADER_ROOT': str(root)}
+    environment.pop('AUTOGRADER_PYTHON', None)
+    if python is not None:
+        environment['AUTOGRADER_PYTHON'] = python
+    # The kit's packages come from the zip (run_autograder sets PYTHONPATH), not from here.
+    environment.pop('PYTHONPATH', None)
+    subprocess.run([str(root / 'run_autograder')], env=environment, cwd=root, check=True,
+                   timeout=600, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    return json.loads((root / 'results' / 'results.json').read_text(encoding='utf-8'))
+
+
+def test_the_zip_holds_setup_run_autograder_the_kit_and_the_scenarios(autograder):
+    with zipfile.ZipFile(autograder) as archive:
+        names = archive.namelist()
+        modes = {info.filename: info.external_attr >> 16 for info in archive.infolist()}
+        setup = archive.read('setup.sh').decode()
+    assert names[:4] == ['setup.sh', 'run_autograder', 'scenarios/ahead.yaml',
+                         'scenarios/wander.yaml']
+    assert modes['run_autograder'] & stat.S_IXUSR and modes['setup.sh'] & stat.S_IXUSR
+    for name in ('kit/lab', 'kit/requirements-ros.txt', 'kit/worlds/room.yaml',
+                 'kit/scan_pkg/scan_pkg/wanderbot.py', 'kit/sim_bridge/sim_bridge/grade.py',
+                 'kit/sim_bridge/setup.py'):
+        assert name in names
+    assert modes['kit/lab'] & stat.S_IXUSR
+    assert not [name for name in names if '/test/' in name or '__pycache__' in name]
+    assert 'kit/lab" setup' in setup and 'python3-venv' in setup
+
+
+def test_run_autograder_grades_the_projects_nodes_full_marks(autograder, tmp_path):
+    nodes = WORKSPACE / 'scan_pkg' / 'scan_pkg'
+    root = gradescope_root(tmp_path, autograder, {'scan_ahead.py': nodes / 'scan_ahead.py',
+                                                  'wanderbot.py': nodes / 'wanderbot.py'})
+    results = run_autograder(root)
+    assert results['score'] == 5
+    assert [(test['name'], test['score'], test['max_score'], test['status'])
+            for test in results['tests']] == [('task 1: ahead', 2, 2, 'passed'),
+                                              ('task 2: wander', 3, 3, 'passed')]
+    assert (root / 'results' / 'graded' / 'ahead' / 'seed_1' / 'metrics.json').is_file()
+
+
+def test_run_autograder_gives_0_to_a_crashing_node_and_a_missing_file(autograder, tmp_path):
+    root = gradescope_root(tmp_path, autograder,
+                           {'scan_ahead.py': FIXTURES / 'raising_node.py'})
+    results = run_autograder(root)
+    assert results['score'] == 0
+    ahead, wander = results['tests']
+    assert (ahead['score'], ahead['max_score'], ahead['status']) == (0, 2, 'failed')
+    assert 'ZeroDivisionError: no valid beam to average' in ahead['output']
+    assert 'scan_ahead.py' in ahead['output'] and str(root) not in ahead['output']
+    assert (wander['score'], wander['max_score'], wander['status']) == (0, 3, 'failed')
+    assert 'not submitted: no wanderbot.py in submission/' in wander['output']
+
+
+def test_run_autograder_without_its_setup_still_writes_a_grade(autograder, tmp_path):
+    root = gradescope_root(tmp_path, autograder, {})
+    results = run_autograder(root, python=None)
+    assert results['score'] == 0 and results['tests'] == []
+    assert 'The autograder is not set up' in results['output']
