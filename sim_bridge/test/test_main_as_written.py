@@ -16,10 +16,10 @@ import textwrap
 
 import pytest
 from rosbags.rosbag2 import Reader
-from sim_bridge.node_styles import decide
+from sim_bridge.node_styles import decide, node_class
 from sim_bridge.process_run import DOMAIN_BASE, DOMAIN_COUNT, DomainReservation, node_spec
 from sim_bridge.run import run_simulation, RunError
-from sim_bridge.targets import run_mode
+from sim_bridge.targets import load_node_class, run_mode, TargetError
 
 FIXTURES = Path(__file__).parent / 'fixtures'
 LAB_NODES = sorted((Path(__file__).parents[2] / 'scan_pkg' / 'scan_pkg').glob('*.py'))
@@ -102,8 +102,53 @@ def test_files_without_main_or_one_node_class():
     assert decide(HEADER).steppable  # a module of Node classes: named by FILE:ClassName
     assert decide('def broken(:\n').steppable  # the loader reports the syntax error
     two = HEADER + '\n\nclass Other(Node):\n    pass\n'
-    assert tuple(decide(source('rclpy.init()\nrclpy.spin(Driver())', two))) == (
+    assert tuple(decide(source('rclpy.init()\nrclpy.spin(make())', two))) == (
         False, 'it defines 2 Node subclasses: main() decides what runs')
+    # main() says which of the two it runs: that one is stepped.
+    assert tuple(decide(source('rclpy.init()\nrclpy.spin(Driver())', two))) == (
+        True, 'main() only spins its Node subclass Driver')
+    assert node_class(source('rclpy.init()\nrclpy.spin(Driver())', two)) == 'Driver'
+    assert node_class(source('rclpy.init()\nrclpy.spin(make())', two)) is None
+
+
+HELPER_BASE = HEADER.replace('class Driver(Node)', 'class Base(Node)').replace(
+    "super().__init__('driver')", 'super().__init__(name)').replace(
+    'def __init__(self):', 'def __init__(self, name):') + """
+
+class Driver(Base):
+
+    def __init__(self):
+        super().__init__('driver')
+"""
+
+
+@pytest.mark.parametrize('main_body', ['rclpy.init()\nrclpy.spin(Driver())',
+                                       'rclpy.init()\nrclpy.spin(make())'])
+def test_a_helper_base_class_is_not_the_node_main_runs(main_body):
+    # Constructed in main(), or not (a factory): the most derived class is the node.
+    assert tuple(decide(source(main_body, HELPER_BASE))) == (
+        True, 'main() only spins its Node subclass Driver')
+    assert node_class(source(main_body, HELPER_BASE)) == 'Driver'
+    assert node_class(HELPER_BASE) == 'Driver'  # no main(): the most derived class
+
+
+def test_a_callback_a_helper_base_class_registers_is_read_for_sleeps():
+    sleepy_base = HELPER_BASE.replace('        pass', '        time.sleep(0.5)')
+    assert tuple(decide(source('rclpy.init()\nrclpy.spin(Driver())', sleepy_base))) == (
+        False, 'the callback on_timer() calls time.sleep (line 15): sleeping freezes simulated '
+               'time in a stepped run')
+
+
+def test_the_class_main_constructs_is_loaded_of_several(tmp_path):
+    from rclpy.node import Node
+    path = tmp_path / 'avoider.py'
+    path.write_text(source('rclpy.init()\nrclpy.spin(Driver())', HELPER_BASE))
+    assert load_node_class(str(path), Node).__name__ == 'Driver'
+    unrelated = tmp_path / 'two.py'
+    unrelated.write_text(source('rclpy.init()\nrclpy.spin(make())',
+                                HEADER + '\n\nclass Other(Node):\n    pass\n'))
+    with pytest.raises(TargetError, match='several: Driver, Other'):
+        load_node_class(str(unrelated), Node)
 
 
 @pytest.mark.parametrize('path', LAB_NODES, ids=lambda path: path.name)
