@@ -69,8 +69,9 @@ def _entry_reason(entry: list[ast.stmt], node_classes: set[str]) -> str | None:
         for item in ast.walk(statement):
             if isinstance(item, (ast.While, ast.For)):
                 body_calls = {_call_name(c) for c in ast.walk(item) if isinstance(c, ast.Call)}
-                what = 'rclpy.spin_once' if 'spin_once' in body_calls else 'a loop'
-                return f'{where} loops on {what} (line {item.lineno})'
+                if 'spin_once' in body_calls:
+                    return f'{where} loops on rclpy.spin_once (line {item.lineno})'
+                return f'{where} runs a loop of its own (line {item.lineno})'
             if not isinstance(item, ast.Call):
                 continue
             name = _call_name(item)

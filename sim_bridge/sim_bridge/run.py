@@ -138,6 +138,37 @@ def nearest_topic(topic: str, topics: Iterable[str]) -> str | None:
     return near[0] if near else None
 
 
+def unconnected_topics(bridge, nodes: Iterable[tuple[str, str]]) -> list[str]:
+    """
+    Return a warning for each topic one of ``nodes`` uses with nothing at its other end.
+
+    ``nodes`` are (name, namespace) of the target nodes, in this process or another on the
+    run's ROS domain. A subscription that nothing publishes, a publisher that nothing
+    subscribes to, read from the ROS graph as the SimBridge node ``bridge`` sees it, each with
+    the simulator's topic most like it and the remapping rule that would connect them.
+    ROS_TOPICS are left out.
+    """
+    ends = {'publishes': {publisher.topic_name for publisher in bridge.publishers},
+            'subscribes to': {sub.topic_name for sub in bridge.subscriptions}}
+    uses = (('subscribes to', bridge.get_subscriber_names_and_types_by_node,
+             bridge.count_publishers, 'nothing publishes it', 'publishes'),
+            ('publishes', bridge.get_publisher_names_and_types_by_node,
+             bridge.count_subscribers, 'nothing subscribes to it', 'subscribes to'))
+    warnings = []
+    for name, namespace in nodes:
+        for verb, topics_of, count, nothing, other_end in uses:
+            for topic, _ in topics_of(name, namespace):
+                if topic in ROS_TOPICS or count(topic):
+                    continue
+                near = nearest_topic(topic, ends[other_end] - set(ROS_TOPICS))
+                hint = (f' (the simulator {other_end} {near}: --remap {topic}:={near})'
+                        if near else '')
+                warning = f'{name} {verb} {topic}: {nothing}{hint}'
+                if warning not in warnings:
+                    warnings.append(warning)
+    return warnings
+
+
 def load_world(world: str, robot: str | None = None,
                start: Sequence[float] | str | None = None) -> World:
     """
@@ -423,36 +454,9 @@ class SteppedRun:
         return warnings
 
     def unconnected_topics(self) -> list[str]:
-        """
-        Return a warning for each topic a target node uses with nothing at its other end.
-
-        A subscription that nothing publishes, a publisher that nothing subscribes to, read
-        from the ROS graph, each with the simulator's topic most like it and the remapping
-        rule that would connect them. ROS_TOPICS are left out.
-        """
-        bridge = self.bridge
-        ends = {'publishes': {publisher.topic_name for publisher in bridge.publishers},
-                'subscribes to': {sub.topic_name for sub in bridge.subscriptions}}
-        warnings = []
-        for node in self.nodes:
-            if node is bridge:
-                continue
-            name, namespace = node.get_name(), node.get_namespace()
-            uses = (('subscribes to', node.get_subscriber_names_and_types_by_node,
-                     node.count_publishers, 'nothing publishes it', 'publishes'),
-                    ('publishes', node.get_publisher_names_and_types_by_node,
-                     node.count_subscribers, 'nothing subscribes to it', 'subscribes to'))
-            for verb, topics_of, count, nothing, other_end in uses:
-                for topic, _ in topics_of(name, namespace):
-                    if topic in ROS_TOPICS or count(topic):
-                        continue
-                    near = nearest_topic(topic, ends[other_end] - set(ROS_TOPICS))
-                    hint = (f' (the simulator {other_end} {near}: --remap {topic}:={near})'
-                            if near else '')
-                    warning = f'{name} {verb} {topic}: {nothing}{hint}'
-                    if warning not in warnings:
-                        warnings.append(warning)
-        return warnings
+        """Return a warning for each topic a target node uses with nothing at its other end."""
+        return unconnected_topics(self.bridge, [(node.get_name(), node.get_namespace())
+                                                for node in self.nodes if node is not self.bridge])
 
     def parameter(self, name: str) -> Any:
         """Return the value of parameter ``name`` of the first node that has it, else None."""
@@ -860,7 +864,15 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
                     live.pump(0.05)
                     if progress is not None:
                         progress(min(bridge.sim.time, duration_s), duration_s)
-                if name in live.returncodes:
+                if name not in live.returncodes:  # its nodes are still in the graph
+                    own = {(node.get_name(), node.get_namespace())
+                           for node in executor.get_nodes()}
+                    nodes = [node for node in bridge.get_node_names_and_namespaces()
+                             if node not in own]
+                    for warning in unconnected_topics(bridge, nodes):
+                        warnings.append(warning)
+                        to_console(f'warning: {warning}\n')
+                else:
                     code = live.returncodes[name]
                     ended = (f'{name} ended (exit status {code}) at {bridge.sim.time:g} s of '
                              f'its {duration_s:g} s')

@@ -167,14 +167,15 @@ def test_a_file_without_main_guard_runs_its_main_as_a_console_script():
     assert spec.cmd[1:] == (str((FIXTURES / 'spin_once_loop.py').resolve()), '--ros-args')
 
 
-def run_file(tmp_path: Path, name: str, duration_s: float = 3.0) -> tuple[dict, str]:
+def run_file(tmp_path: Path, name: str, duration_s: float = 3.0, *options: str,
+             status: int = 0) -> tuple[dict, str]:
     """Run a fixture with ``python -m sim_bridge.run``; return its metrics and console output."""
     done = subprocess.run(
         [sys.executable, '-m', 'sim_bridge.run', '--world', 'obstacles', '--node',
          str(FIXTURES / name), '--duration', str(duration_s), '--out', str(tmp_path / 'out'),
-         '--no-plot'],
+         '--no-plot', *options],
         capture_output=True, text=True, timeout=120, env=dict(os.environ))
-    assert done.returncode == 0, done.stderr
+    assert done.returncode == status, done.stderr
     metrics = json.loads((tmp_path / 'out' / 'metrics.json').read_text())
     return metrics, done.stdout + done.stderr
 
@@ -270,3 +271,20 @@ def test_two_runs_at_once_never_share_a_ros_domain(tmp_path):
         DomainReservation(pid=7, folder=tmp_path)
     for reservation in (again, second, *held):
         reservation.release()
+
+
+def test_a_process_run_names_the_topics_nothing_is_at_the_other_end_of(tmp_path):
+    metrics, console = run_file(tmp_path, 'namespaced_loop.py', 2.0, '--no-record')
+    assert metrics['run_mode'] == {'mode': 'process',
+                                   'reason': 'main() runs a loop of its own (line 27)'}
+    warnings = [
+        'cruiser subscribes to /robot/scan: nothing publishes it (the simulator publishes '
+        '/scan: --remap /robot/scan:=/scan)',
+        'cruiser publishes /robot/cmd_vel: nothing subscribes to it (the simulator subscribes '
+        'to /cmd_vel: --remap /robot/cmd_vel:=/cmd_vel)']
+    assert metrics['warnings'] == warnings and metrics['distance_m'] == 0.0
+    assert all(f'warning: {warning}' in console for warning in warnings)
+    # The rules it names connect it: it drives, and nothing is left to warn of.
+    metrics, _ = run_file(tmp_path, 'namespaced_loop.py', 3.0, '--no-record', '--remap',
+                          '/robot/scan:=/scan', '--remap', '/robot/cmd_vel:=/cmd_vel')
+    assert metrics['warnings'] == [] and metrics['distance_m'] > 0.3
