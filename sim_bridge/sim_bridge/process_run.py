@@ -21,6 +21,8 @@ from sim_bridge.run_environment import environment_set
 #: open ports for on Linux, away from the default domain 0.
 DOMAIN_BASE = 1
 DOMAIN_COUNT = 100
+#: Longest wait (wall s) for a node run as a process to join the ROS graph.
+NODE_START_TIMEOUT_S = 20.0
 #: Where the runs on this machine reserve their domains, a lock file each: one folder for all
 #: of them, whatever a run's TMPDIR (a graded run's is its own scratch folder).
 LOCK_FOLDER = Path('/tmp')

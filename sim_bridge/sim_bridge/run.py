@@ -36,7 +36,8 @@ from sim_bridge.node_styles import Decision
 from sim_bridge.paths import find_world
 from sim_bridge.plot import plot_trajectory, SCANS_DRAWN
 from sim_bridge.process_run import (
-    DomainReservation, node_spec, private_ros_environment, process_environment)
+    DomainReservation, node_spec, NODE_START_TIMEOUT_S, private_ros_environment,
+    process_environment)
 from sim_bridge.record import BagRecorder, DEFAULT_TOPICS, message_type_name
 from sim_bridge.report_text import json_safe
 from sim_bridge.run_environment import (
@@ -62,8 +63,6 @@ SETPOINT_PARAMETER = 'distance'
 ROS_TOPICS = ('/rosout', '/parameter_events', '/clock')
 PROGRESS_AFTER_S = 2.0
 GUI_FRAME_RATE = 60
-#: Longest wait (wall s) for a node run as a process to join the ROS graph.
-NODE_START_TIMEOUT_S = 20.0
 NANOSECONDS_PER_SECOND = 10 ** 9
 
 Params = dict[str, dict[str, Any]]
