@@ -24,7 +24,7 @@ import sys
 import tempfile
 import threading
 import time
-from typing import Any, Callable, Iterable, Sequence
+from typing import Any, Callable, Iterable, Mapping, Sequence
 
 from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.parameter import get_parameter_value, Parameter, parameter_value_to_python
@@ -126,6 +126,19 @@ def check_remap(rule: str) -> str:
     if problem is not None:
         raise RunError(f'--remap {problem}')
     return rule
+
+
+def gui_problem(environ: Mapping[str, str], platform: str = sys.platform) -> str | None:
+    """
+    Return why ``--gui`` cannot open the pybullet window here, or None.
+
+    On Linux the window needs an X display (pybullet's GUI speaks X11, XWayland included);
+    without one pybullet ends the whole process with 'cannot connect to X server'.
+    """
+    if platform.startswith('linux') and not environ.get('DISPLAY'):
+        return ('--gui needs a display, and DISPLAY is not set (a terminal without one, e.g. '
+                'over ssh): run without --gui, or under xvfb-run')
+    return None
 
 
 def nearest_topic(topic: str, topics: Iterable[str]) -> str | None:
@@ -653,6 +666,8 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
     if not (math.isfinite(duration_s) and duration_s > 0):
         raise RunError(f'duration must be a positive number of seconds, got {duration_s}')
     remap = [check_remap(rule) for rule in remap]
+    if gui and gui_problem(os.environ):
+        raise RunError(gui_problem(os.environ))
     world_model = load_world(world, robot, start)
     node_params = node_parameters(world_model, params, seed=seed, gui=gui, start=start,
                                   robot=robot)

@@ -18,7 +18,7 @@ import pytest
 from rosbags.rosbag2 import Reader
 from sim_bridge.node_styles import decide, node_class
 from sim_bridge.process_run import DOMAIN_BASE, DOMAIN_COUNT, DomainReservation, node_spec
-from sim_bridge.run import run_simulation, RunError
+from sim_bridge.run import gui_problem, run_simulation, RunError
 from sim_bridge.targets import load_node_class, run_mode, TargetError
 
 FIXTURES = Path(__file__).parent / 'fixtures'
@@ -288,3 +288,32 @@ def test_a_process_run_names_the_topics_nothing_is_at_the_other_end_of(tmp_path)
     metrics, _ = run_file(tmp_path, 'namespaced_loop.py', 3.0, '--no-record', '--remap',
                           '/robot/scan:=/scan', '--remap', '/robot/cmd_vel:=/cmd_vel')
     assert metrics['warnings'] == [] and metrics['distance_m'] > 0.3
+
+
+def test_gui_without_a_display_is_refused_in_one_line_before_anything_starts(
+        tmp_path, monkeypatch):
+    assert gui_problem({}, 'linux').startswith('--gui needs a display, and DISPLAY is not set')
+    assert gui_problem({'DISPLAY': ':0'}, 'linux') is None
+    assert gui_problem({}, 'darwin') is None  # pybullet's window is not X11's there
+    monkeypatch.delenv('DISPLAY', raising=False)
+    for node in ('scan_ahead', str(FIXTURES / 'function_node.py')):  # stepped, process
+        with pytest.raises(RunError, match='--gui needs a display'):
+            run_simulation('obstacles', [node], duration_s=1.0, gui=True,
+                           out_dir=tmp_path / 'out')
+    assert not (tmp_path / 'out').exists()
+
+
+def test_a_process_run_with_gui_shows_its_live_simulator_in_the_window(tmp_path, monkeypatch):
+    import pybullet
+    modes, connect = [], pybullet.connect
+
+    def headless_connect(mode, *args, **kwargs):  # no display here: the GUI path in DIRECT
+        modes.append(mode)
+        return connect(pybullet.DIRECT, *args, **kwargs)
+
+    monkeypatch.setattr(pybullet, 'connect', headless_connect)
+    monkeypatch.setenv('DISPLAY', ':99')
+    result = run_simulation('obstacles', [str(FIXTURES / 'function_node.py')], duration_s=2.0,
+                            gui=True, out_dir=tmp_path, quiet=True, record=False, plot=False)
+    assert modes == [pybullet.GUI]
+    assert result.metrics['run_mode']['mode'] == 'process' and result.metrics['distance_m'] > 0.2
