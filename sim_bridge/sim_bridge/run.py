@@ -9,6 +9,7 @@ runs before physics advances, see sim_bridge.stepping), as if each had been star
 """
 
 import argparse
+from collections import deque
 from dataclasses import dataclass
 import difflib
 import functools
@@ -30,14 +31,14 @@ from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.parameter import get_parameter_value, Parameter, parameter_value_to_python
 from rclpy.serialization import serialize_message
 from sim_bridge.hints import ros_module_hint, scan_hint
-from sim_bridge.live import LiveRun, print_line
+from sim_bridge.live import LiveRun, prefixed, print_line, process_names
 from sim_bridge.metrics import compute_metrics
 from sim_bridge.node_styles import Decision
 from sim_bridge.paths import find_world
 from sim_bridge.plot import plot_trajectory, SCANS_DRAWN
 from sim_bridge.process_run import (
-    DomainReservation, node_spec, NODE_START_TIMEOUT_S, private_ros_environment,
-    process_environment)
+    DomainReservation, last_traceback, node_spec, NODE_START_TIMEOUT_S, OUTPUT_TAIL_LINES,
+    printed_error, private_ros_environment, process_environment)
 from sim_bridge.record import BagRecorder, DEFAULT_TOPICS, message_type_name
 from sim_bridge.report_text import json_safe
 from sim_bridge.run_environment import (
@@ -864,7 +865,15 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
             bag = open_outputs(out_dir, params_file, record)
             recorder.record(bag)
             outputs_open = True
-            out = (lambda line: None) if quiet else print_line
+            tail: deque[str] = deque(maxlen=OUTPUT_TAIL_LINES)
+            prefix = prefixed(process_names([spec])[0], '')
+
+            def out(line: str) -> None:
+                if line.startswith(prefix):  # the node's own line, not launch's about it
+                    tail.append(line[len(prefix):])
+                if not quiet:
+                    print_line(line)
+
             with LiveRun([spec], env=env, out=out) as live, interrupt:
                 live.start()
                 name = live.names[0]
@@ -891,7 +900,8 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
                     ended = (f'{name} ended (exit status {code}) at {bridge.sim.time:g} s of '
                              f'its {duration_s:g} s')
                     if code:
-                        node_errors.append({'node': target_name(target), 'error': ended})
+                        node_errors.append(process_error(target_name(target), ended, tail,
+                                                         path))
                     else:  # its own rclpy.shutdown() ended it: the run ends there
                         ended_by = ended
                         warnings.append(ended)
@@ -914,6 +924,27 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
         title=f'{world_model.name}: {target_name(target)}', setpoint=setpoint,
         wall_start=wall_start, node_errors=node_errors, warnings=warnings, ended_by=ended_by,
         run_mode={'mode': 'process', 'reason': mode.reason})
+
+
+def process_error(node: str, ended: str, output: Iterable[str], path: Path) -> dict:
+    """
+    Return the node error of the node file ``path`` whose process ended with an error status.
+
+    ``ended`` says when. What the process printed last (``output``) gives the error and the
+    deepest line of the node's own code, as a stepped run reports them, with the node's part of
+    the traceback and the hint for a module of a ROS installation (hints.ros_module_hint).
+    """
+    printed = last_traceback(output)
+    if printed is None:  # os._exit(), a signal: only the status says anything
+        return {'node': node, 'error': ended}
+    frames, error_line = printed
+    code = StudentCode.of([path])
+    hint = ros_module_hint(printed_error(error_line))
+    return json_safe({
+        'node': node,
+        'error': f'{ended}: {error_line}{code.stack_origin(frames)}'
+                 + (f' ({hint})' if hint else ''),
+        'traceback': code.stack_traceback(frames, [error_line + '\n'])})
 
 
 def to_console(text: str) -> None:

@@ -120,6 +120,13 @@ class StudentCode:
         frame = own[-1]
         return f' at {frame.filename}:{frame.lineno}' + (f': {frame.line}' if frame.line else '')
 
+    def stack_traceback(self, frames: Iterable[traceback.FrameSummary],
+                        error_lines: Iterable[str]) -> str:
+        """Return the node's own of ``frames`` as Python prints them, then ``error_lines``."""
+        own = self.frames(frames)
+        head = ['Traceback (most recent call last):\n', *traceback.format_list(own)] if own else []
+        return ''.join(head + list(error_lines))
+
     def traceback(self, error: BaseException) -> str:
         """
         Return the node's part of ``error``'s traceback: its own frames and the error lines.
@@ -127,9 +134,8 @@ class StudentCode:
         A SyntaxError ends with its file, line, the offending code and a caret, as Python
         prints it.
         """
-        own = self.frames(traceback.extract_tb(error.__traceback__))
-        head = ['Traceback (most recent call last):\n', *traceback.format_list(own)] if own else []
-        return ''.join(head + traceback.format_exception_only(error))
+        return self.stack_traceback(traceback.extract_tb(error.__traceback__),
+                                    traceback.format_exception_only(error))
 
 
 def _console_script_module(name: str) -> str | None:

@@ -17,7 +17,8 @@ import textwrap
 import pytest
 from rosbags.rosbag2 import Reader
 from sim_bridge.node_styles import decide, node_class
-from sim_bridge.process_run import DOMAIN_BASE, DOMAIN_COUNT, DomainReservation, node_spec
+from sim_bridge.process_run import (
+    DOMAIN_BASE, DOMAIN_COUNT, DomainReservation, last_traceback, node_spec, printed_error)
 from sim_bridge.run import gui_problem, run_simulation, RunError
 from sim_bridge.targets import load_node_class, run_mode, TargetError
 
@@ -168,12 +169,12 @@ def test_a_file_without_main_guard_runs_its_main_as_a_console_script():
 
 
 def run_file(tmp_path: Path, name: str, duration_s: float = 3.0, *options: str,
-             status: int = 0) -> tuple[dict, str]:
+             status: int = 0, plot: bool = False) -> tuple[dict, str]:
     """Run a fixture with ``python -m sim_bridge.run``; return its metrics and console output."""
     done = subprocess.run(
         [sys.executable, '-m', 'sim_bridge.run', '--world', 'obstacles', '--node',
          str(FIXTURES / name), '--duration', str(duration_s), '--out', str(tmp_path / 'out'),
-         '--no-plot', *options],
+         *([] if plot else ['--no-plot']), *options],
         capture_output=True, text=True, timeout=120, env=dict(os.environ))
     assert done.returncode == status, done.stderr
     metrics = json.loads((tmp_path / 'out' / 'metrics.json').read_text())
@@ -317,3 +318,77 @@ def test_a_process_run_with_gui_shows_its_live_simulator_in_the_window(tmp_path,
                             gui=True, out_dir=tmp_path, quiet=True, record=False, plot=False)
     assert modes == [pybullet.GUI]
     assert result.metrics['run_mode']['mode'] == 'process' and result.metrics['distance_m'] > 0.2
+
+
+def test_an_error_in_a_process_run_is_reported_at_the_nodes_deepest_line(tmp_path):
+    result = run_simulation('obstacles', [str(FIXTURES / 'loop_random_turn.py')],
+                            duration_s=20.0, out_dir=tmp_path, quiet=True, record=False,
+                            plot=False)
+    [error] = result.metrics['node_errors']
+    path = (FIXTURES / 'loop_random_turn.py').resolve()
+    # random.choice raised it; the student's call of it is the line to fix.
+    assert error['error'].endswith(
+        f'IndexError: Cannot choose from an empty sequence at {path}:22: '
+        'return random.choice(allowed)')
+    assert error['error'].startswith('loop_random_turn-1 ended (exit status 1) at ')
+    assert error['traceback'].splitlines()[-3:] == [
+        f'  File "{path}", line 22, in pick_turn', '    return random.choice(allowed)',
+        'IndexError: Cannot choose from an empty sequence']
+    assert 'random.py' not in error['traceback'] and 'runpy' not in error['traceback']
+    assert result.metrics['distance_m'] > 0.3  # it drove up to the cube first
+
+
+def test_a_ros_module_missing_in_a_process_run_says_where_it_comes_from(tmp_path, monkeypatch):
+    monkeypatch.delenv('ROS_DISTRO', raising=False)
+    result = run_simulation('obstacles', [str(FIXTURES / 'tf_yaw_loop.py')], duration_s=3.0,
+                            out_dir=tmp_path, quiet=True, record=False, plot=False)
+    [error] = result.metrics['node_errors']
+    path = (FIXTURES / 'tf_yaw_loop.py').resolve()
+    assert (f"ModuleNotFoundError: No module named 'tf_transformations' at {path}:5: from "
+            'tf_transformations import euler_from_quaternion (tf_transformations comes with a '
+            'ROS 2 Jazzy installation (apt package ros-jazzy-tf-transformations), not with the '
+            'ROS wheels from PyPI; for Euler angles and quaternions PyPI has transforms3d'
+            ) in error['error']
+
+
+def test_a_node_that_ends_itself_in_a_process_run_ends_it_with_every_output(tmp_path):
+    metrics, console = run_file(tmp_path, 'timed_drive_loop.py', 20.0, plot=True)
+    assert metrics['node_errors'] == [] and metrics['run_mode']['mode'] == 'process'
+    assert metrics['ended_by'].startswith('timed_drive_loop-1 ended (exit status 0) at ')
+    assert metrics['ended_by'] in metrics['warnings']
+    # Ended where it ended itself (its 2 s of driving, the /clock it reads late under load).
+    assert 2.0 <= metrics['sim_time_s'] < 20.0
+    assert 'done driving' in console
+    out = tmp_path / 'out'
+    assert (out / 'params.yaml').is_file() and (out / 'trajectory.png').stat().st_size > 0
+    with Reader(out / 'run') as bag:
+        assert {connection.topic for connection in bag.connections} >= {'/clock', '/scan'}
+
+
+def test_the_last_traceback_a_process_printed_is_read_with_its_code_lines():
+    printed = textwrap.dedent("""\
+        [INFO] [1795615054.7] [wanderer]: up
+        Traceback (most recent call last):
+          File "/lab/a.py", line 3, in on_scan
+            x = msg.ranges[400]
+                ~~~~~~~~~~^^^^^
+        IndexError: tuple index out of range
+
+        During handling of the above exception, another exception occurred:
+
+        Traceback (most recent call last):
+          File "/lab/a.py", line 9, in main
+            rclpy.spin(node)
+          File "/venv/rclpy/executors.py", line 5, in spin
+            raise error
+        KeyError: 'x'
+        """).splitlines()
+    frames, error = last_traceback(printed)
+    assert [(f.filename, f.lineno, f.name, f.line) for f in frames] == [
+        ('/lab/a.py', 9, 'main', 'rclpy.spin(node)'),
+        ('/venv/rclpy/executors.py', 5, 'spin', 'raise error')]
+    assert error == "KeyError: 'x'"
+    assert last_traceback(['[INFO] nothing went wrong']) is None
+    missing = printed_error("ModuleNotFoundError: No module named 'tf2_ros.buffer'")
+    assert isinstance(missing, ModuleNotFoundError) and missing.name == 'tf2_ros.buffer'
+    assert printed_error("KeyError: 'x'") is None
