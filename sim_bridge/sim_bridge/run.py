@@ -347,14 +347,15 @@ class SteppedRun:
 
     Every node but the bridge gets the command line its own process would have
     (``--ros-args --params-file <params.yaml> -p use_sim_time:=true -r FROM:=TO ...``, the
-    remapping rules ``remap``); the bridge reads only ``bridge_params_file``, and neither it nor
+    remapping rules ``remap``, then ``ros_args`` as given: ``--ros-args ...``); the bridge reads only ``bridge_params_file``, and neither it nor
     the runner's own nodes are remapped. The run's DDS traffic stays in the process
     (``ROS_AUTOMATIC_DISCOVERY_RANGE=OFF``, see README). RunError when rcl cannot read the
     arguments (a remapping rule it refuses).
     """
 
     def __init__(self, params_file: Path, quiet: bool, code: StudentCode = StudentCode(), *,
-                 bridge_params_file: Path | None = None, remap: Sequence[str] = ()):
+                 bridge_params_file: Path | None = None, remap: Sequence[str] = (),
+                 ros_args: Sequence[str] = ()):
         import rclpy
         from rclpy.impl.implementation_singleton import rclpy_implementation
         from rclpy.signals import SignalHandlerOptions
@@ -362,7 +363,8 @@ class SteppedRun:
         self.node_arguments = ['--ros-args', '--params-file', str(params_file),
                                '-p', 'use_sim_time:=true',
                                *(['--disable-stdout-logs'] if quiet else []),
-                               *(argument for rule in remap for argument in ('-r', rule))]
+                               *(argument for rule in remap for argument in ('-r', rule)),
+                               *ros_args]
         self.bridge_arguments = ['--ros-args', '--params-file',
                                  str(bridge_params_file or params_file)]
         # The default context, as the nodes' own code uses it. Ctrl-C stays a
@@ -635,7 +637,8 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
                    seed: int = 0, params: Params | None = None,
                    out_dir: Path | str | None = None,
                    start: Sequence[float] | str | None = None, robot: str | None = None,
-                   remap: Sequence[str] = (), setpoint: float | None = None,
+                   remap: Sequence[str] = (), ros_args: Sequence[str] = (),
+                   setpoint: float | None = None,
                    quiet: bool = False,
                    record: bool = True, plot: bool = True, gui: bool = False,
                    field_checks: bool = True,
@@ -647,6 +650,7 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
     pose (x m, y m, yaw rad), or is 'mirrored' to put the world's target on the robot's left;
     ``robot`` names a robot model spawned instead of the world's own (see :func:`load_world`);
     ``remap`` holds ROS remapping rules (``FROM:=TO``, ``NODE:FROM:=TO``) for the target nodes;
+    ``ros_args`` (``--ros-args ...``, as given after ``ros2 run``'s executable) reach them unchanged;
     ``setpoint`` is the wall distance (m) ``wall_distance_m`` is measured against, by default
     the value of a node's ``distance`` parameter (SETPOINT_PARAMETER), if one has it.
     What the world's files hold that the simulator does not simulate (``World.ignored``) is
@@ -682,8 +686,8 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
                            'run takes one node file: run it alone')
         return run_as_process(
             world_model, target, mode, node_params, duration_s=duration_s, out_dir=out_dir,
-            remap=remap, setpoint=setpoint, quiet=quiet, record=record, plot=plot,
-            field_checks=field_checks, progress=progress)
+            remap=remap, ros_args=ros_args, setpoint=setpoint, quiet=quiet, record=record,
+            plot=plot, field_checks=field_checks, progress=progress)
     run_modes = {'mode': 'stepped', 'reason': '; '.join(mode.reason for mode in modes)}
 
     node_errors, warnings, ended_by = [], [], None
@@ -705,7 +709,7 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
         bridge_params_file = Path(scratch) / f'{BRIDGE_NODE}.yaml'
         write_params_file(bridge_params_file, {BRIDGE_NODE: node_params[BRIDGE_NODE]})
         run = SteppedRun(params_file, quiet, code, bridge_params_file=bridge_params_file,
-                         remap=remap)
+                         remap=remap, ros_args=ros_args)
         bag, interrupt, outputs_open = None, UserInterrupt(), False
         try:
             bridge = run.start_simulator(SimBridge)
@@ -813,6 +817,7 @@ class LiveGraph:
 
 def run_as_process(world_model: World, target: str, mode: Decision, node_params: Params, *,
                    duration_s: float, out_dir: Path, remap: Sequence[str],
+                   ros_args: Sequence[str],
                    setpoint: float | None, quiet: bool, record: bool, plot: bool,
                    field_checks: bool,
                    progress: Callable[[float, float], None] | None = None) -> RunResult:
@@ -848,7 +853,8 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
         write_params_file(bridge_params_file, {BRIDGE_NODE: node_params[BRIDGE_NODE]})
         spec = node_spec(path, ['--ros-args', '--params-file', str(params_file),
                                 '-p', 'use_sim_time:=true',
-                                *(argument for rule in remap for argument in ('-r', rule))])
+                                *(argument for rule in remap for argument in ('-r', rule)),
+                                *ros_args])
         context = Context()
         with private_ros_environment(domain.domain_id):
             rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
@@ -1004,7 +1010,8 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(
         prog='python -m sim_bridge.run', description=__doc__.strip().splitlines()[0],
         epilog='TARGET: a console script (wall_follow), a module (scan_pkg.wall_follow) or a '
-               '.py file, optionally followed by :ClassName.')
+               '.py file, optionally followed by :ClassName. Arguments from --ros-args on go '
+               "to the nodes unchanged, as after ros2 run's executable.")
     parser.add_argument('--world', required=True,
                         help='world name (worlds/<name>.yaml) or path to a world file')
     parser.add_argument('--node', action='append', required=True, metavar='TARGET',
@@ -1038,8 +1045,16 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run from the command line; return 0 when the run completed, 1 if a node failed."""
-    args = parse_args(argv)
+    """
+    Run from the command line; return 0 when the run completed, 1 if a node failed.
+
+    Everything from the first ``--ros-args`` on is the nodes' own, as after ``ros2 run``'s
+    executable: rcl reads it, not this parser.
+    """
+    argv = list(sys.argv[1:] if argv is None else argv)
+    split = argv.index('--ros-args') if '--ros-args' in argv else len(argv)
+    ros_args = argv[split:]
+    args = parse_args(argv[:split])
     try:
         params: Params = {}
         for text in args.param:
@@ -1047,7 +1062,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             params.setdefault(node, {})[name] = value
         result = run_simulation(
             args.world, args.nodes, duration_s=args.duration, seed=args.seed, params=params,
-            start=args.robot_pose, robot=args.robot, remap=args.remap,
+            start=args.robot_pose, robot=args.robot, remap=args.remap, ros_args=ros_args,
             out_dir=args.out, quiet=args.quiet, gui=args.gui, record=not args.no_record,
             plot=not args.no_plot, field_checks=not args.no_field_checks,
             progress=terminal_progress() if sys.stderr.isatty() and not args.quiet else None)

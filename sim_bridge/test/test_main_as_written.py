@@ -19,7 +19,7 @@ from rosbags.rosbag2 import Reader
 from sim_bridge.node_styles import decide, node_class
 from sim_bridge.process_run import (
     DOMAIN_BASE, DOMAIN_COUNT, DomainReservation, last_traceback, node_spec, printed_error)
-from sim_bridge.run import gui_problem, run_simulation, RunError
+from sim_bridge.run import gui_problem, main, run_simulation, RunError
 from sim_bridge.targets import load_node_class, run_mode, TargetError
 
 FIXTURES = Path(__file__).parent / 'fixtures'
@@ -392,3 +392,24 @@ def test_the_last_traceback_a_process_printed_is_read_with_its_code_lines():
     missing = printed_error("ModuleNotFoundError: No module named 'tf2_ros.buffer'")
     assert isinstance(missing, ModuleNotFoundError) and missing.name == 'tf2_ros.buffer'
     assert printed_error("KeyError: 'x'") is None
+
+
+def test_ros_args_after_the_target_reach_a_stepped_node_unchanged(tmp_path, capsys):
+    status = main(['--world', 'obstacles', '--node', str(FIXTURES / 'quitter.py'), '--duration',
+                   '5', '--quiet', '--no-plot', '--no-record', '--out', str(tmp_path),
+                   '--ros-args', '-p', 'drive_time:=0.5'])
+    assert status == 0
+    metrics = json.loads((tmp_path / 'metrics.json').read_text())
+    assert metrics['sim_time_s'] < 1.0 and 'quitter' in metrics['ended_by']  # not its 1.0 s
+    status = main(['--world', 'obstacles', '--node', 'scan_ahead', '--out', str(tmp_path / 'x'),
+                   '--ros-args', '-r', 'bad'])
+    assert status == 2
+    assert capsys.readouterr().err.endswith(
+        "error: rcl cannot read the nodes' arguments: Couldn't parse remap rule: '-r bad'\n")
+
+
+def test_ros_args_after_the_target_reach_a_node_process_unchanged(tmp_path):
+    metrics, _ = run_file(tmp_path, 'namespaced_loop.py', 3.0, '--no-record', '--ros-args',
+                          '-r', '/robot/scan:=/scan', '-r', '/robot/cmd_vel:=/cmd_vel')
+    assert metrics['run_mode']['mode'] == 'process'
+    assert metrics['warnings'] == [] and metrics['distance_m'] > 0.3
