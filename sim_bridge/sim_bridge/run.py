@@ -347,8 +347,8 @@ class SteppedRun:
 
     Every node but the bridge gets the command line its own process would have
     (``--ros-args --params-file <params.yaml> -p use_sim_time:=true -r FROM:=TO ...``, the
-    remapping rules ``remap``, then ``ros_args`` as given: ``--ros-args ...``); the bridge reads only ``bridge_params_file``, and neither it nor
-    the runner's own nodes are remapped. The run's DDS traffic stays in the process
+    remapping rules ``remap``, then ``ros_args`` as given: ``--ros-args ...``); the bridge
+    reads only ``bridge_params_file``, and neither it nor the runner's own nodes are remapped. The run's DDS traffic stays in the process
     (``ROS_AUTOMATIC_DISCOVERY_RANGE=OFF``, see README). RunError when rcl cannot read the
     arguments (a remapping rule it refuses).
     """
