@@ -348,9 +348,9 @@ class SteppedRun:
     Every node but the bridge gets the command line its own process would have
     (``--ros-args --params-file <params.yaml> -p use_sim_time:=true -r FROM:=TO ...``, the
     remapping rules ``remap``, then ``ros_args`` as given: ``--ros-args ...``); the bridge
-    reads only ``bridge_params_file``, and neither it nor the runner's own nodes are remapped. The run's DDS traffic stays in the process
-    (``ROS_AUTOMATIC_DISCOVERY_RANGE=OFF``, see README). RunError when rcl cannot read the
-    arguments (a remapping rule it refuses).
+    reads only ``bridge_params_file``, and neither it nor the runner's own nodes are remapped.
+    The run's DDS traffic stays in the process (``ROS_AUTOMATIC_DISCOVERY_RANGE=OFF``, see
+    README). RunError when rcl cannot read the arguments (a remapping rule it refuses).
     """
 
     def __init__(self, params_file: Path, quiet: bool, code: StudentCode = StudentCode(), *,
@@ -650,7 +650,8 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
     pose (x m, y m, yaw rad), or is 'mirrored' to put the world's target on the robot's left;
     ``robot`` names a robot model spawned instead of the world's own (see :func:`load_world`);
     ``remap`` holds ROS remapping rules (``FROM:=TO``, ``NODE:FROM:=TO``) for the target nodes;
-    ``ros_args`` (``--ros-args ...``, as given after ``ros2 run``'s executable) reach them unchanged;
+    ``ros_args`` (``--ros-args ...``, as given after ``ros2 run``'s executable) reach them
+    unchanged;
     ``setpoint`` is the wall distance (m) ``wall_distance_m`` is measured against, by default
     the value of a node's ``distance`` parameter (SETPOINT_PARAMETER), if one has it.
     What the world's files hold that the simulator does not simulate (``World.ignored``) is
