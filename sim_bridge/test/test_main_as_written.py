@@ -413,3 +413,22 @@ def test_ros_args_after_the_target_reach_a_node_process_unchanged(tmp_path):
                           '-r', '/robot/scan:=/scan', '-r', '/robot/cmd_vel:=/cmd_vel')
     assert metrics['run_mode']['mode'] == 'process'
     assert metrics['warnings'] == [] and metrics['distance_m'] > 0.3
+
+
+def test_a_class_of_both_styles_is_graded_each_run_in_its_child(tmp_path):
+    from sim_bridge.grade import grade_runs
+    from sim_bridge.grading import GradeJob
+    from sim_bridge.scenario import scenario_from_dict
+    base = {'world': 'obstacles', 'duration': 4.0, 'seed': 1,
+            'criteria': ['len(node_errors) == 0', 'collisions == 0', 'distance_m > 0.3']}
+    process = scenario_from_dict({**base, 'nodes': [str(FIXTURES / 'namespaced_loop.py')],
+                                  'remap': ['/robot/scan:=/scan', '/robot/cmd_vel:=/cmd_vel']},
+                                 'cruiser')
+    stepped = scenario_from_dict({**base, 'nodes': [str(FIXTURES / 'helper_base_avoider.py')]},
+                                 'avoider')
+    jobs = [GradeJob(run, tmp_path / run.name) for each in (process, stepped)
+            for run in each.runs()]
+    reports = grade_runs(jobs, workers=2, quiet=True, record=False, plot=False)
+    assert [report.passed for report in reports] == [True, True], [
+        report.error or report.metrics for report in reports]
+    assert [report.metrics['run_mode']['mode'] for report in reports] == ['process', 'stepped']
