@@ -416,7 +416,7 @@ def test_ros_args_after_the_target_reach_a_node_process_unchanged(tmp_path):
 
 
 def test_a_class_of_both_styles_is_graded_each_run_in_its_child(tmp_path):
-    from sim_bridge.grade import grade_runs
+    from sim_bridge.grade import format_table, grade_runs
     from sim_bridge.grading import GradeJob
     from sim_bridge.scenario import scenario_from_dict
     base = {'world': 'obstacles', 'duration': 4.0, 'seed': 1,
@@ -426,9 +426,17 @@ def test_a_class_of_both_styles_is_graded_each_run_in_its_child(tmp_path):
                                  'cruiser')
     stepped = scenario_from_dict({**base, 'nodes': [str(FIXTURES / 'helper_base_avoider.py')]},
                                  'avoider')
-    jobs = [GradeJob(run, tmp_path / run.name) for each in (process, stepped)
+    unwired = scenario_from_dict({**base, 'nodes': [str(FIXTURES / 'namespaced_loop.py')]},
+                                 'unwired')
+    jobs = [GradeJob(run, tmp_path / run.name) for each in (process, stepped, unwired)
             for run in each.runs()]
     reports = grade_runs(jobs, workers=2, quiet=True, record=False, plot=False)
-    assert [report.passed for report in reports] == [True, True], [
+    assert [report.passed for report in reports] == [True, True, False], [
         report.error or report.metrics for report in reports]
-    assert [report.metrics['run_mode']['mode'] for report in reports] == ['process', 'stepped']
+    assert [report.metrics['run_mode']['mode'] for report in reports] == [
+        'process', 'stepped', 'process']
+    # The report says why the unwired one did not move, and how to wire it.
+    warning = ('cruiser subscribes to /robot/scan: nothing publishes it (the simulator '
+               'publishes /scan: --remap /robot/scan:=/scan)')
+    assert warning in reports[2].metrics['warnings']
+    assert warning in format_table(reports)
