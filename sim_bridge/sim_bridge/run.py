@@ -30,7 +30,7 @@ from typing import Any, Callable, Iterable, Mapping, Sequence
 from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.parameter import get_parameter_value, Parameter, parameter_value_to_python
 from rclpy.serialization import serialize_message
-from sim_bridge.hints import ros_module_hint, scan_hint
+from sim_bridge.hints import printed_scan_hint, ros_module_hint, scan_hint
 from sim_bridge.live import LiveRun, prefixed, print_line, process_names
 from sim_bridge.metrics import compute_metrics
 from sim_bridge.node_styles import Decision
@@ -908,7 +908,7 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
                              f'its {duration_s:g} s')
                     if code:
                         node_errors.append(process_error(target_name(target), ended, tail,
-                                                         path))
+                                                         path, bridge.sim.lidar_config))
                     else:  # its own rclpy.shutdown() ended it: the run ends there
                         ended_by = ended
                         warnings.append(ended)
@@ -933,20 +933,24 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
         run_mode={'mode': 'process', 'reason': mode.reason})
 
 
-def process_error(node: str, ended: str, output: Iterable[str], path: Path) -> dict:
+def process_error(node: str, ended: str, output: Iterable[str], path: Path, lidar: Any) -> dict:
     """
     Return the node error of the node file ``path`` whose process ended with an error status.
 
     ``ended`` says when. What the process printed last (``output``) gives the error and the
     deepest line of the node's own code, as a stepped run reports them, with the node's part of
-    the traceback and the hint for a module of a ROS installation (hints.ros_module_hint).
+    the traceback and a hint: for a module of a ROS installation (hints.ros_module_hint), or
+    the geometry of the scans of the simulator's ``lidar`` (a LidarConfig) for scan code
+    written for another lidar (hints.printed_scan_hint).
     """
     printed = last_traceback(output)
     if printed is None:  # os._exit(), a signal: only the status says anything
         return {'node': node, 'error': ended}
     frames, error_line = printed
     code = StudentCode.of([path])
-    hint = ros_module_hint(printed_error(error_line))
+    own = code.frames(frames)
+    hint = (ros_module_hint(printed_error(error_line))
+            or printed_scan_hint(error_line, own[-1].line if own else '', lidar))
     return json_safe({
         'node': node,
         'error': f'{ended}: {error_line}{code.stack_origin(frames)}'

@@ -440,3 +440,20 @@ def test_a_class_of_both_styles_is_graded_each_run_in_its_child(tmp_path):
                'publishes /scan: --remap /robot/scan:=/scan)')
     assert warning in reports[2].metrics['warnings']
     assert warning in format_table(reports)
+
+
+def test_turtlebot3_scan_code_in_a_process_run_gets_the_scans_geometry(tmp_path):
+    result = run_simulation('obstacles', [str(FIXTURES / 'tb3_loop.py')], duration_s=3.0,
+                            out_dir=tmp_path / 'lab', quiet=True, record=False, plot=False)
+    [error] = result.metrics['node_errors']
+    path = (FIXTURES / 'tb3_loop.py').resolve()
+    assert error['error'].endswith(
+        f'IndexError: array index out of range at {path}:26: left = latest.ranges[90] (this '
+        'scan has 36 ranges from -1.57 rad (index 0, right) to +1.57 rad (index 35, left); '
+        '`--robot turtlebot3_burger` has 360 ranges from 0 rad (index 0, ahead) to +6.28 rad '
+        '(index 359, ahead))')
+    # On the robot it was written for, it drives.
+    result = run_simulation('obstacles', [str(FIXTURES / 'tb3_loop.py')], duration_s=3.0,
+                            robot='turtlebot3_burger', out_dir=tmp_path / 'burger', quiet=True,
+                            record=False, plot=False)
+    assert result.metrics['node_errors'] == [] and result.metrics['distance_m'] > 0.2
