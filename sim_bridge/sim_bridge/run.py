@@ -65,6 +65,8 @@ ROS_TOPICS = ('/rosout', '/parameter_events', '/clock')
 PROGRESS_AFTER_S = 2.0
 GUI_FRAME_RATE = 60
 NANOSECONDS_PER_SECOND = 10 ** 9
+#: Longest wait (wall s) for a node run as a process to list its parameters.
+PARAMETER_ANSWER_S = 2.0
 
 Params = dict[str, dict[str, Any]]
 # The runner's own nodes serve nothing: the service is one more entity in every wait.
@@ -149,6 +151,67 @@ def nearest_topic(topic: str, topics: Iterable[str]) -> str | None:
     same = [candidate for candidate in topics if candidate.rpartition('/')[2] == base]
     near = same or difflib.get_close_matches(topic, topics, n=1)
     return near[0] if near else None
+
+
+def parameter_warnings(params: Params, declared: dict[str, set[str] | None],
+                       targets: Iterable[str]) -> list[str]:
+    """
+    Return a warning for each node in ``params`` not running, and each parameter not declared.
+
+    ``declared`` holds the parameter names each running node declared, by node name (the
+    simulator's among them; None for a node that did not say: nothing is warned of it);
+    ``targets`` names the target nodes. ROS ignores a params file's entry for a node that is
+    not running, and rclpy an override of a parameter a node never declares: a misspelt name
+    would otherwise grade the default in silence. A parameter for every node (EVERY_NODE) is
+    one that none of the target nodes declares.
+    """
+    targets = list(targets)
+    absent = [name for name in params if name not in declared and name != EVERY_NODE]
+    warnings = [f"parameters given for node(s) {', '.join(absent)}, but the nodes are "
+                f"{', '.join(declared)}; they were ignored"] if absent else []
+    for node_name, values in params.items():
+        for name in values:
+            if name == 'use_sim_time' or node_name in absent or (
+                    node_name == BRIDGE_NODE and name in RUNNER_BRIDGE_PARAMETERS):
+                continue
+            if node_name == EVERY_NODE:
+                names = [declared[target] for target in targets]
+                if None not in names and not any(name in each for each in names):
+                    warnings.append(f"no node declared parameter '{name}' (given for every "
+                                    f'node, {EVERY_NODE}); it was ignored')
+            elif declared[node_name] is not None and name not in declared[node_name]:
+                warnings.append(f"node '{node_name}' did not declare parameter '{name}' "
+                                '(given by --param or the params file); it was ignored')
+    return warnings
+
+
+def declared_parameters(client_node, nodes: Iterable[tuple[str, str]],
+                        timeout_s: float) -> dict[str, set[str] | None]:
+    """
+    Return the names of the parameters each of ``nodes`` declared, asked over ROS.
+
+    ``nodes`` are (name, namespace) of nodes in another process; each is asked with its own
+    ``list_parameters`` service (as ``ros2 param list`` asks it), from ``client_node``, whose
+    executor spins in another thread. A node that does not answer within ``timeout_s`` (wall
+    s; no parameter services, or a main() that does not spin) is None.
+    """
+    from rcl_interfaces.srv import ListParameters
+    declared = {}
+    for name, namespace in nodes:
+        declared[name] = None
+        client = client_node.create_client(
+            ListParameters, f"{namespace.rstrip('/')}/{name}/list_parameters")
+        try:
+            if not client.wait_for_service(timeout_sec=timeout_s):
+                continue
+            answered = threading.Event()
+            future = client.call_async(ListParameters.Request())
+            future.add_done_callback(lambda _: answered.set())
+            if answered.wait(timeout_s) and future.result() is not None:
+                declared[name] = set(future.result().result.names)
+        finally:
+            client_node.destroy_client(client)
+    return declared
 
 
 def unconnected_topics(bridge, nodes: Iterable[tuple[str, str]]) -> list[str]:
@@ -441,32 +504,11 @@ class SteppedRun:
         return None
 
     def parameter_warnings(self, params: Params) -> list[str]:
-        """
-        Return a warning for each node in ``params`` not running, and each parameter not declared.
-
-        ROS ignores a params file's entry for a node that is not running, and rclpy an override
-        of a parameter a node never declares: a misspelt name would otherwise grade the
-        default in silence. A parameter for every node (EVERY_NODE) is one that none of the
-        target nodes declares.
-        """
-        nodes = {node.get_name(): node for node in self.nodes}
-        targets = [node for node in self.nodes if node is not self.bridge]
-        absent = [name for name in params if name not in nodes and name != EVERY_NODE]
-        warnings = [f"parameters given for node(s) {', '.join(absent)}, but the nodes are "
-                    f"{', '.join(nodes)}; they were ignored"] if absent else []
-        for node_name, values in params.items():
-            for name in values:
-                if name == 'use_sim_time' or node_name in absent or (
-                        node_name == BRIDGE_NODE and name in RUNNER_BRIDGE_PARAMETERS):
-                    continue
-                if node_name == EVERY_NODE:
-                    if not any(node.has_parameter(name) for node in targets):
-                        warnings.append(f"no node declared parameter '{name}' (given for every "
-                                        f'node, {EVERY_NODE}); it was ignored')
-                elif not nodes[node_name].has_parameter(name):
-                    warnings.append(f"node '{node_name}' did not declare parameter '{name}' "
-                                    '(given by --param or the params file); it was ignored')
-        return warnings
+        """Return a warning for each node in ``params`` not running, and each not declared."""
+        declared = {node.get_name(): set(node.list_parameters([], 0).names)
+                    for node in self.nodes}
+        targets = [node.get_name() for node in self.nodes if node is not self.bridge]
+        return parameter_warnings(params, declared, targets)
 
     def unconnected_topics(self) -> list[str]:
         """Return a warning for each topic a target node uses with nothing at its other end."""
@@ -899,7 +941,10 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
                            for node in executor.get_nodes()}
                     nodes = [node for node in bridge.get_node_names_and_namespaces()
                              if node not in own]
-                    for warning in unconnected_topics(bridge, nodes):
+                    declared = declared_parameters(bridge, nodes, PARAMETER_ANSWER_S)
+                    declared[BRIDGE_NODE] = set(bridge.list_parameters([], 0).names)
+                    for warning in (parameter_warnings(node_params, declared, dict(nodes))
+                                    + unconnected_topics(bridge, nodes)):
                         warnings.append(warning)
                         to_console(f'warning: {warning}\n')
                 else:

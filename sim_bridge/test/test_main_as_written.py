@@ -277,7 +277,7 @@ def test_two_runs_at_once_never_share_a_ros_domain(tmp_path):
 def test_a_process_run_names_the_topics_nothing_is_at_the_other_end_of(tmp_path):
     metrics, console = run_file(tmp_path, 'namespaced_loop.py', 2.0, '--no-record')
     assert metrics['run_mode'] == {'mode': 'process',
-                                   'reason': 'main() runs a loop of its own (line 27)'}
+                                   'reason': 'main() runs a loop of its own (line 28)'}
     warnings = [
         'cruiser subscribes to /robot/scan: nothing publishes it (the simulator publishes '
         '/scan: --remap /robot/scan:=/scan)',
@@ -457,3 +457,17 @@ def test_turtlebot3_scan_code_in_a_process_run_gets_the_scans_geometry(tmp_path)
                             robot='turtlebot3_burger', out_dir=tmp_path / 'burger', quiet=True,
                             record=False, plot=False)
     assert result.metrics['node_errors'] == [] and result.metrics['distance_m'] > 0.2
+
+
+def test_a_parameter_a_node_process_does_not_declare_is_a_warning(tmp_path):
+    remaps = ('--remap', '/robot/scan:=/scan', '--remap', '/robot/cmd_vel:=/cmd_vel')
+    metrics, _ = run_file(tmp_path, 'namespaced_loop.py', 3.0, '--no-record', *remaps,
+                          '--param', 'cruiser:speed=0.2', '--param', 'cruiser:sped=0.2',
+                          '--param', 'ghost:speed=0.2')
+    # Asked of the node over ROS (its list_parameters service), as `ros2 param list` asks.
+    assert metrics['warnings'] == [
+        'parameters given for node(s) ghost, but the nodes are cruiser, sim_bridge; they were '
+        'ignored',
+        "node 'cruiser' did not declare parameter 'sped' (given by --param or the params "
+        'file); it was ignored']
+    assert 0.1 < metrics['distance_m'] < 0.65  # 3 s at 0.2 m/s at most, not its 0.3 m/s
