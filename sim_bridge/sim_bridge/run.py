@@ -185,33 +185,59 @@ def parameter_warnings(params: Params, declared: dict[str, set[str] | None],
     return warnings
 
 
+def call_service(client_node, service_type: type, service: str, request: Any,
+                 timeout_s: float) -> Any | None:
+    """
+    Call ``service`` from ``client_node`` (whose executor spins in another thread), bounded.
+
+    Return the response, or None when the service does not answer within ``timeout_s`` (wall
+    s) to wait for it, and as long again to answer.
+    """
+    client = client_node.create_client(service_type, service)
+    try:
+        if not client.wait_for_service(timeout_sec=timeout_s):
+            return None
+        answered = threading.Event()
+        future = client.call_async(request)
+        future.add_done_callback(lambda _: answered.set())
+        return future.result() if answered.wait(timeout_s) else None
+    finally:
+        client_node.destroy_client(client)
+
+
 def declared_parameters(client_node, nodes: Iterable[tuple[str, str]],
                         timeout_s: float) -> dict[str, set[str] | None]:
     """
     Return the names of the parameters each of ``nodes`` declared, asked over ROS.
 
     ``nodes`` are (name, namespace) of nodes in another process; each is asked with its own
-    ``list_parameters`` service (as ``ros2 param list`` asks it), from ``client_node``, whose
-    executor spins in another thread. A node that does not answer within ``timeout_s`` (wall
-    s; no parameter services, or a main() that does not spin) is None.
+    ``list_parameters`` service (as ``ros2 param list`` asks it) from ``client_node``. A node
+    that does not answer within ``timeout_s`` (wall s; no parameter services, or a main() that
+    does not spin) is None.
     """
     from rcl_interfaces.srv import ListParameters
     declared = {}
     for name, namespace in nodes:
-        declared[name] = None
-        client = client_node.create_client(
-            ListParameters, f"{namespace.rstrip('/')}/{name}/list_parameters")
-        try:
-            if not client.wait_for_service(timeout_sec=timeout_s):
-                continue
-            answered = threading.Event()
-            future = client.call_async(ListParameters.Request())
-            future.add_done_callback(lambda _: answered.set())
-            if answered.wait(timeout_s) and future.result() is not None:
-                declared[name] = set(future.result().result.names)
-        finally:
-            client_node.destroy_client(client)
+        response = call_service(client_node, ListParameters,
+                                f"{namespace.rstrip('/')}/{name}/list_parameters",
+                                ListParameters.Request(), timeout_s)
+        declared[name] = None if response is None else set(response.result.names)
     return declared
+
+
+def parameter_of(client_node, nodes: Iterable[tuple[str, str]], name: str,
+                 timeout_s: float) -> Any:
+    """Return the value of parameter ``name`` of the first of ``nodes`` that has it, or None."""
+    from rcl_interfaces.msg import ParameterType
+    from rcl_interfaces.srv import GetParameters
+    for node, namespace in nodes:
+        response = call_service(client_node, GetParameters,
+                                f"{namespace.rstrip('/')}/{node}/get_parameters",
+                                GetParameters.Request(names=[name]), timeout_s)
+        values = [] if response is None else response.values
+        if values and values[0].type != ParameterType.PARAMETER_NOT_SET:
+            return parameter_value_to_python(values[0])
+    return None
 
 
 def unconnected_topics(bridge, nodes: Iterable[tuple[str, str]]) -> list[str]:
@@ -942,6 +968,10 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
                     nodes = [node for node in bridge.get_node_names_and_namespaces()
                              if node not in own]
                     declared = declared_parameters(bridge, nodes, PARAMETER_ANSWER_S)
+                    if setpoint is None:
+                        setpoint = parameter_of(bridge, [
+                            node for node in nodes if SETPOINT_PARAMETER in (
+                                declared[node[0]] or ())], SETPOINT_PARAMETER, PARAMETER_ANSWER_S)
                     declared[BRIDGE_NODE] = set(bridge.list_parameters([], 0).names)
                     for warning in (parameter_warnings(node_params, declared, dict(nodes))
                                     + unconnected_topics(bridge, nodes)):

@@ -471,3 +471,19 @@ def test_a_parameter_a_node_process_does_not_declare_is_a_warning(tmp_path):
         "node 'cruiser' did not declare parameter 'sped' (given by --param or the params "
         'file); it was ignored']
     assert 0.1 < metrics['distance_m'] < 0.65  # 3 s at 0.2 m/s at most, not its 0.3 m/s
+
+
+def test_a_process_run_measures_the_wall_distance_against_the_nodes_own_distance(tmp_path):
+    # No setpoint given: as in a stepped run, the node's `distance` parameter, asked over ROS.
+    from scan_pkg import wall_follow
+    from sim_bridge.node_styles import Decision
+    from sim_bridge.run import load_world, node_parameters, run_as_process
+    world = load_world('wall_follow_box')
+    params = node_parameters(world, {'wall_follow': {'distance': 0.6}}, seed=1, gui=False,
+                             start=None)
+    result = run_as_process(
+        world, wall_follow.__file__, Decision(False, 'the test runs it so'), params,
+        duration_s=3.0, out_dir=tmp_path, remap=(), ros_args=(), setpoint=None, quiet=True,
+        record=False, plot=False, field_checks=True)
+    assert result.metrics['node_errors'] == [] and result.metrics['warnings'] == []
+    assert result.metrics['wall_distance_m']['setpoint'] == 0.6
