@@ -168,11 +168,30 @@ def scan_hint(error: BaseException, code: StudentCode) -> str:
     scan = held_scan(frames, code.origin(error))
     if scan is None:
         return ''
-    beams = len(scan.ranges)
-    text = f'this scan has {geometry(beams, scan.angle_min, scan.angle_increment)}'
+    return scan_geometry(len(scan.ranges), scan.angle_min, scan.angle_increment)
+
+
+def scan_geometry(beams: int, angle_min: float, angle_increment: float) -> str:
+    """Return the geometry of a scan (angles in rad), then the TurtleBot3's when it differs."""
+    text = f'this scan has {geometry(beams, angle_min, angle_increment)}'
     lidar = turtlebot3_lidar()
     if lidar is not None and (lidar.beams, round(lidar.min_angle, 2)) != \
-            (beams, round(scan.angle_min, 2)):
+            (beams, round(angle_min, 2)):
         text += (f'; `--robot {TURTLEBOT3}` has '
                  f'{geometry(lidar.beams, lidar.min_angle, lidar.angle_increment)}')
     return text
+
+
+def printed_scan_hint(error_line: str, failing_line: str, lidar: LidarConfig) -> str:
+    """
+    Return the scan's geometry for scan code of a node run as its own process, or ''.
+
+    Its error is only the text it printed (``Type: message``) and its failing line's code: an
+    IndexError, or a reduction of no data, on a line that reads ``ranges``, gets the geometry
+    of the scans the simulator's ``lidar`` sends (as :func:`scan_hint` gives a stepped node).
+    """
+    kind = error_line.partition(':')[0]
+    if 'ranges' not in failing_line or not (
+            kind == 'IndexError' or kind == 'ValueError' and EMPTY_DATA.search(error_line)):
+        return ''
+    return scan_geometry(lidar.beams, lidar.min_angle, lidar.angle_increment)

@@ -55,12 +55,20 @@ import traceback
 from typing import Any
 
 from sim_bridge.grading import LOG_NAME, run_scenario, RunReport
+from sim_bridge.process_run import NODE_START_TIMEOUT_S
 from sim_bridge.scenario import ScenarioRun
+from sim_bridge.targets import run_mode
 
 #: Wall seconds a run may take: BUDGET_BASE_S (start-up, writing outputs) plus this many per
-#: simulated second (a run slower than real time is a node doing far too much per callback).
+#: simulated second (a stepped run slower than real time is a node doing far too much per
+#: callback).
 BUDGET_BASE_S = 60.0
 BUDGET_PER_SIM_S = 1.0
+#: A node file run as its own process (sim_bridge.process_run) runs at real time, after its
+#: process has joined the ROS graph (up to NODE_START_TIMEOUT_S): its budget allows this many
+#: wall seconds per simulated second, for a loaded machine whose live simulator falls behind
+#: the wall clock.
+PROCESS_BUDGET_PER_SIM_S = 2.0
 #: Wall seconds without a simulated second passing before the run is stopped.
 DEFAULT_STALL_S = 30.0
 #: Wall seconds a child may take to start (rclpy, pybullet, the nodes' constructors) before
@@ -124,10 +132,18 @@ class Limits:
         """Return the wall seconds (s) a run may go without progress, before or once started."""
         return self.stall_s if started else max(self.stall_s, self.startup_s)
 
-    def budget_s(self, duration_s: float) -> float:
-        """Return the wall-clock budget (s) of a run of ``duration_s`` simulated seconds."""
+    def budget_s(self, duration_s: float, process: bool = False) -> float:
+        """
+        Return the wall-clock budget (s) of a run of ``duration_s`` simulated seconds.
+
+        ``process``: the run's node file runs as its own process, at real time (see
+        PROCESS_BUDGET_PER_SIM_S); otherwise it is stepped, far faster than real time.
+        """
         if self.timeout_s is not None:
             return self.timeout_s
+        if process:
+            return (BUDGET_BASE_S + NODE_START_TIMEOUT_S
+                    + PROCESS_BUDGET_PER_SIM_S * duration_s)
         return BUDGET_BASE_S + BUDGET_PER_SIM_S * duration_s
 
 
@@ -139,6 +155,18 @@ class Job:
     out_dir: Path
     limits: Limits
     options: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def budget_s(self) -> float:
+        """
+        Return the run's wall-clock budget (s): its limits' for its duration and run mode.
+
+        The mode is read from the node files' source, as the runner reads it
+        (sim_bridge.targets.run_mode): a file that cannot be stepped runs at real time.
+        """
+        scenario = self.run.scenario
+        process = any(not run_mode(target).steppable for target in scenario.nodes)
+        return self.limits.budget_s(scenario.duration_s, process)
 
 
 def trimmed_environment(scratch: Path, environ: dict[str, str] | None = None) -> dict[str, str]:
@@ -243,7 +271,7 @@ class Child:
 
     def __init__(self, job: Job) -> None:
         self.job = job
-        self.budget_s = job.limits.budget_s(job.run.scenario.duration_s)
+        self.budget_s = job.budget_s
         self.sim_s: float | None = None
         self.result: dict[str, Any] | None = None
         self.stop_reason: str | None = None
@@ -578,6 +606,7 @@ def run_job(job: Job, status: multiprocessing.connection.Connection, scratch: Pa
     First it makes itself what the module docstring says: working directory ``scratch``,
     environment ``environ``, bounded memory.
     """
+    budget_s = job.budget_s  # as the supervisor's parent has it: read before the chdir
     for stream in (sys.stdout, sys.stderr):
         stream.reconfigure(line_buffering=True)
     os.chdir(scratch)
@@ -594,14 +623,13 @@ def run_job(job: Job, status: multiprocessing.connection.Connection, scratch: Pa
     def stop(signum: int, frame: Any) -> None:
         if signum == signal.SIGUSR1:
             raise RunStopped(f'no reply for {job.limits.stall_limit_s(started):g} s')
-        raise RunStopped(f'wall-clock budget of {job.limits.budget_s(duration):g} s used up')
+        raise RunStopped(f'wall-clock budget of {budget_s:g} s used up')
 
     def progress(sim_s: float, duration_s: float) -> None:
         nonlocal started
         started = True
         status.send(('progress', sim_s))
 
-    duration = job.run.scenario.duration_s
     signal.signal(signal.SIGUSR1, stop)
     signal.signal(signal.SIGUSR2, stop)
     wall_start = time.perf_counter()

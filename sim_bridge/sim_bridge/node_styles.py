@@ -64,14 +64,14 @@ def _sleep_seconds(call: ast.Call) -> float | None:
 
 def _entry_reason(entry: list[ast.stmt], node_classes: set[str]) -> str | None:
     """Return why the entry code (main() and the __main__ block) cannot be stepped, or None."""
-    constructed = []
     for statement in entry:
         where = 'main()' if isinstance(statement, ast.FunctionDef) else 'the __main__ block'
         for item in ast.walk(statement):
             if isinstance(item, (ast.While, ast.For)):
                 body_calls = {_call_name(c) for c in ast.walk(item) if isinstance(c, ast.Call)}
-                what = 'rclpy.spin_once' if 'spin_once' in body_calls else 'a loop'
-                return f'{where} loops on {what} (line {item.lineno})'
+                if 'spin_once' in body_calls:
+                    return f'{where} loops on rclpy.spin_once (line {item.lineno})'
+                return f'{where} runs a loop of its own (line {item.lineno})'
             if not isinstance(item, ast.Call):
                 continue
             name = _call_name(item)
@@ -84,18 +84,97 @@ def _entry_reason(entry: list[ast.stmt], node_classes: set[str]) -> str | None:
                 return f'{where} calls {name} (line {item.lineno})'
             if _sleep_seconds(item) is not None:
                 return f'{where} sleeps (line {item.lineno})'
-            if name in node_classes:
-                constructed.append(item.lineno)
+    constructed = _constructed(entry, node_classes)
     if len(constructed) > 1:
-        return f'main() starts several nodes (lines {", ".join(map(str, constructed))})'
+        lines = ', '.join(str(call.lineno) for call in constructed)
+        return f'main() starts several nodes (lines {lines})'
     return None
 
 
-def _callback_sleep(node_class: ast.ClassDef) -> str | None:
-    """Return why a callback of ``node_class`` that sleeps cannot be stepped, or None."""
-    methods = {f.name: f for f in node_class.body if isinstance(f, ast.FunctionDef)}
+def _constructed(entry: list[ast.stmt], node_classes: set[str]) -> list[ast.Call]:
+    """Return the calls in the entry code that construct one of ``node_classes``."""
+    return [item for statement in entry for item in ast.walk(statement)
+            if isinstance(item, ast.Call) and _call_name(item) in node_classes]
+
+
+def _node_classes(tree: ast.Module) -> list[ast.ClassDef]:
+    """
+    Return the file's Node subclasses, in the file's order.
+
+    A class derived from Node, or from another of them (a helper base class of the course's:
+    ``class Avoider(LaserNode)``).
+    """
+    classes = [s for s in tree.body if isinstance(s, ast.ClassDef)]
+    names: set[str] = set()
+    while True:
+        found = {c.name for c in classes if any(
+            _is_node_base(base) or isinstance(base, ast.Name) and base.id in names
+            for base in c.bases)}
+        if found == names:
+            return [c for c in classes if c.name in names]
+        names = found
+
+
+def _most_derived(classes: list[ast.ClassDef]) -> list[ast.ClassDef]:
+    """Return the classes of ``classes`` that no other of them derives from."""
+    bases = {base.id for c in classes for base in c.bases if isinstance(base, ast.Name)}
+    return [c for c in classes if c.name not in bases]
+
+
+def _entry(tree: ast.Module) -> list[ast.stmt]:
+    """Return the file's entry code: its ``__main__`` block and its ``main()``."""
+    entry = [s for s in tree.body if _is_main_guard(s)]
+    return entry + [s for s in tree.body if isinstance(s, ast.FunctionDef) and s.name == 'main']
+
+
+def _chosen_class(tree: ast.Module) -> str | None:
+    """
+    Return the Node subclass the file runs: the one its entry code constructs, once.
+
+    Without such a call, the file's one most-derived Node subclass; None when it has none, or
+    several and nothing says which.
+    """
+    classes = _node_classes(tree)
+    constructed = {_call_name(call)
+                   for call in _constructed(_entry(tree), {c.name for c in classes})}
+    candidates = constructed or {c.name for c in _most_derived(classes)}
+    return next(iter(candidates)) if len(candidates) == 1 else None
+
+
+def node_class(source: str) -> str | None:
+    """
+    Return the name of the Node subclass the node file ``source`` runs, or None.
+
+    The one its ``main()`` (or ``__main__`` block) constructs, else its one most-derived Node
+    subclass (a base class of helpers is not the node); None when the file does not parse.
+    """
+    try:
+        return _chosen_class(ast.parse(source))
+    except (SyntaxError, ValueError):
+        return None
+
+
+def _methods(node_class: ast.ClassDef, classes: dict[str, ast.ClassDef],
+             seen: frozenset[str] = frozenset()) -> dict[str, ast.FunctionDef]:
+    """Return ``node_class``'s methods by name, with those it inherits from ``classes``."""
+    methods = {}
+    seen = seen | {node_class.name}
+    for base in node_class.bases:
+        if isinstance(base, ast.Name) and base.id in classes and base.id not in seen:
+            methods.update(_methods(classes[base.id], classes, seen))
+    methods.update((f.name, f) for f in node_class.body if isinstance(f, ast.FunctionDef))
+    return methods
+
+
+def _callback_sleep(node_class: ast.ClassDef, classes: dict[str, ast.ClassDef]) -> str | None:
+    """
+    Return why a callback of ``node_class`` that sleeps cannot be stepped, or None.
+
+    Its methods include those it inherits from ``classes`` (the file's other Node subclasses).
+    """
+    methods = _methods(node_class, classes)
     callbacks = set()
-    for call in ast.walk(node_class):
+    for call in (c for method in methods.values() for c in ast.walk(method)):
         index = CALLBACK_ARGUMENT.get(_call_name(call)) if isinstance(call, ast.Call) else None
         if index is not None and len(call.args) > index:
             callback = call.args[index]
@@ -129,19 +208,22 @@ def decide(source: str) -> Decision:
         tree = ast.parse(source)
     except (SyntaxError, ValueError):
         return Decision(True, 'the file does not parse: the loader says why')
-    classes = [s for s in tree.body
-               if isinstance(s, ast.ClassDef) and any(map(_is_node_base, s.bases))]
-    entry = [s for s in tree.body if _is_main_guard(s)]
-    entry += [s for s in tree.body if isinstance(s, ast.FunctionDef) and s.name == 'main']
+    classes = _node_classes(tree)
+    entry = _entry(tree)
     if not entry:
         return Decision(True, 'no main(): its Node subclass is stepped')
     reason = _entry_reason(entry, {c.name for c in classes})
-    if reason is None and len(classes) != 1:
-        reason = (f'it defines {len(classes)} Node subclasses' if classes
+    chosen = _chosen_class(tree)
+    if reason is None and chosen is None:
+        leaves = _most_derived(classes)
+        reason = (f'it defines {len(leaves)} Node subclasses' if leaves
                   else 'it defines no Node subclass')
         reason += ': main() decides what runs'
-    for node_class in classes:
-        reason = reason or _callback_sleep(node_class)
+    by_name = {c.name: c for c in classes}
+    for name in by_name:
+        reason = reason or _callback_sleep(by_name[name], by_name)
     if reason is not None:
         return Decision(False, reason)
-    return Decision(True, 'main() only spins its one Node subclass')
+    if len(classes) == 1:
+        return Decision(True, 'main() only spins its one Node subclass')
+    return Decision(True, f'main() only spins its Node subclass {chosen}')

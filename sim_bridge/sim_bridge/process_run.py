@@ -10,8 +10,10 @@ other and nothing else. Starting, printing and stopping the process is sim_bridg
 import fcntl
 import os
 from pathlib import Path
+import re
 import sys
-from typing import ContextManager, Mapping, Sequence
+import traceback
+from typing import ContextManager, Iterable, Mapping, Sequence
 
 from sim_bridge.live import DISCOVERY_VARIABLE, ProcessSpec
 from sim_bridge.node_styles import has_main_guard
@@ -21,6 +23,13 @@ from sim_bridge.run_environment import environment_set
 #: open ports for on Linux, away from the default domain 0.
 DOMAIN_BASE = 1
 DOMAIN_COUNT = 100
+#: Longest wait (wall s) for a node run as a process to join the ROS graph.
+NODE_START_TIMEOUT_S = 20.0
+#: Lines of a node process's output kept to read its traceback from, should it die.
+OUTPUT_TAIL_LINES = 400
+#: A frame of a traceback as Python prints it, and the error a ROS-module hint reads.
+FRAME_LINE = re.compile(r'  File "(?P<file>.+)", line (?P<line>\d+), in (?P<name>.+)$')
+MISSING_MODULE = re.compile(r"ModuleNotFoundError: No module named '(?P<name>[\w.]+)'")
 #: Where the runs on this machine reserve their domains, a lock file each: one folder for all
 #: of them, whatever a run's TMPDIR (a graded run's is its own scratch folder).
 LOCK_FOLDER = Path('/tmp')
@@ -89,3 +98,46 @@ def node_spec(path: Path, ros_arguments: Sequence[str], python: str = sys.execut
 def private_ros_environment(domain_id: int) -> ContextManager[None]:
     """Put this process on domain ``domain_id``, discovery local, while rclpy starts in it."""
     return environment_set({**process_environment({}, domain_id), 'ROS_STATIC_PEERS': None})
+
+
+def last_traceback(lines: Iterable[str]) -> tuple[list[traceback.FrameSummary], str] | None:
+    """
+    Return the frames (outermost first) and the error line of the last traceback in ``lines``.
+
+    ``lines`` are what a Python process printed, as Python prints an uncaught exception; None
+    when they hold no traceback. Only the last of chained exceptions is read: the one that
+    ended the process.
+    """
+    lines = list(lines)
+    starts = [index for index, line in enumerate(lines)
+              if line.startswith('Traceback (most recent call last):')]
+    if not starts:
+        return None
+    frames: list[list] = []
+    for line in lines[starts[-1] + 1:]:
+        match = FRAME_LINE.match(line)
+        if match:
+            frames.append([match['file'], int(match['line']), match['name'], ''])
+        elif line.startswith('    '):
+            code = line.strip()
+            if frames and not frames[-1][3] and code.strip('^~ '):  # not 3.11's carets
+                frames[-1][3] = code
+        elif line.strip():
+            summaries = [traceback.FrameSummary(file, number, name, lookup_line=False,
+                                                line=code)
+                         for file, number, name, code in frames]
+            return summaries, line.strip()
+    return None
+
+
+def printed_error(error_line: str) -> BaseException | None:
+    """
+    Return what a hint needs of the error a node's process printed (``Type: message``), or None.
+
+    A ``ModuleNotFoundError: No module named 'x'`` is that error, naming ``x``
+    (sim_bridge.hints.ros_module_hint reads it); other errors are not rebuilt.
+    """
+    match = MISSING_MODULE.match(error_line)
+    if match is None:
+        return None
+    return ModuleNotFoundError(error_line.partition(': ')[2], name=match['name'])

@@ -9,6 +9,7 @@ runs before physics advances, see sim_bridge.stepping), as if each had been star
 """
 
 import argparse
+from collections import deque
 from dataclasses import dataclass
 import difflib
 import functools
@@ -24,19 +25,20 @@ import sys
 import tempfile
 import threading
 import time
-from typing import Any, Callable, Iterable, Sequence
+from typing import Any, Callable, Iterable, Mapping, Sequence
 
 from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.parameter import get_parameter_value, Parameter, parameter_value_to_python
 from rclpy.serialization import serialize_message
-from sim_bridge.hints import ros_module_hint, scan_hint
-from sim_bridge.live import LiveRun, print_line
+from sim_bridge.hints import printed_scan_hint, ros_module_hint, scan_hint
+from sim_bridge.live import LiveRun, prefixed, print_line, process_names
 from sim_bridge.metrics import compute_metrics
 from sim_bridge.node_styles import Decision
 from sim_bridge.paths import find_world
 from sim_bridge.plot import plot_trajectory, SCANS_DRAWN
 from sim_bridge.process_run import (
-    DomainReservation, node_spec, private_ros_environment, process_environment)
+    DomainReservation, last_traceback, node_spec, NODE_START_TIMEOUT_S, OUTPUT_TAIL_LINES,
+    printed_error, private_ros_environment, process_environment)
 from sim_bridge.record import BagRecorder, DEFAULT_TOPICS, message_type_name
 from sim_bridge.report_text import json_safe
 from sim_bridge.run_environment import (
@@ -62,9 +64,9 @@ SETPOINT_PARAMETER = 'distance'
 ROS_TOPICS = ('/rosout', '/parameter_events', '/clock')
 PROGRESS_AFTER_S = 2.0
 GUI_FRAME_RATE = 60
-#: Longest wait (wall s) for a node run as a process to join the ROS graph.
-NODE_START_TIMEOUT_S = 20.0
 NANOSECONDS_PER_SECOND = 10 ** 9
+#: Longest wait (wall s) for a node run as a process to list its parameters.
+PARAMETER_ANSWER_S = 2.0
 
 Params = dict[str, dict[str, Any]]
 # The runner's own nodes serve nothing: the service is one more entity in every wait.
@@ -129,6 +131,19 @@ def check_remap(rule: str) -> str:
     return rule
 
 
+def gui_problem(environ: Mapping[str, str], platform: str = sys.platform) -> str | None:
+    """
+    Return why ``--gui`` cannot open the pybullet window here, or None.
+
+    On Linux the window needs an X display (pybullet's GUI speaks X11, XWayland included);
+    without one pybullet ends the whole process with 'cannot connect to X server'.
+    """
+    if platform.startswith('linux') and not environ.get('DISPLAY'):
+        return ('--gui needs a display, and DISPLAY is not set (a terminal without one, e.g. '
+                'over ssh): run without --gui, or under xvfb-run')
+    return None
+
+
 def nearest_topic(topic: str, topics: Iterable[str]) -> str | None:
     """Return the topic of ``topics`` most like ``topic``: of the same last name, else by text."""
     topics = sorted(topics)
@@ -136,6 +151,124 @@ def nearest_topic(topic: str, topics: Iterable[str]) -> str | None:
     same = [candidate for candidate in topics if candidate.rpartition('/')[2] == base]
     near = same or difflib.get_close_matches(topic, topics, n=1)
     return near[0] if near else None
+
+
+def parameter_warnings(params: Params, declared: dict[str, set[str] | None],
+                       targets: Iterable[str]) -> list[str]:
+    """
+    Return a warning for each node in ``params`` not running, and each parameter not declared.
+
+    ``declared`` holds the parameter names each running node declared, by node name (the
+    simulator's among them; None for a node that did not say: nothing is warned of it);
+    ``targets`` names the target nodes. ROS ignores a params file's entry for a node that is
+    not running, and rclpy an override of a parameter a node never declares: a misspelt name
+    would otherwise grade the default in silence. A parameter for every node (EVERY_NODE) is
+    one that none of the target nodes declares.
+    """
+    targets = list(targets)
+    absent = [name for name in params if name not in declared and name != EVERY_NODE]
+    warnings = [f"parameters given for node(s) {', '.join(absent)}, but the nodes are "
+                f"{', '.join(declared)}; they were ignored"] if absent else []
+    for node_name, values in params.items():
+        for name in values:
+            if name == 'use_sim_time' or node_name in absent or (
+                    node_name == BRIDGE_NODE and name in RUNNER_BRIDGE_PARAMETERS):
+                continue
+            if node_name == EVERY_NODE:
+                names = [declared[target] for target in targets]
+                if None not in names and not any(name in each for each in names):
+                    warnings.append(f"no node declared parameter '{name}' (given for every "
+                                    f'node, {EVERY_NODE}); it was ignored')
+            elif declared[node_name] is not None and name not in declared[node_name]:
+                warnings.append(f"node '{node_name}' did not declare parameter '{name}' "
+                                '(given by --param or the params file); it was ignored')
+    return warnings
+
+
+def call_service(client_node, service_type: type, service: str, request: Any,
+                 timeout_s: float) -> Any | None:
+    """
+    Call ``service`` from ``client_node`` (whose executor spins in another thread), bounded.
+
+    Return the response, or None when the service does not answer within ``timeout_s`` (wall
+    s) to wait for it, and as long again to answer.
+    """
+    client = client_node.create_client(service_type, service)
+    try:
+        if not client.wait_for_service(timeout_sec=timeout_s):
+            return None
+        answered = threading.Event()
+        future = client.call_async(request)
+        future.add_done_callback(lambda _: answered.set())
+        return future.result() if answered.wait(timeout_s) else None
+    finally:
+        client_node.destroy_client(client)
+
+
+def declared_parameters(client_node, nodes: Iterable[tuple[str, str]],
+                        timeout_s: float) -> dict[str, set[str] | None]:
+    """
+    Return the names of the parameters each of ``nodes`` declared, asked over ROS.
+
+    ``nodes`` are (name, namespace) of nodes in another process; each is asked with its own
+    ``list_parameters`` service (as ``ros2 param list`` asks it) from ``client_node``. A node
+    that does not answer within ``timeout_s`` (wall s; no parameter services, or a main() that
+    does not spin) is None.
+    """
+    from rcl_interfaces.srv import ListParameters
+    declared = {}
+    for name, namespace in nodes:
+        response = call_service(client_node, ListParameters,
+                                f"{namespace.rstrip('/')}/{name}/list_parameters",
+                                ListParameters.Request(), timeout_s)
+        declared[name] = None if response is None else set(response.result.names)
+    return declared
+
+
+def parameter_of(client_node, nodes: Iterable[tuple[str, str]], name: str,
+                 timeout_s: float) -> Any:
+    """Return the value of parameter ``name`` of the first of ``nodes`` that has it, or None."""
+    from rcl_interfaces.msg import ParameterType
+    from rcl_interfaces.srv import GetParameters
+    for node, namespace in nodes:
+        response = call_service(client_node, GetParameters,
+                                f"{namespace.rstrip('/')}/{node}/get_parameters",
+                                GetParameters.Request(names=[name]), timeout_s)
+        values = [] if response is None else response.values
+        if values and values[0].type != ParameterType.PARAMETER_NOT_SET:
+            return parameter_value_to_python(values[0])
+    return None
+
+
+def unconnected_topics(bridge, nodes: Iterable[tuple[str, str]]) -> list[str]:
+    """
+    Return a warning for each topic one of ``nodes`` uses with nothing at its other end.
+
+    ``nodes`` are (name, namespace) of the target nodes, in this process or another on the
+    run's ROS domain. A subscription that nothing publishes, a publisher that nothing
+    subscribes to, read from the ROS graph as the SimBridge node ``bridge`` sees it, each with
+    the simulator's topic most like it and the remapping rule that would connect them.
+    ROS_TOPICS are left out.
+    """
+    ends = {'publishes': {publisher.topic_name for publisher in bridge.publishers},
+            'subscribes to': {sub.topic_name for sub in bridge.subscriptions}}
+    uses = (('subscribes to', bridge.get_subscriber_names_and_types_by_node,
+             bridge.count_publishers, 'nothing publishes it', 'publishes'),
+            ('publishes', bridge.get_publisher_names_and_types_by_node,
+             bridge.count_subscribers, 'nothing subscribes to it', 'subscribes to'))
+    warnings = []
+    for name, namespace in nodes:
+        for verb, topics_of, count, nothing, other_end in uses:
+            for topic, _ in topics_of(name, namespace):
+                if topic in ROS_TOPICS or count(topic):
+                    continue
+                near = nearest_topic(topic, ends[other_end] - set(ROS_TOPICS))
+                hint = (f' (the simulator {other_end} {near}: --remap {topic}:={near})'
+                        if near else '')
+                warning = f'{name} {verb} {topic}: {nothing}{hint}'
+                if warning not in warnings:
+                    warnings.append(warning)
+    return warnings
 
 
 def load_world(world: str, robot: str | None = None,
@@ -303,14 +436,15 @@ class SteppedRun:
 
     Every node but the bridge gets the command line its own process would have
     (``--ros-args --params-file <params.yaml> -p use_sim_time:=true -r FROM:=TO ...``, the
-    remapping rules ``remap``); the bridge reads only ``bridge_params_file``, and neither it nor
-    the runner's own nodes are remapped. The run's DDS traffic stays in the process
-    (``ROS_AUTOMATIC_DISCOVERY_RANGE=OFF``, see README). RunError when rcl cannot read the
-    arguments (a remapping rule it refuses).
+    remapping rules ``remap``, then ``ros_args`` as given: ``--ros-args ...``); the bridge
+    reads only ``bridge_params_file``, and neither it nor the runner's own nodes are remapped.
+    The run's DDS traffic stays in the process (``ROS_AUTOMATIC_DISCOVERY_RANGE=OFF``, see
+    README). RunError when rcl cannot read the arguments (a remapping rule it refuses).
     """
 
     def __init__(self, params_file: Path, quiet: bool, code: StudentCode = StudentCode(), *,
-                 bridge_params_file: Path | None = None, remap: Sequence[str] = ()):
+                 bridge_params_file: Path | None = None, remap: Sequence[str] = (),
+                 ros_args: Sequence[str] = ()):
         import rclpy
         from rclpy.impl.implementation_singleton import rclpy_implementation
         from rclpy.signals import SignalHandlerOptions
@@ -318,7 +452,8 @@ class SteppedRun:
         self.node_arguments = ['--ros-args', '--params-file', str(params_file),
                                '-p', 'use_sim_time:=true',
                                *(['--disable-stdout-logs'] if quiet else []),
-                               *(argument for rule in remap for argument in ('-r', rule))]
+                               *(argument for rule in remap for argument in ('-r', rule)),
+                               *ros_args]
         self.bridge_arguments = ['--ros-args', '--params-file',
                                  str(bridge_params_file or params_file)]
         # The default context, as the nodes' own code uses it. Ctrl-C stays a
@@ -395,64 +530,16 @@ class SteppedRun:
         return None
 
     def parameter_warnings(self, params: Params) -> list[str]:
-        """
-        Return a warning for each node in ``params`` not running, and each parameter not declared.
-
-        ROS ignores a params file's entry for a node that is not running, and rclpy an override
-        of a parameter a node never declares: a misspelt name would otherwise grade the
-        default in silence. A parameter for every node (EVERY_NODE) is one that none of the
-        target nodes declares.
-        """
-        nodes = {node.get_name(): node for node in self.nodes}
-        targets = [node for node in self.nodes if node is not self.bridge]
-        absent = [name for name in params if name not in nodes and name != EVERY_NODE]
-        warnings = [f"parameters given for node(s) {', '.join(absent)}, but the nodes are "
-                    f"{', '.join(nodes)}; they were ignored"] if absent else []
-        for node_name, values in params.items():
-            for name in values:
-                if name == 'use_sim_time' or node_name in absent or (
-                        node_name == BRIDGE_NODE and name in RUNNER_BRIDGE_PARAMETERS):
-                    continue
-                if node_name == EVERY_NODE:
-                    if not any(node.has_parameter(name) for node in targets):
-                        warnings.append(f"no node declared parameter '{name}' (given for every "
-                                        f'node, {EVERY_NODE}); it was ignored')
-                elif not nodes[node_name].has_parameter(name):
-                    warnings.append(f"node '{node_name}' did not declare parameter '{name}' "
-                                    '(given by --param or the params file); it was ignored')
-        return warnings
+        """Return a warning for each node in ``params`` not running, and each not declared."""
+        declared = {node.get_name(): set(node.list_parameters([], 0).names)
+                    for node in self.nodes}
+        targets = [node.get_name() for node in self.nodes if node is not self.bridge]
+        return parameter_warnings(params, declared, targets)
 
     def unconnected_topics(self) -> list[str]:
-        """
-        Return a warning for each topic a target node uses with nothing at its other end.
-
-        A subscription that nothing publishes, a publisher that nothing subscribes to, read
-        from the ROS graph, each with the simulator's topic most like it and the remapping
-        rule that would connect them. ROS_TOPICS are left out.
-        """
-        bridge = self.bridge
-        ends = {'publishes': {publisher.topic_name for publisher in bridge.publishers},
-                'subscribes to': {sub.topic_name for sub in bridge.subscriptions}}
-        warnings = []
-        for node in self.nodes:
-            if node is bridge:
-                continue
-            name, namespace = node.get_name(), node.get_namespace()
-            uses = (('subscribes to', node.get_subscriber_names_and_types_by_node,
-                     node.count_publishers, 'nothing publishes it', 'publishes'),
-                    ('publishes', node.get_publisher_names_and_types_by_node,
-                     node.count_subscribers, 'nothing subscribes to it', 'subscribes to'))
-            for verb, topics_of, count, nothing, other_end in uses:
-                for topic, _ in topics_of(name, namespace):
-                    if topic in ROS_TOPICS or count(topic):
-                        continue
-                    near = nearest_topic(topic, ends[other_end] - set(ROS_TOPICS))
-                    hint = (f' (the simulator {other_end} {near}: --remap {topic}:={near})'
-                            if near else '')
-                    warning = f'{name} {verb} {topic}: {nothing}{hint}'
-                    if warning not in warnings:
-                        warnings.append(warning)
-        return warnings
+        """Return a warning for each topic a target node uses with nothing at its other end."""
+        return unconnected_topics(self.bridge, [(node.get_name(), node.get_namespace())
+                                                for node in self.nodes if node is not self.bridge])
 
     def parameter(self, name: str) -> Any:
         """Return the value of parameter ``name`` of the first node that has it, else None."""
@@ -618,7 +705,8 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
                    seed: int = 0, params: Params | None = None,
                    out_dir: Path | str | None = None,
                    start: Sequence[float] | str | None = None, robot: str | None = None,
-                   remap: Sequence[str] = (), setpoint: float | None = None,
+                   remap: Sequence[str] = (), ros_args: Sequence[str] = (),
+                   setpoint: float | None = None,
                    quiet: bool = False,
                    record: bool = True, plot: bool = True, gui: bool = False,
                    field_checks: bool = True,
@@ -630,6 +718,8 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
     pose (x m, y m, yaw rad), or is 'mirrored' to put the world's target on the robot's left;
     ``robot`` names a robot model spawned instead of the world's own (see :func:`load_world`);
     ``remap`` holds ROS remapping rules (``FROM:=TO``, ``NODE:FROM:=TO``) for the target nodes;
+    ``ros_args`` (``--ros-args ...``, as given after ``ros2 run``'s executable) reach them
+    unchanged;
     ``setpoint`` is the wall distance (m) ``wall_distance_m`` is measured against, by default
     the value of a node's ``distance`` parameter (SETPOINT_PARAMETER), if one has it.
     What the world's files hold that the simulator does not simulate (``World.ignored``) is
@@ -650,6 +740,8 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
     if not (math.isfinite(duration_s) and duration_s > 0):
         raise RunError(f'duration must be a positive number of seconds, got {duration_s}')
     remap = [check_remap(rule) for rule in remap]
+    if gui and gui_problem(os.environ):
+        raise RunError(gui_problem(os.environ))
     world_model = load_world(world, robot, start)
     node_params = node_parameters(world_model, params, seed=seed, gui=gui, start=start,
                                   robot=robot)
@@ -663,8 +755,8 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
                            'run takes one node file: run it alone')
         return run_as_process(
             world_model, target, mode, node_params, duration_s=duration_s, out_dir=out_dir,
-            remap=remap, setpoint=setpoint, quiet=quiet, record=record, plot=plot,
-            field_checks=field_checks, progress=progress)
+            remap=remap, ros_args=ros_args, setpoint=setpoint, quiet=quiet, record=record,
+            plot=plot, field_checks=field_checks, progress=progress)
     run_modes = {'mode': 'stepped', 'reason': '; '.join(mode.reason for mode in modes)}
 
     node_errors, warnings, ended_by = [], [], None
@@ -686,7 +778,7 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
         bridge_params_file = Path(scratch) / f'{BRIDGE_NODE}.yaml'
         write_params_file(bridge_params_file, {BRIDGE_NODE: node_params[BRIDGE_NODE]})
         run = SteppedRun(params_file, quiet, code, bridge_params_file=bridge_params_file,
-                         remap=remap)
+                         remap=remap, ros_args=ros_args)
         bag, interrupt, outputs_open = None, UserInterrupt(), False
         try:
             bridge = run.start_simulator(SimBridge)
@@ -794,6 +886,7 @@ class LiveGraph:
 
 def run_as_process(world_model: World, target: str, mode: Decision, node_params: Params, *,
                    duration_s: float, out_dir: Path, remap: Sequence[str],
+                   ros_args: Sequence[str],
                    setpoint: float | None, quiet: bool, record: bool, plot: bool,
                    field_checks: bool,
                    progress: Callable[[float, float], None] | None = None) -> RunResult:
@@ -829,7 +922,8 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
         write_params_file(bridge_params_file, {BRIDGE_NODE: node_params[BRIDGE_NODE]})
         spec = node_spec(path, ['--ros-args', '--params-file', str(params_file),
                                 '-p', 'use_sim_time:=true',
-                                *(argument for rule in remap for argument in ('-r', rule))])
+                                *(argument for rule in remap for argument in ('-r', rule)),
+                                *ros_args])
         context = Context()
         with private_ros_environment(domain.domain_id):
             rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
@@ -846,7 +940,15 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
             bag = open_outputs(out_dir, params_file, record)
             recorder.record(bag)
             outputs_open = True
-            out = (lambda line: None) if quiet else print_line
+            tail: deque[str] = deque(maxlen=OUTPUT_TAIL_LINES)
+            prefix = prefixed(process_names([spec])[0], '')
+
+            def out(line: str) -> None:
+                if line.startswith(prefix):  # the node's own line, not launch's about it
+                    tail.append(line[len(prefix):])
+                if not quiet:
+                    print_line(line)
+
             with LiveRun([spec], env=env, out=out) as live, interrupt:
                 live.start()
                 name = live.names[0]
@@ -860,12 +962,28 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
                     live.pump(0.05)
                     if progress is not None:
                         progress(min(bridge.sim.time, duration_s), duration_s)
-                if name in live.returncodes:
+                if name not in live.returncodes:  # its nodes are still in the graph
+                    own = {(node.get_name(), node.get_namespace())
+                           for node in executor.get_nodes()}
+                    nodes = [node for node in bridge.get_node_names_and_namespaces()
+                             if node not in own]
+                    declared = declared_parameters(bridge, nodes, PARAMETER_ANSWER_S)
+                    if setpoint is None:
+                        setpoint = parameter_of(bridge, [
+                            node for node in nodes if SETPOINT_PARAMETER in (
+                                declared[node[0]] or ())], SETPOINT_PARAMETER, PARAMETER_ANSWER_S)
+                    declared[BRIDGE_NODE] = set(bridge.list_parameters([], 0).names)
+                    for warning in (parameter_warnings(node_params, declared, dict(nodes))
+                                    + unconnected_topics(bridge, nodes)):
+                        warnings.append(warning)
+                        to_console(f'warning: {warning}\n')
+                else:
                     code = live.returncodes[name]
                     ended = (f'{name} ended (exit status {code}) at {bridge.sim.time:g} s of '
                              f'its {duration_s:g} s')
                     if code:
-                        node_errors.append({'node': target_name(target), 'error': ended})
+                        node_errors.append(process_error(target_name(target), ended, tail,
+                                                         path, bridge.sim.lidar_config))
                     else:  # its own rclpy.shutdown() ended it: the run ends there
                         ended_by = ended
                         warnings.append(ended)
@@ -888,6 +1006,31 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
         title=f'{world_model.name}: {target_name(target)}', setpoint=setpoint,
         wall_start=wall_start, node_errors=node_errors, warnings=warnings, ended_by=ended_by,
         run_mode={'mode': 'process', 'reason': mode.reason})
+
+
+def process_error(node: str, ended: str, output: Iterable[str], path: Path, lidar: Any) -> dict:
+    """
+    Return the node error of the node file ``path`` whose process ended with an error status.
+
+    ``ended`` says when. What the process printed last (``output``) gives the error and the
+    deepest line of the node's own code, as a stepped run reports them, with the node's part of
+    the traceback and a hint: for a module of a ROS installation (hints.ros_module_hint), or
+    the geometry of the scans of the simulator's ``lidar`` (a LidarConfig) for scan code
+    written for another lidar (hints.printed_scan_hint).
+    """
+    printed = last_traceback(output)
+    if printed is None:  # os._exit(), a signal: only the status says anything
+        return {'node': node, 'error': ended}
+    frames, error_line = printed
+    code = StudentCode.of([path])
+    own = code.frames(frames)
+    hint = (ros_module_hint(printed_error(error_line))
+            or printed_scan_hint(error_line, own[-1].line if own else '', lidar))
+    return json_safe({
+        'node': node,
+        'error': f'{ended}: {error_line}{code.stack_origin(frames)}'
+                 + (f' ({hint})' if hint else ''),
+        'traceback': code.stack_traceback(frames, [error_line + '\n'])})
 
 
 def to_console(text: str) -> None:
@@ -947,7 +1090,8 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(
         prog='python -m sim_bridge.run', description=__doc__.strip().splitlines()[0],
         epilog='TARGET: a console script (wall_follow), a module (scan_pkg.wall_follow) or a '
-               '.py file, optionally followed by :ClassName.')
+               '.py file, optionally followed by :ClassName. Arguments from --ros-args on go '
+               "to the nodes unchanged, as after ros2 run's executable.")
     parser.add_argument('--world', required=True,
                         help='world name (worlds/<name>.yaml) or path to a world file')
     parser.add_argument('--node', action='append', required=True, metavar='TARGET',
@@ -981,8 +1125,16 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run from the command line; return 0 when the run completed, 1 if a node failed."""
-    args = parse_args(argv)
+    """
+    Run from the command line; return 0 when the run completed, 1 if a node failed.
+
+    Everything from the first ``--ros-args`` on is the nodes' own, as after ``ros2 run``'s
+    executable: rcl reads it, not this parser.
+    """
+    argv = list(sys.argv[1:] if argv is None else argv)
+    split = argv.index('--ros-args') if '--ros-args' in argv else len(argv)
+    ros_args = argv[split:]
+    args = parse_args(argv[:split])
     try:
         params: Params = {}
         for text in args.param:
@@ -990,7 +1142,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             params.setdefault(node, {})[name] = value
         result = run_simulation(
             args.world, args.nodes, duration_s=args.duration, seed=args.seed, params=params,
-            start=args.robot_pose, robot=args.robot, remap=args.remap,
+            start=args.robot_pose, robot=args.robot, remap=args.remap, ros_args=ros_args,
             out_dir=args.out, quiet=args.quiet, gui=args.gui, record=not args.no_record,
             plot=not args.no_plot, field_checks=not args.no_field_checks,
             progress=terminal_progress() if sys.stderr.isatty() and not args.quiet else None)

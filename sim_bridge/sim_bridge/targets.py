@@ -26,7 +26,7 @@ import traceback
 from types import FrameType, ModuleType
 from typing import Iterable
 
-from sim_bridge.node_styles import decide, Decision
+from sim_bridge.node_styles import decide, Decision, node_class
 
 #: Frames under these folders are never a node's own code: this package (the runner), and
 #: Python's library and installed packages (a node calling random.choice([]) raised the
@@ -120,6 +120,13 @@ class StudentCode:
         frame = own[-1]
         return f' at {frame.filename}:{frame.lineno}' + (f': {frame.line}' if frame.line else '')
 
+    def stack_traceback(self, frames: Iterable[traceback.FrameSummary],
+                        error_lines: Iterable[str]) -> str:
+        """Return the node's own of ``frames`` as Python prints them, then ``error_lines``."""
+        own = self.frames(frames)
+        head = ['Traceback (most recent call last):\n', *traceback.format_list(own)] if own else []
+        return ''.join(head + list(error_lines))
+
     def traceback(self, error: BaseException) -> str:
         """
         Return the node's part of ``error``'s traceback: its own frames and the error lines.
@@ -127,9 +134,8 @@ class StudentCode:
         A SyntaxError ends with its file, line, the offending code and a caret, as Python
         prints it.
         """
-        own = self.frames(traceback.extract_tb(error.__traceback__))
-        head = ['Traceback (most recent call last):\n', *traceback.format_list(own)] if own else []
-        return ''.join(head + traceback.format_exception_only(error))
+        return self.stack_traceback(traceback.extract_tb(error.__traceback__),
+                                    traceback.format_exception_only(error))
 
 
 def _console_script_module(name: str) -> str | None:
@@ -217,6 +223,14 @@ def run_mode(target: str) -> Decision:
         return Decision(True, 'the loader reads the file')
 
 
+def module_source(module: ModuleType) -> str:
+    """Return the source text of ``module``'s file, or '' when it cannot be read."""
+    try:
+        return Path(module.__file__).read_text(encoding='utf-8')
+    except (OSError, TypeError, UnicodeDecodeError):  # TypeError: no __file__ (a namespace)
+        return ''
+
+
 def node_classes(module: ModuleType, node_base: type) -> dict[str, type]:
     """Return the Node subclasses defined in ``module`` (not merely imported by it), by name."""
     return {name: value for name, value in vars(module).items()
@@ -225,7 +239,12 @@ def node_classes(module: ModuleType, node_base: type) -> dict[str, type]:
 
 
 def load_node_class(target: str, node_base: type) -> type:
-    """Return the Node subclass TARGET names; ``node_base`` is the runtime's rclpy Node."""
+    """
+    Return the Node subclass TARGET names; ``node_base`` is the runtime's rclpy Node.
+
+    Without ``:ClassName``, the module's one Node subclass; of several, the one its ``main()``
+    constructs, else the one most derived (sim_bridge.node_styles.node_class).
+    """
     where, class_name = split_target(target)
     try:
         module = load_module(where)
@@ -240,6 +259,10 @@ def load_node_class(target: str, node_base: type) -> type:
             raise TargetError(f"'{where}' has no Node subclass '{class_name}' "
                               f"(it has: {', '.join(classes) or 'none'})")
         return classes[class_name]
+    if len(classes) > 1:  # a helper base class, or main() constructs one of several
+        chosen = node_class(module_source(module))
+        if chosen in classes:
+            return classes[chosen]
     if len(classes) != 1:
         found = f"several: {', '.join(classes)}" if classes else 'none'
         raise TargetError(f"'{where}' must define exactly one rclpy Node subclass ({found}); "

@@ -5,7 +5,8 @@ import math
 import os
 
 import pytest
-from sim_bridge.hints import direction, geometry, ros_module_hint, ROS_MODULES
+from sim_bridge.hints import (
+    direction, geometry, printed_scan_hint, ros_module_hint, ROS_MODULES, turtlebot3_lidar)
 
 
 @pytest.mark.skipif(bool(os.environ.get('ROS_DISTRO')), reason='a sourced ROS installation')
@@ -60,3 +61,20 @@ def test_geometry_names_the_first_and_last_beams():
         '36 ranges from -1.57 rad (index 0, right) to +1.57 rad (index 35, left)')
     assert geometry(360, 0.0, 6.28 / 359) == (
         '360 ranges from 0 rad (index 0, ahead) to +6.28 rad (index 359, ahead)')
+
+
+@pytest.mark.parametrize('error_line, failing_line, hinted', [
+    ('IndexError: array index out of range', 'left = latest.ranges[90]', True),
+    ('ValueError: min() arg is an empty sequence', 'front = min(msg.ranges[260:280])', True),
+    ('ValueError: zero-size array to reduction operation minimum which has no identity',
+     'left = np.array(msg.ranges)[80:100].min()', True),
+    ('IndexError: list index out of range', 'turn = TURNS[choice]', False),  # not a scan
+    ('ValueError: could not convert string to float', 'x = float(msg.ranges[0])', False),
+    ('KeyError: 90', 'left = ranges[90]', False)])
+def test_a_process_runs_printed_scan_error_gets_the_simulators_scan_geometry(
+        error_line, failing_line, hinted):
+    burger = turtlebot3_lidar()
+    hint = printed_scan_hint(error_line, failing_line, burger)
+    # On the Burger itself, only its own geometry: nothing else to compare with.
+    assert hint == ('this scan has 360 ranges from 0 rad (index 0, ahead) to +6.28 rad (index '
+                    '359, ahead)' if hinted else '')

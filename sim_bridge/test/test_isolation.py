@@ -219,6 +219,24 @@ def test_budget_grows_with_the_simulated_duration():
     assert Limits(timeout_s=5.0).budget_s(600.0) == 5.0
 
 
+def test_a_process_run_gets_a_budget_for_real_time_on_a_slow_machine():
+    # 600 s at real time after up to 20 s of the node's start: the stepped budget (660 s)
+    # would leave 40 s for start-up, outputs and a live simulator falling behind.
+    budget = Limits().budget_s(600.0, process=True)
+    assert budget == isolate.BUDGET_BASE_S + 20.0 + 600.0 * isolate.PROCESS_BUDGET_PER_SIM_S
+    assert budget - 20.0 >= 2 * 600.0  # half real time still ends within it
+    assert Limits(timeout_s=5.0).budget_s(600.0, process=True) == 5.0  # --timeout decides
+
+
+@pytest.mark.parametrize('node, process', [
+    ('scan_ahead', False), (str(FIXTURES / 'quitter.py'), False),
+    (str(FIXTURES / 'spin_once_loop.py'), True), (str(FIXTURES / 'sleepy_timer.py'), True)])
+def test_a_jobs_budget_follows_the_way_its_node_file_runs(tmp_path, node, process):
+    run = replace(scenario('budget', node), duration_s=100.0).runs()[0]
+    job = isolate.Job(run, tmp_path, Limits())
+    assert job.budget_s == Limits().budget_s(100.0, process)
+
+
 def test_a_run_keeps_the_variables_that_locate_gazebo_models_and_worlds(tmp_path):
     environ = {'GZ_SIM_RESOURCE_PATH': '/models', 'GAZEBO_MODEL_PATH': '/classic',
                'IGN_GAZEBO_RESOURCE_PATH': '/ign', 'GAZEBO_RESOURCE_PATH': '/worlds',
