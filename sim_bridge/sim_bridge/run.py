@@ -47,7 +47,8 @@ from sim_bridge.simulation.world import World, WorldError
 from sim_bridge.stepping import (
     describe, next_timer_ns, NodeEnded, NodeError, spin_until_idle, SteppedExecutor)
 from sim_bridge.targets import (
-    load_node_class, module_file, run_mode, split_target, StudentCode, TargetError)
+    load_node_class, module_file, node_command, run_mode, split_target, StudentCode,
+    TargetError)
 import yaml
 
 BRIDGE_NODE = 'sim_bridge'
@@ -742,15 +743,26 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
         out_dir, observer, world_model, interrupt, plot=plot,
         title=f"{world_model.name}: {', '.join(map(target_name, targets))}", setpoint=setpoint,
         wall_start=wall_start, node_errors=node_errors, warnings=warnings, ended_by=ended_by,
-        run_mode=run_modes)
+        run_mode=run_modes, commands=node_commands(targets, remap))
+
+
+def node_commands(targets: Sequence[str], remap: Sequence[str]) -> list[str]:
+    """Return the command line that starts each node, as its process gets it (out dir files)."""
+    arguments = ['--ros-args', '--params-file', 'params.yaml', '-p', 'use_sim_time:=true',
+                 *(argument for rule in remap for argument in ('-r', rule))]
+    return [node_command(target, arguments) for target in targets]
 
 
 def write_outputs(out_dir: Path, observer: Observer, world_model: World,
                   interrupt: 'UserInterrupt', *, plot: bool, title: str,
                   setpoint: float | None, wall_start: float, node_errors: list,
-                  warnings: list[str], ended_by: str | None, run_mode: Any) -> RunResult:
+                  warnings: list[str], ended_by: str | None, run_mode: Any,
+                  commands: Sequence[str] = ()) -> RunResult:
     """
     Score a finished run and write ``metrics.json`` and the plot; return the RunResult.
+
+    ``commands`` (the command line that starts each node, :func:`node_commands`) are kept in
+    the metrics for the run's video.
 
     ``wall_start`` is the run's start on the perf counter (s). A Ctrl-C while they are written
     waits for them (``interrupt``); one pressed during the run is raised after them.
@@ -763,6 +775,7 @@ def write_outputs(out_dir: Path, observer: Observer, world_model: World,
         metrics['ended_by'] = ended_by
         metrics['ignored'] = world_model.ignored
         metrics['run_mode'] = run_mode
+        metrics['commands'] = list(commands)
         (out_dir / 'metrics.json').write_text(json.dumps(metrics, indent=2) + '\n')
         if plot:
             plot_trajectory(observer.trace, world_model, out_dir / 'trajectory.png',
@@ -887,7 +900,8 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
         out_dir, observer, world_model, interrupt, plot=plot,
         title=f'{world_model.name}: {target_name(target)}', setpoint=setpoint,
         wall_start=wall_start, node_errors=node_errors, warnings=warnings, ended_by=ended_by,
-        run_mode={'mode': 'process', 'reason': mode.reason})
+        run_mode={'mode': 'process', 'reason': mode.reason},
+        commands=node_commands([target], remap))
 
 
 def to_console(text: str) -> None:
@@ -974,6 +988,12 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     parser.add_argument('--no-record', action='store_true',
                         help='write no rosbag2 recording (a faster run)')
     parser.add_argument('--no-plot', action='store_true', help='write no trajectory.png')
+    parser.add_argument('--video', type=Path, metavar='FILE.mp4',
+                        help="also write the run's video (sim_bridge.video): the world and the "
+                             "robot beside the nodes' terminal")
+    parser.add_argument('--names', default='', help="the students' names, on every frame")
+    parser.add_argument('--speed', type=float, default=1.0, metavar='N',
+                        help='simulated seconds per second of video (default 1: real time)')
     parser.add_argument('--no-field-checks', action='store_true',
                         help="run with Jazzy's default: no type check of message fields "
                              '(a wrong type is sent as garbage, as on a robot)')
@@ -983,6 +1003,9 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run from the command line; return 0 when the run completed, 1 if a node failed."""
     args = parse_args(argv)
+    if args.video is not None and args.no_record:
+        print('error: --video is made from the recording: drop --no-record', file=sys.stderr)
+        return 2
     try:
         params: Params = {}
         for text in args.param:
@@ -1009,6 +1032,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     written = ['metrics.json', *(['trajectory.png'] if not args.no_plot else []),
                *(['run/ (rosbag2, MCAP)'] if not args.no_record else [])]
     print(f"  outputs: {result.out_dir}/{', '.join(written)}")
+    if args.video is not None:
+        from sim_bridge.video import render_video, VideoError
+        try:
+            info = render_video(result.out_dir, args.video, args.names, speed=args.speed)
+        except VideoError as error:
+            print(f'error: video: {error}', file=sys.stderr)
+            return 2
+        except OSError as error:
+            print(f'error: cannot write {error.filename or args.video}: '
+                  f'{error.strerror or error}', file=sys.stderr)
+            return 2
+        print(f'  video: {info.path} ({info.duration_s:.1f} s at {args.speed:g}x)')
     return 0 if result.ok else 1
 
 
