@@ -63,6 +63,8 @@ COLLISION_COLOUR = (213, 0, 0)
 #: Bag topics the video reads.
 ODOM_TOPIC, SCAN_TOPIC = '/odom', '/scan'
 LOG_FILE = 'log.jsonl'
+#: The video's file in a run's folder, when no other is named.
+VIDEO_NAME = 'video.mp4'
 #: Escape sequences a terminal interprets rather than shows (rcutils colours, cursor moves).
 ANSI_ESCAPE = re.compile(r'\x1b\[[0-9;?]*[A-Za-z]')
 
@@ -522,7 +524,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
 def main(argv: Sequence[str] | None = None) -> int:
     """Write a run's video from the command line; 0 when written, 2 when it cannot be."""
     args = parse_args(argv)
-    output = args.output or args.out_dir / 'video.mp4'
+    output = args.output or args.out_dir / VIDEO_NAME
     try:
         info = render_video(args.out_dir, output, args.names, speed=args.speed, fps=args.fps)
     except VideoError as error:
