@@ -57,7 +57,7 @@ PATH_COLOUR = (21, 101, 192)
 ROBOT_COLOUR = (46, 125, 50)
 BEAM_COLOUR = (229, 115, 115)
 #: A beam with no return, drawn to the lidar's range_max.
-MISS_COLOUR = (215, 215, 215)
+MISS_COLOUR = (225, 225, 225)
 HIT_COLOUR = (198, 40, 40)
 COLLISION_COLOUR = (213, 0, 0)
 #: Bag topics the video reads.
@@ -319,6 +319,10 @@ class WorldPane:
         canvas = FigureCanvasAgg(figure)
         canvas.draw()
         self.transform = axes.transData
+        # The map's box (px: left, top, right, bottom): beams reaching beyond it are cut there.
+        box = axes.get_window_extent()
+        self.box = (math.floor(box.x0), math.floor(size[1] - box.y1),
+                    math.ceil(box.x1), math.ceil(size[1] - box.y0))
         self.background = Image.fromarray(np.asarray(canvas.buffer_rgba())[..., :3])
         outlines = footage.world.floor_slice.robot_outlines((0.0, 0.0, 0.0))
         self.robot_rings = [np.asarray(ring)[:, :2] for ring in outlines]
@@ -354,7 +358,9 @@ class WorldPane:
             for sign in (-1, 1):
                 draw.line((column - 7, row - 7 * sign, column + 7, row + 7 * sign),
                           fill=COLLISION_COLOUR, width=3)
-        return frame
+        framed = self.background.copy()
+        framed.paste(frame.crop(self.box), self.box[:2])
+        return framed
 
     def _draw_scan(self, draw: ImageDraw.ImageDraw, t: float, robot: np.ndarray) -> None:
         footage = self.footage
