@@ -586,6 +586,10 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     parser.add_argument('--param', action='append', default=[], metavar='NODE:NAME=VALUE',
                         help='parameter override for the node NODE (sim_bridge or the '
                              "task's), typed as --ros-args -p types it (repeatable)")
+    parser.add_argument('--record', type=Path, metavar='OUT_DIR',
+                        help="keep a stepped run's outputs in OUT_DIR (recording, log lines "
+                             'with their sim time, metrics, plot): python -m sim_bridge.video '
+                             'OUT_DIR makes its video')
     return parser.parse_args(argv)
 
 
@@ -610,7 +614,32 @@ def main(argv: Sequence[str] | None = None) -> int:
     duration = f'for {args.duration:g} s' if args.duration else 'until Ctrl-C'
     print_line(log_line('INFO', LOGGER, f'task {args.task} live, {duration}: '
                                         f"{', '.join(process_names(specs))}"))
-    return run_live(specs, args.duration)
+    if args.record is None:
+        return run_live(specs, args.duration)
+    from sim_bridge.live_record import LiveRecorder
+    from sim_bridge.run import RunError
+    env, _ = child_environment(os.environ)
+    try:
+        recorder = LiveRecorder(
+            args.record, env, world=args.world or LAB_TASKS[args.task].world, robot=args.robot,
+            robot_pose=args.robot_pose, commands=[shown_command(specs[-1])], params=params)
+    except (RunError, OSError) as error:
+        print(f'error: --record {args.record}: {error}', file=sys.stderr)
+        return 2
+    with recorder:
+        status = run_live(specs, args.duration,
+                          out=lambda line: (print_line(line), recorder.line(line)))
+    print_line(log_line('INFO', LOGGER, f'recorded in {args.record}: python -m sim_bridge.video '
+                                        f'{args.record} --names "..." makes its video'))
+    return status
+
+
+def shown_command(spec: ProcessSpec) -> str:
+    """Return a process's command as a terminal shows it: ``ros2 run`` a node, file names."""
+    from sim_bridge.targets import node_command
+    arguments = list(spec.cmd[spec.cmd.index('--ros-args'):]) if '--ros-args' in spec.cmd else []
+    return node_command(spec.executable, [os.path.basename(argument) if os.path.isabs(argument)
+                                          else argument for argument in arguments])
 
 
 if __name__ == '__main__':

@@ -7,14 +7,17 @@ without the part under test (the names, a console line).
 """
 
 import json
+import os
 from pathlib import Path
 import subprocess
+import sys
 
 import imageio_ffmpeg
 import numpy as np
 import pytest
 
 from sim_bridge import grade, video
+from sim_bridge.live_record import log_entry
 from sim_bridge.run import main as run_main, run_simulation
 from sim_bridge.video import (
     BANNER_HEIGHT, FRAME_HEIGHT, FRAME_WIDTH, FrameRenderer, load_footage, LogLine,
@@ -224,3 +227,38 @@ def test_ffmpeg_is_the_one_imageio_ffmpeg_ships():
     version = subprocess.run([imageio_ffmpeg.get_ffmpeg_exe(), '-hide_banner', '-encoders'],
                              capture_output=True, text=True, check=True).stdout
     assert 'libx264' in version
+
+
+def test_a_live_sessions_lines_keep_their_level_node_and_the_line_as_printed():
+    line = '[scan_ahead-2] [WARN] [1795499925.029450212] [scan_ahead]: no valid beam ahead'
+    assert log_entry(3.5, line) == {'t': 3.5, 'node': 'scan_ahead', 'level': 'WARN',
+                                    'text': 'no valid beam ahead', 'line': line}
+    assert log_entry(0.0, '[INFO] [sim_bridge-1]: process started with pid [7]')['level'] == 'INFO'
+    assert log_entry(1.0, '[scan_ahead-2] hello')['level'] == 'STDOUT'
+
+
+def test_a_recorded_live_session_has_a_runs_outputs_and_its_video(tmp_path):
+    """``./lab live TASK --record OUT`` (two ROS 2 processes on a domain of this test's own)."""
+    out = tmp_path / 'live'
+    env = dict(os.environ, ROS_DOMAIN_ID=str(200 + os.getpid() % 30))
+    env.pop('ROS_AUTOMATIC_DISCOVERY_RANGE', None)
+    result = subprocess.run(
+        [sys.executable, '-m', 'sim_bridge.live', 'scan_ahead', '--duration', '6', '--record',
+         str(out)], env=env, capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stdout + result.stderr
+    metrics = json.loads((out / 'metrics.json').read_text())
+    assert metrics['sim_time_s'] > 0 and metrics['run_mode']['mode'] == 'live'
+    assert (out / 'trajectory.png').is_file() and (out / 'params.yaml').is_file()
+    log = video.read_log(out / video.LOG_FILE)
+    ranges = [entry for entry in log if 'Range ahead' in entry.line]
+    # In the order printed, at the sim time then (0 until this process hears the first /clock:
+    # DDS discovery takes a moment).
+    times = [entry.t for entry in ranges]
+    assert times == sorted(times) and 0 < times[-1] <= metrics['sim_time_s']
+    assert len(set(times)) > len(times) / 2
+    assert all(entry.line in result.stdout for entry in log)
+    info = render_video(out, tmp_path / 'live.mp4', NAMES)
+    meta, frames = decode(info.path)
+    assert len(frames) == round(metrics['sim_time_s'] * video.DEFAULT_FPS)
+    footage = load_footage(out)
+    assert len(footage.scans) > 10 and footage.commands[0].startswith('ros2 run scan_pkg')
