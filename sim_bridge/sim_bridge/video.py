@@ -262,8 +262,16 @@ class TerminalPane:
                             // TERMINAL_LINE_HEIGHT)
         self.log = list(log)
         self.times = np.array([entry.t for entry in self.log])
-        self._rows: list[tuple[str, tuple[int, int, int]]] = []
         self._cached: tuple[int, Image.Image] | None = None
+        self._entry_rows: dict[int, list[tuple[str, tuple[int, int, int]]]] = {}
+        self._row_images: dict[tuple[str, tuple[int, int, int]], Image.Image] = {}
+        self._header = Image.new('RGB', self.size, TERMINAL_BACKGROUND)
+        draw = ImageDraw.Draw(self._header)
+        draw.rectangle((0, 0, self.size[0], self.header_height - TERMINAL_MARGIN // 2),
+                       fill=TERMINAL_HEADER)
+        for number, row in enumerate(self.header):
+            draw.text((TERMINAL_MARGIN, TERMINAL_MARGIN + number * TERMINAL_LINE_HEIGHT), row,
+                      font=self.font, fill=(255, 255, 255))
 
     def count_at(self, t: float) -> int:
         """Return how many lines had been written by sim time ``t`` (s)."""
@@ -274,21 +282,27 @@ class TerminalPane:
         if self._cached is not None and self._cached[0] == count:
             return self._cached[1]
         rows = []
-        for entry in self.log[max(0, count - self.capacity):count]:
-            colour = LEVEL_COLOURS.get(entry.level.upper(), TERMINAL_TEXT)
-            rows += [(row, colour) for row in terminal_rows(entry.line, self.columns)]
-        pane = Image.new('RGB', self.size, TERMINAL_BACKGROUND)
-        draw = ImageDraw.Draw(pane)
-        draw.rectangle((0, 0, self.size[0], self.header_height - TERMINAL_MARGIN // 2),
-                       fill=TERMINAL_HEADER)
-        for number, row in enumerate(self.header):
-            draw.text((TERMINAL_MARGIN, TERMINAL_MARGIN + number * TERMINAL_LINE_HEIGHT), row,
-                      font=self.font, fill=(255, 255, 255))
-        for number, (row, colour) in enumerate(rows[-self.capacity:]):
-            draw.text((TERMINAL_MARGIN, self.header_height + number * TERMINAL_LINE_HEIGHT),
-                      row, font=self.font, fill=colour)
+        for index in range(max(0, count - self.capacity), count):
+            if index not in self._entry_rows:
+                entry = self.log[index]
+                colour = LEVEL_COLOURS.get(entry.level.upper(), TERMINAL_TEXT)
+                self._entry_rows[index] = [(row, colour)
+                                           for row in terminal_rows(entry.line, self.columns)]
+            rows += self._entry_rows[index]
+        pane = self._header.copy()
+        # Text is the costly part of a frame: each row is drawn once, then moved as it scrolls.
+        drawn = {}
+        for number, key in enumerate(rows[-self.capacity:]):
+            drawn[key] = self._row_images.get(key) or drawn.get(key) or self._row(*key)
+            pane.paste(drawn[key], (0, self.header_height + number * TERMINAL_LINE_HEIGHT))
+        self._row_images = drawn
         self._cached = (count, pane)
         return pane
+
+    def _row(self, text: str, colour: tuple[int, int, int]) -> Image.Image:
+        row = Image.new('RGB', (self.size[0], TERMINAL_LINE_HEIGHT), TERMINAL_BACKGROUND)
+        ImageDraw.Draw(row).text((TERMINAL_MARGIN, 0), text, font=self.font, fill=colour)
+        return row
 
 
 class WorldPane:
