@@ -16,7 +16,8 @@ import imageio_ffmpeg
 import numpy as np
 import pytest
 
-from sim_bridge import grade, video
+from sim_bridge import grade, lab_video, video
+from sim_bridge.lab_tasks import video_name
 from sim_bridge.live_record import log_entry
 from sim_bridge.run import main as run_main, run_simulation
 from sim_bridge.video import (
@@ -29,6 +30,8 @@ DURATION_S = 3.0
 KNOWN_T = 1.55
 KNOWN_LINE = '[INFO] [1795499925.029450212] [scan_ahead]: KNOWN LINE 4242 Range ahead: 0.87 m'
 NAMES = 'Hassan Rizwan 335753, Ada Lovelace 100001'
+#: The lab's tasks handed in as videos, by the handout's numbers (issue 18: marks 2, 3, 2, 3).
+HANDOUT = {'scan_ahead': 1, 'wanderbot': 2, 'scan_around': 3, 'wall_follow': 4}
 
 
 def write_log(out_dir: Path, lines: list[tuple[float, str]]) -> None:
@@ -262,3 +265,23 @@ def test_a_recorded_live_session_has_a_runs_outputs_and_its_video(tmp_path):
     assert len(frames) == round(metrics['sim_time_s'] * video.DEFAULT_FPS)
     footage = load_footage(out)
     assert len(footage.scans) > 10 and footage.commands[0].startswith('ros2 run scan_pkg')
+
+
+@pytest.mark.parametrize('text, task', [('scan_ahead', 'scan_ahead'), ('1', 'scan_ahead'),
+                                        ('task2', 'wanderbot'), ('3', 'scan_around'),
+                                        ('4', 'wall_follow')])
+def test_a_lab_task_is_named_or_numbered_as_the_handout_numbers_it(text, task):
+    assert lab_video.task_name(text) == task
+    assert video_name(task) == f'labscan_task{HANDOUT[task]}.mp4'
+
+
+def test_lab_video_writes_the_handouts_video_of_a_task(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert lab_video.main(['1', '--names', NAMES, '--speed', '2']) == 0
+    meta, frames = decode(tmp_path / 'labscan_task1.mp4')
+    metrics = json.loads((tmp_path / 'out' / 'video' / 'scan_ahead' / 'metrics.json').read_text())
+    assert len(frames) == round(metrics['sim_time_s'] / 2 * video.DEFAULT_FPS)
+    assert 'labscan_task1.mp4' in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        lab_video.main(['9', '--names', NAMES])
+    assert "'9': a lab task is one of" in capsys.readouterr().err
