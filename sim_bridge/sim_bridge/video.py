@@ -47,6 +47,7 @@ TERMINAL_FONT_SIZE = 13
 TERMINAL_LINE_HEIGHT = 16
 TERMINAL_MARGIN = 8
 BANNER_FONT_SIZE = 18
+MIN_NAMES_FONT_SIZE = 12
 TERMINAL_BACKGROUND = (24, 24, 24)
 TERMINAL_HEADER = (56, 56, 64)
 TERMINAL_TEXT = (210, 210, 210)
@@ -427,8 +428,15 @@ class FrameRenderer:
         body = (FRAME_WIDTH - WORLD_WIDTH, FRAME_HEIGHT - BANNER_HEIGHT)
         self.world = WorldPane((WORLD_WIDTH, FRAME_HEIGHT - BANNER_HEIGHT), footage)
         self.terminal = TerminalPane(body, footage.commands, footage.log)
-        self.banner_font = _font('DejaVu Sans', BANNER_FONT_SIZE, 'bold')
         self.clock_font = _font('DejaVu Sans Mono', BANNER_FONT_SIZE)
+        longest = self.clock(footage.duration_s)
+        self.names_image = names_banner(
+            names, FRAME_WIDTH - 40 - int(self.clock_font.getlength(longest)))
+
+    def clock(self, t: float) -> str:
+        """Return the banner's clock at sim time ``t`` (s)."""
+        speed = '' if self.speed == 1 else f'  ({self.speed:g}x)'
+        return f'sim time {t:7.1f} s / {self.footage.duration_s:.1f} s{speed}'
 
     def frame(self, t: float, *, names: bool = True, log: bool = True) -> np.ndarray:
         """
@@ -442,13 +450,38 @@ class FrameRenderer:
         frame.paste(self.terminal.image(count), (WORLD_WIDTH, BANNER_HEIGHT))
         draw = ImageDraw.Draw(frame)
         if names:
-            draw.text((10, BANNER_HEIGHT // 2), self.names, font=self.banner_font,
-                      fill=(255, 255, 255), anchor='lm')
-        speed = '' if self.speed == 1 else f'  ({self.speed:g}x)'
-        clock = f'sim time {t:7.1f} s / {self.footage.duration_s:.1f} s{speed}'
-        draw.text((FRAME_WIDTH - 10, BANNER_HEIGHT // 2), clock, font=self.clock_font,
+            frame.paste(self.names_image, (10, 0))
+        draw.text((FRAME_WIDTH - 10, BANNER_HEIGHT // 2), self.clock(t), font=self.clock_font,
                   fill=(255, 255, 255), anchor='rm')
         return np.asarray(frame)
+
+
+def names_banner(names: str, width: int) -> Image.Image:
+    """
+    Return ``names`` drawn to fit ``width`` (px) of the banner, whole: never cut off.
+
+    In bold at BANNER_FONT_SIZE, smaller if needed down to MIN_NAMES_FONT_SIZE, then on two
+    lines (at commas where it can) at the size that fits.
+    """
+    image = Image.new('RGB', (width, BANNER_HEIGHT), BANNER_BACKGROUND)
+    draw = ImageDraw.Draw(image)
+    lines = [names]
+    for size in range(BANNER_FONT_SIZE, MIN_NAMES_FONT_SIZE - 1, -1):
+        font = _font('DejaVu Sans', size, 'bold')
+        if font.getlength(names) <= width:
+            break
+    else:
+        middle = len(names) // 2
+        commas = [index for index, char in enumerate(names) if char in ', ']
+        cut = min(commas, key=lambda index: abs(index - middle)) if commas else middle
+        lines = [names[:cut + 1].strip(), names[cut + 1:].strip()]
+        for size in range(BANNER_HEIGHT // 2 - 2, 5, -1):
+            font = _font('DejaVu Sans', size, 'bold')
+            if max(font.getlength(line) for line in lines) <= width:
+                break
+    draw.multiline_text((0, BANNER_HEIGHT // 2), '\n'.join(lines), font=font,
+                        fill=(255, 255, 255), anchor='lm', spacing=0)
+    return image
 
 
 def frame_times(duration_s: float, speed: float, fps: float) -> np.ndarray:

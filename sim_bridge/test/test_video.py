@@ -285,3 +285,15 @@ def test_lab_video_writes_the_handouts_video_of_a_task(tmp_path, monkeypatch, ca
     with pytest.raises(SystemExit):
         lab_video.main(['9', '--names', NAMES])
     assert "'9': a lab task is one of" in capsys.readouterr().err
+
+
+def test_names_too_long_for_one_line_are_made_smaller_or_wrapped_never_cut():
+    names = ', '.join(f'Student Number{index} With A Long Name 10000{index}' for index in range(5))
+    banner = video.names_banner(names, 800)
+    assert banner.size == (800, BANNER_HEIGHT)
+    # The last name is drawn: the banner without it differs.
+    without_last = video.names_banner(names.rpartition(', ')[0] + ',', 800)
+    assert not np.array_equal(np.asarray(banner), np.asarray(without_last))
+    # Two lines: ink in the top and the bottom half.
+    ink = np.any(np.asarray(banner) != video.BANNER_BACKGROUND, axis=(1, 2))
+    assert ink[:BANNER_HEIGHT // 2].any() and ink[BANNER_HEIGHT // 2:].any()
