@@ -5,32 +5,26 @@ A node of this process listens to the live simulator over DDS, as ``ros2 bag rec
 ``/scan``, ``/odom``, ``/cmd_vel`` and ``/clock`` go into the rosbag2 recording ``run/``
 (stamped with sim time: a message's header stamp, else the last /clock), ``/odom`` (the
 simulator's ground-truth pose and velocity) and ``/collisions`` into the run's trace. Each line
-the processes print is kept in ``log.jsonl`` with the sim time it was printed at. When the
+the task's node writes is kept (sim_bridge.node_output: ``log.jsonl`` and ``/rosout``) with the
+sim time it arrives at, as a process run keeps its node's. When the
 session ends, the trace is scored and plotted as a stepped run's (``metrics.json``,
 ``trajectory.png``; sim_bridge.run.write_outputs), and ``params.yaml`` holds the simulator's
 world and robot: ``python -m sim_bridge.video OUT_DIR`` then makes the session's video.
 """
 
-import json
 import math
 from pathlib import Path
-import re
 import threading
 import time
 from typing import Mapping, Sequence
 
+from sim_bridge.node_output import NodeLog, rosout_message, ROSOUT_TOPIC, ROSOUT_TYPE
 from sim_bridge.run_environment import environment_set
 from sim_bridge.run_trace import CollisionEvent, Trace
 
 #: Topics recorded, as the stepped runner records them (tf aside: the live bridge's TF needs
 #: tf2_ros, and the video does not read it).
 RECORDED_TOPICS = ('/scan', '/odom', '/cmd_vel', '/clock')
-#: A console line's level as rcutils prints it, ``[INFO] [stamp] [node]: text``, or as launch
-#: prints its own, ``[INFO] [wall_follow-2]: text``.
-LEVEL_LINE = re.compile(
-    r'^\[(DEBUG|INFO|WARNING|WARN|ERROR|FATAL)\] (?:\[[^\]]*\] )?\[([^\]]*)\]: (.*)$')
-#: A live child's line as launch prints it: ``[name-N] line``.
-PREFIXED_LINE = re.compile(r'^\[([^\]]+)-\d+\] (.*)$')
 
 
 class _Observer:
@@ -41,18 +35,6 @@ class _Observer:
 
     def finish(self) -> Trace:
         return self.trace
-
-
-def log_entry(t: float, line: str) -> dict:
-    """Return the log.jsonl entry of a console ``line`` printed at sim time ``t`` (s)."""
-    prefixed = PREFIXED_LINE.match(line)
-    inner = prefixed.group(2) if prefixed else line
-    logged = LEVEL_LINE.match(inner)
-    if logged:
-        level = 'WARN' if logged.group(1) == 'WARNING' else logged.group(1)
-        return {'t': t, 'node': logged.group(2), 'level': level,
-                'text': logged.group(3), 'line': line}
-    return {'t': t, 'node': '', 'level': 'STDOUT', 'text': inner, 'line': line}
 
 
 class LiveRecorder:
@@ -67,13 +49,17 @@ class LiveRecorder:
 
     def __init__(self, out_dir: Path, env: Mapping[str, str], *, world: str,
                  robot: str | None = None, robot_pose: Sequence[float] | None = None,
-                 commands: Sequence[str] = (), params: Mapping[str, Mapping] | None = None):
+                 commands: Sequence[str] = (), params: Mapping[str, Mapping] | None = None,
+                 real_time_factor: float = 1.0):
         from sim_bridge.run import load_world, open_outputs, write_params_file
         self.out_dir = Path(out_dir)
         self.world = load_world(world, robot, robot_pose)
         self.commands = list(commands)
         self.trace = Trace(robot_radius=self.world.robot.radius)
         self.clock_ns = 0
+        self.real_time_factor = real_time_factor
+        #: Lines that arrived before the first /clock was heard: (wall s, stream, line).
+        self.early: list[tuple[float, str, str]] = []
         self.lock = threading.Lock()
         simulator = {'world': str(self.world.path), 'robot': robot,
                      'robot_pose': list(robot_pose) if robot_pose is not None else None}
@@ -85,7 +71,7 @@ class LiveRecorder:
         write_params_file(scratch, document)
         self.bag = open_outputs(self.out_dir, scratch, record=True)
         scratch.unlink()
-        self.log = (self.out_dir / 'log.jsonl').open('w', encoding='utf-8')
+        self.log = NodeLog(record=True)
         self.env = {name: env.get(name) for name in
                     ('ROS_DOMAIN_ID', 'ROS_AUTOMATIC_DISCOVERY_RANGE', 'ROS_STATIC_PEERS')}
         self.wall_start = time.perf_counter()
@@ -132,6 +118,8 @@ class LiveRecorder:
         with self.lock:
             if stamp is not None:
                 self.clock_ns = max(self.clock_ns, stamp.sec * 10 ** 9 + stamp.nanosec)
+                if self.early:
+                    self.keep_early()
             if topic == '/odom':
                 pose, twist = msg.pose.pose, msg.twist.twist
                 x, y = pose.position.x, pose.position.y
@@ -141,8 +129,14 @@ class LiveRecorder:
                                   2.0 * math.atan2(pose.orientation.z, pose.orientation.w),
                                   twist.linear.x, twist.angular.z, gap)
             if not self.bag.closed:
+                self.write_log()
                 self.bag.write(topic, message_type_name(msg), serialize_message(msg),
                                self.clock_ns)
+
+    def write_log(self) -> None:
+        """Record the console lines not yet recorded, on /rosout at their sim time."""
+        for t_ns, entry in self.log.take_pending():
+            self.bag.write(ROSOUT_TOPIC, ROSOUT_TYPE, rosout_message(entry, t_ns), t_ns)
 
     def on_collision(self, msg) -> None:
         """Keep a contact the simulator reports (where, when; not with what)."""
@@ -150,23 +144,40 @@ class LiveRecorder:
             self.trace.collisions.append(CollisionEvent(self.clock_ns * 1e-9, msg.point.x,
                                                         msg.point.y, ''))
 
-    def line(self, line: str) -> None:
-        """Keep a console line at the sim time it is printed (the last /clock heard)."""
+    def line(self, stream: str, line: str) -> None:
+        """Keep a line the node wrote on ``stream`` at the sim time it arrives (last /clock)."""
         with self.lock:
-            entry = log_entry(self.clock_ns * 1e-9, line)
-        self.log.write(json.dumps(entry) + '\n')
-        self.log.flush()
+            if not self.clock_ns:
+                self.early.append((time.monotonic(), stream, line))
+                return
+            self.log.add(self.clock_ns, '', stream, line)
+
+    def keep_early(self) -> None:
+        """
+        Keep the lines that arrived before the first /clock, at the sim time they arrived.
+
+        Until DDS discovery joins this node to the simulator (a second or more on a busy
+        machine), sim time is not heard; it is told from the wall time then, the simulator
+        pacing sim time at ``real_time_factor`` x wall time.
+        """
+        now = time.monotonic()
+        for wall_s, stream, line in self.early:
+            back_ns = round((now - wall_s) * self.real_time_factor * 1e9)
+            self.log.add(max(0, self.clock_ns - back_ns), '', stream, line)
+        self.early = []
 
     def __exit__(self, *exc_info) -> None:
         from sim_bridge.run import UserInterrupt, write_outputs
         self.executor.shutdown()
         self.context.try_shutdown()
         with self.lock:
+            if self.early:  # the simulator was never heard: the lines are kept at 0 s
+                self.keep_early()
+            self.write_log()
             self.bag.close()
-            self.log.close()
         if len(self.trace):
             write_outputs(self.out_dir, _Observer(self.trace), self.world, UserInterrupt(),
                           plot=True, title=f'{self.world.name}: live', setpoint=None,
                           wall_start=self.wall_start, node_errors=[], warnings=[],
-                          ended_by=None, commands=self.commands,
+                          ended_by=None, commands=self.commands, log_lines=self.log.entries,
                           run_mode={'mode': 'live', 'reason': 'recorded by ./lab live --record'})
