@@ -290,3 +290,26 @@ def test_names_too_long_for_one_line_are_made_smaller_or_wrapped_never_cut():
     # Two lines: ink in the top and the bottom half.
     ink = np.any(np.asarray(banner) != video.BANNER_BACKGROUND, axis=(1, 2))
     assert ink[:BANNER_HEIGHT // 2].any() and ink[BANNER_HEIGHT // 2:].any()
+
+
+def test_a_real_runs_console_lines_reach_its_video_at_their_time(tmp_path):
+    """End to end: the lines the runner kept (log.jsonl) in the decoded video, when written."""
+    out = tmp_path / 'run'
+    run_simulation('obstacles', ['scan_ahead'], duration_s=2.0, seed=1, out_dir=out,
+                   quiet=True, plot=False)
+    footage = load_footage(out)
+    lines = [entry for entry in footage.log if 'Range ahead' in entry.line]
+    assert lines and lines[0].line.startswith('[INFO] [') and 0 < lines[0].t < 2.0
+    fps = 10.0
+    _, frames = decode(render_video(out, tmp_path / 'run.mp4', NAMES, fps=fps).path)
+    first = lines[0]
+    index = int(np.ceil(first.t * fps - 1e-9)) - 1  # the first frame at or after it
+    footage.log = [entry for entry in footage.log if entry is not first]
+    without = FrameRenderer(footage, NAMES).frame((index + 1) / fps)
+    shown = FrameRenderer(load_footage(out), NAMES).frame((index + 1) / fps)
+    terminal = np.s_[BANNER_HEIGHT:, WORLD_WIDTH:]
+    rows = np.any(shown[terminal] != without[terminal], axis=(1, 2))
+    assert rows.any()
+    decoded = frames[index][terminal][rows]
+    assert difference(decoded, shown[terminal][rows]) < difference(
+        decoded, without[terminal][rows]) / 4
