@@ -30,7 +30,8 @@ setup(
         *tree('../models', os.path.join(share, 'models')),
     ],
     install_requires=['setuptools', 'numpy', 'pybullet', 'rosbags>=0.11,<0.12', 'matplotlib',
-                      'contourpy', 'PyYAML', 'trimesh', 'pycollada', 'shapely'],
+                      'contourpy', 'PyYAML', 'trimesh', 'pycollada', 'shapely', 'pillow',
+                      'imageio-ffmpeg'],
     extras_require={
         'test': [
             'pytest',
@@ -46,6 +47,7 @@ setup(
             'sim_bridge = sim_bridge.bridge:main',
             'lab_run = sim_bridge.run:main',
             'lab_grade = sim_bridge.grade:main',
+            'lab_video = sim_bridge.video:main',
             'teleop_keyboard = sim_bridge.teleop:main',
             'send_cmd_vel = sim_bridge.send_cmd_vel:main',
         ],

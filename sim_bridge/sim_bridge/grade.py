@@ -401,6 +401,12 @@ def build_parser() -> argparse.ArgumentParser:
                         help='no progress; the table lists failures only')
     parser.add_argument('--no-record', action='store_true', help='skip the rosbag2 recordings')
     parser.add_argument('--no-plot', action='store_true', help='skip the trajectory plots')
+    parser.add_argument('--video', action='store_true',
+                        help="write each run's video (video.mp4 in its folder, played from the "
+                             'report pages; needs the recordings)')
+    parser.add_argument('--names', default=None,
+                        help="the names on the videos (default: the student's folder with "
+                             '--submissions, else none)')
     return parser
 
 
@@ -437,6 +443,8 @@ def main(argv: list[str] | None = None) -> int:
                              '--submission DIR, not --submissions')
         if args.submission is not None and not args.submission.is_dir():
             raise ValueError(f'--submission {args.submission}: not a folder')
+        if args.video and args.no_record:
+            raise ValueError('--video is made from the recordings: drop --no-record')
         limits = limits_from(args)
         scenarios = load_scenarios(args.scenarios)
         scenarios = with_node_overrides(scenarios, args.node_override)
@@ -481,6 +489,8 @@ def main(argv: list[str] | None = None) -> int:
             reports = sorted(reports + missing, key=lambda report: (
                 order[report.run.scenario.name],
                 report.run.scenario.seeds.index(report.run.seed)))
+        if args.video:
+            write_videos(jobs, args.names, progress.note)
         # Still interruptible: the reports are written again from the runs' saved results.
         return write_reports(args, batch, reports, names, scenarios)
     except KeyboardInterrupt:
@@ -510,6 +520,28 @@ def failed_gradescope(args: argparse.Namespace, why: str) -> None:
     except OSError as error:
         print(f'error: cannot write {printable(os.fspath(args.gradescope))}: '
               f'{error.strerror or error}', file=sys.stderr)
+
+
+def write_videos(jobs: list[GradeJob], names: str | None, note: Callable[[str], None]) -> None:
+    """
+    Write the video of each run that left its outputs (``video.mp4`` in its folder).
+
+    Rendered here, after the runs, not in their children: it is the grader's code, bounded by
+    nothing a student's run is. A video already newer than its run's metrics is kept; one that
+    cannot be made is a note, not a failed run. ``names``: the banner's text (default: the
+    student's name, the first part of a class batch's job label).
+    """
+    from sim_bridge.video import render_video, VIDEO_NAME, VideoError
+    for job in jobs:
+        metrics, video = job.out_dir / 'metrics.json', job.out_dir / VIDEO_NAME
+        if not metrics.is_file() or (video.is_file()
+                                     and video.stat().st_mtime >= metrics.stat().st_mtime):
+            continue
+        banner = names if names is not None else job.label.partition('/')[0] if job.label else ''
+        try:
+            render_video(job.out_dir, video, banner)
+        except (VideoError, OSError) as error:
+            note(f'no video of {job.name}: {error}')
 
 
 def write_reports(args: argparse.Namespace, batch: grade_class.ClassBatch | None,

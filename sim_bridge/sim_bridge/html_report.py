@@ -34,7 +34,7 @@ th { background: #eee; }
 td, p, li { overflow-wrap: anywhere; }
 pre { background: #f4f4f4; padding: 0.6em; white-space: pre-wrap; overflow-wrap: anywhere; }
 .why { display: block; font-size: 85%; }
-img { max-width: min(100%, 48em); border: 1px solid #ccc; }
+img, video { max-width: min(100%, 48em); border: 1px solid #ccc; }
 """
 
 
@@ -124,11 +124,17 @@ def _run_section(index: int, run: dict[str, Any], folder: Path, root: Path) -> s
                          for key, value in facts])]
     if run['error'] is not None:
         parts.append(f'<p class="fail">error: {escape(run["error"])}</p>')
+    video = out_dir / 'video.mp4'  # sim_bridge.video.VIDEO_NAME (grade --video)
+    if video.is_file():
+        # An instructor watches a failing run before reading its numbers: it comes first.
+        parts.append(f'<p><video controls preload="metadata" src="{_href(video, folder)}">'
+                     f'{_link(video, folder, "video.mp4")}</video></p>')
     plot = out_dir / 'trajectory.png'
     parts.append(f'<p><img src="{_href(plot, folder)}" alt="trajectory of {escape(run["run"])}">'
                  '</p>' if plot.is_file() else '<p>no plot</p>')
     links = [_link(out_dir / 'metrics.json', folder, 'metrics.json'),
              _link(out_dir / 'run', folder, 'recording run/'),
+             _link(video, folder, 'video.mp4'),
              _link(root / run['log'] if run.get('log') else None, folder, 'log')]
     parts.append(f"<p>outputs: {' | '.join(link for link in links if link) or 'none'}</p>")
     if metrics.get('warnings'):

@@ -22,3 +22,20 @@ LAB_TASKS = {
     'wanderbot': LabTask('wanderbot', 'room'),
     'wall_follow': LabTask('wall_follow', 'wall_follow_box'),
 }
+
+#: The handout's numbers of the tasks handed in as videos (``labscan_task1.mp4`` ...).
+HANDOUT_NUMBERS = {'scan_ahead': 1, 'wanderbot': 2, 'scan_around': 3, 'wall_follow': 4}
+#: The shipped scenario (in test/scenarios/) whose first run a task's video shows.
+TASK_SCENARIOS = {
+    'scan_ahead': 'scan_ahead.yaml',
+    'scan_around': 'scan_around.yaml',
+    'closest_obstacle': 'closest_obstacle.yaml',
+    'wanderbot': 'wanderbot.yaml',
+    'wall_follow': 'wall_follow_box_cw.yaml',
+}
+
+
+def video_name(task: str) -> str:
+    """Return the file a task's video is handed in as: ``labscan_task4.mp4``."""
+    number = HANDOUT_NUMBERS.get(task)
+    return f'labscan_task{number}.mp4' if number is not None else f'labscan_{task}.mp4'

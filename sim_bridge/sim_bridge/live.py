@@ -320,17 +320,21 @@ class LiveRun:
 
     ``specs``' processes are started by :meth:`start` with :func:`child_environment` of
     ``env`` (default: this process's). Each line they write, and each of launch's lines about
-    them, goes to ``out`` as it comes (default: stdout). As a context manager it stops every
-    process still running when the block ends, however it ends.
+    them, goes to ``out`` as it comes (default: stdout). With ``on_line``, each process's
+    stdout and stderr are read apart, and ``on_line(index, stream, line)`` ('STDOUT' or
+    'STDERR') is called in a reader thread as each line arrives, before ``out`` prints it. As a
+    context manager it stops every process still running when the block ends, however it ends.
     """
 
     def __init__(self, specs: Iterable[ProcessSpec], *, env: Mapping[str, str] | None = None,
                  out: Output = print_line, sigterm_timeout_s: float = SIGTERM_TIMEOUT_S,
-                 sigkill_timeout_s: float = SIGKILL_TIMEOUT_S, settle_s: float = SETTLE_S):
+                 sigkill_timeout_s: float = SIGKILL_TIMEOUT_S, settle_s: float = SETTLE_S,
+                 on_line: Callable[[int, str, str], None] | None = None):
         self.specs = list(specs)
         self.names = process_names(self.specs)
         self.env, self.env_warning = child_environment(os.environ if env is None else env)
         self.out = out
+        self.on_line = on_line
         self.sigterm_timeout_s = sigterm_timeout_s
         self.sigkill_timeout_s = sigkill_timeout_s
         self.settle_s = settle_s
@@ -339,6 +343,7 @@ class LiveRun:
         self.returncodes: dict[str, int] = {}
         self._lines: queue.Queue = queue.Queue()
         self._eof: set[int] = set()
+        self._open_streams: dict[int, int] = {}
         self._exit_seen: dict[int, float] = {}
         self._stopping: set[int] = set()
         self._readers: list[threading.Thread] = []
@@ -355,19 +360,27 @@ class LiveRun:
             self.out(log_line('WARNING', LOGGER, self.env_warning))
         preexec = _child_setup()
         for index, (spec, name) in enumerate(zip(self.specs, self.names)):
+            apart = self.on_line is not None
             process = subprocess.Popen(
                 spec.cmd, env=self.env, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-                stderr=subprocess.STDOUT, start_new_session=True, preexec_fn=preexec)
+                stderr=subprocess.PIPE if apart else subprocess.STDOUT,
+                start_new_session=True, preexec_fn=preexec)
             self.processes.append(process)
             self.out(started_line(name, process.pid))
-            reader = threading.Thread(target=self._read, args=(index, process.stdout),
-                                      name=f'live-output-{name}', daemon=True)
-            reader.start()
-            self._readers.append(reader)
+            streams = [('STDOUT', process.stdout), ('STDERR', process.stderr)][:1 + apart]
+            self._open_streams[index] = len(streams)
+            for stream_name, stream in streams:
+                reader = threading.Thread(target=self._read, args=(index, stream_name, stream),
+                                          name=f'live-output-{name}', daemon=True)
+                reader.start()
+                self._readers.append(reader)
 
-    def _read(self, index: int, stream) -> None:
+    def _read(self, index: int, stream_name: str, stream) -> None:
         for raw in iter(stream.readline, b''):
-            self._lines.put((index, raw.decode('utf-8', errors='replace').rstrip('\r\n')))
+            line = raw.decode('utf-8', errors='replace').rstrip('\r\n')
+            if self.on_line is not None:
+                self.on_line(index, stream_name, line)
+            self._lines.put((index, line))
         stream.close()
         self._lines.put((index, None))
 
@@ -399,7 +412,9 @@ class LiveRun:
                     except queue.Empty:
                         break
                 if line is None:
-                    self._eof.add(index)
+                    self._open_streams[index] -= 1
+                    if not self._open_streams[index]:
+                        self._eof.add(index)
                 else:
                     self.out(prefixed(self.names[index], line))
 
@@ -509,9 +524,12 @@ def _raise_interrupt(signal_number, frame) -> None:
 def run_live(specs: Sequence[ProcessSpec], duration_s: float | None = None, *,
              env: Mapping[str, str] | None = None, out: Output = print_line,
              sigterm_timeout_s: float = SIGTERM_TIMEOUT_S,
-             sigkill_timeout_s: float = SIGKILL_TIMEOUT_S) -> int:
+             sigkill_timeout_s: float = SIGKILL_TIMEOUT_S,
+             on_line: Callable[[int, str, str], None] | None = None) -> int:
     """
     Run ``specs``' processes for ``duration_s`` wall seconds (None: until Ctrl-C); stop them.
+
+    ``on_line`` is :class:`LiveRun`'s (each line of each process, as it arrives).
 
     Return 0 when every process ended cleanly when asked to, 1 when one ended early (the last
     line names it) or any did not end cleanly. SIGTERM and SIGHUP stop the run as Ctrl-C does
@@ -524,7 +542,7 @@ def run_live(specs: Sequence[ProcessSpec], duration_s: float | None = None, *,
     ended = None
     try:
         with LiveRun(specs, env=env, out=out, sigterm_timeout_s=sigterm_timeout_s,
-                     sigkill_timeout_s=sigkill_timeout_s) as run:
+                     sigkill_timeout_s=sigkill_timeout_s, on_line=on_line) as run:
             try:
                 run.start()
                 ended = run.wait(duration_s)
@@ -586,6 +604,10 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     parser.add_argument('--param', action='append', default=[], metavar='NODE:NAME=VALUE',
                         help='parameter override for the node NODE (sim_bridge or the '
                              "task's), typed as --ros-args -p types it (repeatable)")
+    parser.add_argument('--record', type=Path, metavar='OUT_DIR',
+                        help="keep a stepped run's outputs in OUT_DIR (recording, log lines "
+                             'with their sim time, metrics, plot): python -m sim_bridge.video '
+                             'OUT_DIR makes its video')
     return parser.parse_args(argv)
 
 
@@ -610,7 +632,37 @@ def main(argv: Sequence[str] | None = None) -> int:
     duration = f'for {args.duration:g} s' if args.duration else 'until Ctrl-C'
     print_line(log_line('INFO', LOGGER, f'task {args.task} live, {duration}: '
                                         f"{', '.join(process_names(specs))}"))
-    return run_live(specs, args.duration)
+    if args.record is None:
+        return run_live(specs, args.duration)
+    from sim_bridge.live_record import LiveRecorder
+    from sim_bridge.run import RunError
+    env, _ = child_environment(os.environ)
+    try:
+        recorder = LiveRecorder(
+            args.record, env, world=args.world or LAB_TASKS[args.task].world, robot=args.robot,
+            robot_pose=args.robot_pose, commands=[shown_command(specs[-1])], params=params,
+            real_time_factor=args.rtf)
+    except (RunError, OSError) as error:
+        print(f'error: --record {args.record}: {error}', file=sys.stderr)
+        return 2
+    node = len(specs) - 1  # the task's node: the simulator's lines are not kept, as in a run
+
+    def keep(index: int, stream: str, line: str) -> None:
+        if index == node:
+            recorder.line(stream, line)
+    with recorder:
+        status = run_live(specs, args.duration, on_line=keep)
+    print_line(log_line('INFO', LOGGER, f'recorded in {args.record}: python -m sim_bridge.video '
+                                        f'{args.record} --names "..." makes its video'))
+    return status
+
+
+def shown_command(spec: ProcessSpec) -> str:
+    """Return a process's command as a terminal shows it: ``ros2 run`` a node, file names."""
+    from sim_bridge.targets import node_command
+    arguments = list(spec.cmd[spec.cmd.index('--ros-args'):]) if '--ros-args' in spec.cmd else []
+    return node_command(spec.executable, [os.path.basename(argument) if os.path.isabs(argument)
+                                          else argument for argument in arguments])
 
 
 if __name__ == '__main__':

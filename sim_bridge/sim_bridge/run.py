@@ -10,6 +10,7 @@ runs before physics advances, see sim_bridge.stepping), as if each had been star
 
 import argparse
 from collections import deque
+from contextlib import contextmanager
 from dataclasses import dataclass
 import difflib
 import functools
@@ -25,14 +26,18 @@ import sys
 import tempfile
 import threading
 import time
-from typing import Any, Callable, Iterable, Mapping, Sequence
+from typing import Any, Callable, Iterable, Iterator, Mapping, Sequence
 
 from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.parameter import get_parameter_value, Parameter, parameter_value_to_python
 from rclpy.serialization import serialize_message
+from sim_bridge.drive import check_obstacles, DriveError, DrivePlan, parse_drive, Segment
 from sim_bridge.hints import printed_scan_hint, ros_module_hint, scan_hint
 from sim_bridge.live import LiveRun, prefixed, print_line, process_names
 from sim_bridge.metrics import compute_metrics
+from sim_bridge.node_output import (
+    LOG_FILE, NodeLog, OutputCapture, rosout_message, ROSOUT_TOPIC, ROSOUT_TYPE, to_terminal,
+    write_log)
 from sim_bridge.node_styles import Decision
 from sim_bridge.paths import find_world
 from sim_bridge.plot import plot_trajectory, SCANS_DRAWN
@@ -49,7 +54,8 @@ from sim_bridge.simulation.world import World, WorldError
 from sim_bridge.stepping import (
     describe, next_timer_ns, NodeEnded, NodeError, spin_until_idle, SteppedExecutor)
 from sim_bridge.targets import (
-    load_node_class, module_file, run_mode, split_target, StudentCode, TargetError)
+    load_node_class, module_file, node_command, run_mode, split_target, StudentCode,
+    TargetError)
 import yaml
 
 BRIDGE_NODE = 'sim_bridge'
@@ -64,6 +70,10 @@ SETPOINT_PARAMETER = 'distance'
 ROS_TOPICS = ('/rosout', '/parameter_events', '/clock')
 PROGRESS_AFTER_S = 2.0
 GUI_FRAME_RATE = 60
+#: The runner's teleop node (a scenario's ``drive:``), and how often (Hz of sim time) it
+#: publishes the command, as a held key of teleop_twist_keyboard repeats it.
+TELEOP_NODE = 'teleop'
+TELEOP_RATE_HZ = 20.0
 NANOSECONDS_PER_SECOND = 10 ** 9
 #: Longest wait (wall s) for a node run as a process to list its parameters.
 PARAMETER_ANSWER_S = 2.0
@@ -332,6 +342,66 @@ def write_params_file(path: Path, params: Params) -> None:
     path.write_text(yaml.safe_dump(document, sort_keys=False))
 
 
+def runner_node(name: str, context, sim_time: bool):
+    """Return a node of the runner's own: no services or /rosout; on sim time if asked."""
+    from rclpy.node import Node
+    return Node(name, context=context, use_global_arguments=False,
+                start_parameter_services=False, enable_rosout=False,
+                parameter_overrides=[NO_TYPE_DESCRIPTION_SERVICE,
+                                     *([Parameter('use_sim_time', value=True)] if sim_time
+                                       else [])])
+
+
+class Teleop:
+    """
+    The person at the teleop: a node of the runner's driving the robot by a DrivePlan.
+
+    Every 1/TELEOP_RATE_HZ s of sim time it publishes the plan's command on the simulator's
+    command topic (its type: Twist, or TwistStamped), as teleop_twist_keyboard publishes while
+    a key is held; once the plan is done, a zero command, and nothing more. The robot's centre
+    is the simulator's ground truth (what the person sees), for segments that end near an
+    obstacle of ``world``.
+    """
+
+    def __init__(self, graph: 'SteppedRun | LiveGraph', bridge, world: World,
+                 segments: Sequence[Segment]):
+        self.bridge = bridge
+        subscription = next(sub for sub in bridge.subscriptions
+                            if sub.callback == bridge.on_cmd_vel)
+        self.msg_type = subscription.msg_type
+        self.node = graph.node(TELEOP_NODE, sim_time=True)
+        self.publisher = self.node.create_publisher(self.msg_type, subscription.topic_name, 10)
+        self.plan = DrivePlan(segments, lambda name, x, y: world.obstacle(name).distance(x, y))
+        self.timer = self.node.create_timer(1.0 / TELEOP_RATE_HZ, self.tick)
+        self.tick()  # the first segment starts with the run
+
+    def tick(self) -> None:
+        """Publish the command of the plan at the current sim time."""
+        now = self.node.get_clock().now()
+        x, y, _ = self.bridge.sim.pose
+        command = self.plan.command(now.nanoseconds / NANOSECONDS_PER_SECOND, x, y)
+        if command is None:
+            self.timer.cancel()
+        message = self.msg_type()
+        twist = getattr(message, 'twist', message)
+        twist.linear.x, twist.angular.z = command or (0.0, 0.0)
+        if twist is not message:
+            message.header.stamp = now.to_msg()
+        self.publisher.publish(message)
+
+
+def drive_plan(drive: Sequence[Any] | None, world: World) -> tuple[Segment, ...]:
+    """Return the validated segments of ``drive`` (see sim_bridge.drive); RunError if bad."""
+    if drive is None:
+        return ()
+    try:
+        segments = parse_drive(drive)
+        check_obstacles(segments, [obstacle.name for obstacle in world.obstacles], world.name)
+    except DriveError as error:
+        raise RunError(str(error)) from None
+    return segments
+
+
 class Observer:
     """
     Fill a Trace from the bridge's simulator, and keep a few of the scans sent on ``/scan``.
@@ -373,15 +443,17 @@ class RunRecorder:
     The bridge's own messages are serialised by rclpy (``serialize_message``) as they are
     published; every other recorded topic (/cmd_vel, TF) has a raw subscription on the
     runner's own node, as ``ros2 bag record`` has. Messages are stamped with the sim time of the
-    step that sent them. Messages sent before :meth:`record` (while the nodes start) are held,
-    so that a run which cannot start has written nothing.
+    step that sent them. The lines the nodes wrote (``log``) are recorded on /rosout, each at
+    its own time, before the next message. Messages sent before :meth:`record` (while the nodes
+    start) are held, so that a run which cannot start has written nothing.
     """
 
-    def __init__(self, run: 'SteppedRun', observer: 'Observer', record: bool):
+    def __init__(self, run: 'SteppedRun', observer: 'Observer', record: bool, log: NodeLog):
         from rclpy.qos import DurabilityPolicy, QoSProfile
         self.run = run
         self.observer = observer
         self.recording = record
+        self.log = log
         self.held: list[tuple[str, str, bytes, int]] | None = []
         self.bag = None
         self.type_names: dict[type, str] = {}
@@ -417,13 +489,24 @@ class RunRecorder:
 
     def write(self, topic: str, type_name: str, data: bytes) -> None:
         """Write (or hold) one message's CDR bytes at the current sim time."""
+        self.write_log()
+        self.store(topic, type_name, data, self.run.bridge.now_ns)
+
+    def write_log(self) -> None:
+        """Write (or hold) the nodes' lines not yet recorded, on /rosout at their own times."""
+        for t_ns, entry in self.log.take_pending():
+            self.store(ROSOUT_TOPIC, ROSOUT_TYPE, rosout_message(entry, t_ns), t_ns)
+
+    def store(self, topic: str, type_name: str, data: bytes, t_ns: int) -> None:
+        """Write (or hold) one message's CDR bytes at ``t_ns`` (ns)."""
         if self.bag is not None:
-            self.bag.write(topic, type_name, data, self.run.bridge.now_ns)
+            self.bag.write(topic, type_name, data, t_ns)
         elif self.held is not None:
-            self.held.append((topic, type_name, data, self.run.bridge.now_ns))
+            self.held.append((topic, type_name, data, t_ns))
 
     def record(self, bag: BagRecorder | None) -> None:
         """Write the held messages to ``bag`` and everything sent from now on."""
+        self.write_log()
         if bag is not None:
             for message in self.held:
                 bag.write(*message)
@@ -449,9 +532,9 @@ class SteppedRun:
         from rclpy.impl.implementation_singleton import rclpy_implementation
         from rclpy.signals import SignalHandlerOptions
         self.rclpy = rclpy
+        self.quiet = quiet
         self.node_arguments = ['--ros-args', '--params-file', str(params_file),
                                '-p', 'use_sim_time:=true',
-                               *(['--disable-stdout-logs'] if quiet else []),
                                *(argument for rule in remap for argument in ('-r', rule)),
                                *ros_args]
         self.bridge_arguments = ['--ros-args', '--params-file',
@@ -469,14 +552,26 @@ class SteppedRun:
         self.nodes = []
         self.bridge = None
 
-    def node(self, name: str):
-        """Create one of the runner's own nodes: no clock of its own, services or /rosout."""
-        from rclpy.node import Node
-        node = Node(name, context=self.context, use_global_arguments=False,
-                    start_parameter_services=False, enable_rosout=False,
-                    parameter_overrides=[NO_TYPE_DESCRIPTION_SERVICE])
+    def node(self, name: str, sim_time: bool = False):
+        """Create one of the runner's own nodes: no services or /rosout; on sim time if asked."""
+        node = runner_node(name, self.context, sim_time)
         self.executor.add_node(node)
+        self.executor.own_nodes.add(node)
         return node
+
+    @contextmanager
+    def capture_output(self, log: NodeLog) -> Iterator[OutputCapture]:
+        """
+        Keep what the nodes write in the block in ``log``, each line at the sim time of its code.
+
+        Shown on the terminal as written, unless the run is quiet (sim_bridge.node_output).
+        """
+        with OutputCapture(log, lambda: self.bridge.now_ns, quiet=self.quiet) as capture:
+            self.executor.output = capture
+            try:
+                yield capture
+            finally:
+                self.executor.output = None
 
     def start(self, node_class: type, label: str, **kwargs):
         """
@@ -484,14 +579,22 @@ class SteppedRun:
 
         A parameter override of the wrong type is a RunError; any other exception from the
         node's constructor is the node failing, reported as a NodeError under ``label``; a
-        constructor that shuts ROS down ends the run (NodeEnded).
+        constructor that shuts ROS down ends the run (NodeEnded). What the constructor writes
+        is the node's, at the time the run is at.
         """
+        output, name = self.executor.output, ''
+        if output is not None:
+            output.sync()
         try:
             node = node_class(**kwargs)
+            name = node.get_name()
         except self.rclpy.exceptions.InvalidParameterTypeException as error:
             raise RunError(f'{label}: {error}') from None
         except BaseException as error:  # noqa: B902 sys.exit() in a constructor ends the run
             raise NodeError(label, error, code=self.executor.code) from error
+        finally:
+            if output is not None:
+                output.sync(name)
         self.nodes.append(node)
         if not self.context.ok():
             raise NodeEnded(label, 'its constructor', self.executor.shutdown_where or '')
@@ -513,6 +616,7 @@ class SteppedRun:
                 enable_rosout=False, parameter_overrides=[NO_TYPE_DESCRIPTION_SERVICE])
         except NodeError as error:
             raise RunError(f'{BRIDGE_NODE}: {describe(error.original)}') from None
+        self.executor.own_nodes.add(self.bridge)
         return self.bridge
 
     def start_nodes(self, targets: Iterable[tuple[str, type]],
@@ -554,7 +658,7 @@ class SteppedRun:
         timer falls due; ``on_step(now_ns)`` is called every ``step_ns`` of sim time.
         """
         bridge, executor = self.bridge, self.executor
-        targets = [node for node in self.nodes if node is not bridge]
+        targets = [node for node in (*self.nodes, *executor.own_nodes) if node is not bridge]
         if bridge.now_ns == 0:
             bridge.publish(bridge.clock_pub, bridge.clock)
         spin_until_idle(executor)
@@ -709,7 +813,7 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
                    setpoint: float | None = None,
                    quiet: bool = False,
                    record: bool = True, plot: bool = True, gui: bool = False,
-                   field_checks: bool = True,
+                   field_checks: bool = True, drive: Sequence[Any] | None = None,
                    progress: Callable[[float, float], None] | None = None) -> RunResult:
     """
     Run ``targets`` (see sim_bridge.targets) with the simulator in ``world`` for ``duration_s``.
@@ -726,7 +830,9 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
     logged once by the simulator at start and kept in ``metrics['ignored']``.
     ``gui`` shows the run in the pybullet window at wall-clock pace. ``field_checks``: rosidl
     refuses a value of the wrong type in a message field (see sim_bridge.run_environment); off,
-    the run behaves as Jazzy's default does on a robot. Raises RunError when the
+    the run behaves as Jazzy's default does on a robot. ``drive`` is a list of segments
+    (sim_bridge.drive) the runner's teleop node publishes on the simulator's command topic
+    while the nodes run, as a person at teleop_twist_keyboard would. Raises RunError when the
     run cannot start, before writing anything to ``out_dir``; a node that raises (while
     starting or during the run) ends it early, is reported in ``metrics['node_errors']`` and,
     unless ``quiet``, with its traceback on stderr, and every output is written up to that
@@ -743,6 +849,7 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
     if gui and gui_problem(os.environ):
         raise RunError(gui_problem(os.environ))
     world_model = load_world(world, robot, start)
+    segments = drive_plan(drive, world_model)
     node_params = node_parameters(world_model, params, seed=seed, gui=gui, start=start,
                                   robot=robot)
     out_dir = Path(out_dir) if out_dir is not None else default_out_dir(world_model, targets)
@@ -756,7 +863,7 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
         return run_as_process(
             world_model, target, mode, node_params, duration_s=duration_s, out_dir=out_dir,
             remap=remap, ros_args=ros_args, setpoint=setpoint, quiet=quiet, record=record,
-            plot=plot, field_checks=field_checks, progress=progress)
+            plot=plot, field_checks=field_checks, segments=segments, progress=progress)
     run_modes = {'mode': 'stepped', 'reason': '; '.join(mode.reason for mode in modes)}
 
     node_errors, warnings, ended_by = [], [], None
@@ -769,7 +876,7 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
         except TargetError as error:
             failure = import_failure(error)
             if not quiet and failure.traceback:
-                to_console(failure.traceback)  # what `python3 node.py` would print
+                to_terminal(failure.traceback)  # what `python3 node.py` would print
             raise failure from None
         code = StudentCode.of(inspect.getfile(node_class) for node_class in classes)
         params_file = Path(scratch) / 'params.yaml'
@@ -780,26 +887,31 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
         run = SteppedRun(params_file, quiet, code, bridge_params_file=bridge_params_file,
                          remap=remap, ros_args=ros_args)
         bag, interrupt, outputs_open = None, UserInterrupt(), False
+        log = NodeLog(record)
         try:
             bridge = run.start_simulator(SimBridge)
             observer = Observer(bridge.sim, duration_s)
-            recorder = RunRecorder(run, observer, record)
-            start_failure = run.start_nodes(zip(targets, classes), node_params)
-            if start_failure is None:
-                warnings += run.parameter_warnings(node_params)
-                for warning in warnings:
-                    to_console(f'warning: {warning}\n')
-            if setpoint is None:
-                setpoint = run.parameter(SETPOINT_PARAMETER)
-            bag = open_outputs(out_dir, params_file, record)
-            recorder.record(bag)
-            outputs_open = True
-            if start_failure is not None:
-                raise start_failure
-            pacing = Pacing(duration_s, gui, progress)
-            pacing(bridge.now_ns)  # the nodes are up: simulated time starts
-            with interrupt:
-                run.advance(round(duration_s * NANOSECONDS_PER_SECOND), pacing.step_ns, pacing)
+            recorder = RunRecorder(run, observer, record, log)
+            if segments:
+                Teleop(run, bridge, world_model, segments)
+            with run.capture_output(log):
+                start_failure = run.start_nodes(zip(targets, classes), node_params)
+                if start_failure is None:
+                    warnings += run.parameter_warnings(node_params)
+                    for warning in warnings:
+                        to_terminal(f'warning: {warning}\n')
+                if setpoint is None:
+                    setpoint = run.parameter(SETPOINT_PARAMETER)
+                bag = open_outputs(out_dir, params_file, record)
+                recorder.record(bag)
+                outputs_open = True
+                if start_failure is not None:
+                    raise start_failure
+                pacing = Pacing(duration_s, gui, progress)
+                pacing(bridge.now_ns)  # the nodes are up: simulated time starts
+                with interrupt:
+                    run.advance(round(duration_s * NANOSECONDS_PER_SECOND), pacing.step_ns,
+                                pacing)
         except KeyboardInterrupt:
             if not interrupt.pressed:
                 raise
@@ -808,7 +920,7 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
             ended_by = str(end)
             warnings.append(f'{end}: the run ended at {bridge.now_ns / NANOSECONDS_PER_SECOND:g} '
                             f's of its {duration_s:g} s')
-            to_console(f'warning: {warnings[-1]}\n')
+            to_terminal(f'warning: {warnings[-1]}\n')
         except NodeError as error:
             student_traceback = error.code.traceback(error.original)
             if not interrupt.pressed:  # a Ctrl-C while a callback ran is the user's
@@ -817,7 +929,7 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
                                               'traceback': student_traceback}))
             if not quiet and not interrupt.pressed:
                 # What the node's own process would print before dying, its own part.
-                to_console(student_traceback)
+                to_terminal(student_traceback)
         except RunStopped as stop:
             if not outputs_open:  # stopped while starting: there is nothing to write yet
                 raise
@@ -826,28 +938,46 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
             if outputs_open and run.context.ok():  # a node's rclpy.shutdown() ends the graph
                 for warning in run.unconnected_topics():
                     warnings.append(warning)
-                    to_console(f'warning: {warning}\n')
+                    to_terminal(f'warning: {warning}\n')
+            if log.warning():
+                warnings.append(log.warning())
             if bag is not None:
+                recorder.write_log()
                 bag.close()
             run.close()
     return write_outputs(
         out_dir, observer, world_model, interrupt, plot=plot,
         title=f"{world_model.name}: {', '.join(map(target_name, targets))}", setpoint=setpoint,
         wall_start=wall_start, node_errors=node_errors, warnings=warnings, ended_by=ended_by,
-        run_mode=run_modes)
+        run_mode=run_modes, commands=node_commands(targets, remap, ros_args),
+        log_lines=log.entries)
+
+
+def node_commands(targets: Sequence[str], remap: Sequence[str],
+                  ros_args: Sequence[str] = ()) -> list[str]:
+    """Return the command line that starts each node, as its process gets it (out dir files)."""
+    arguments = ['--ros-args', '--params-file', 'params.yaml', '-p', 'use_sim_time:=true',
+                 *(argument for rule in remap for argument in ('-r', rule)), *ros_args[1:]]
+    return [node_command(target, arguments) for target in targets]
 
 
 def write_outputs(out_dir: Path, observer: Observer, world_model: World,
                   interrupt: 'UserInterrupt', *, plot: bool, title: str,
                   setpoint: float | None, wall_start: float, node_errors: list,
-                  warnings: list[str], ended_by: str | None, run_mode: Any) -> RunResult:
+                  warnings: list[str], ended_by: str | None, run_mode: Any,
+                  commands: Sequence[str] = (), log_lines: Sequence[dict] = ()) -> RunResult:
     """
-    Score a finished run and write ``metrics.json`` and the plot; return the RunResult.
+    Score a finished run and write ``metrics.json``, ``log.jsonl`` and the plot; return it.
 
-    ``wall_start`` is the run's start on the perf counter (s). A Ctrl-C while they are written
-    waits for them (``interrupt``); one pressed during the run is raised after them.
+    ``wall_start`` is the run's start on the perf counter (s); ``log_lines`` the lines the
+    nodes wrote, dicts with the keys ``t`` (sim time, s), ``node``, ``level``, ``text`` and
+    ``line`` (sim_bridge.node_output), in the order written; ``commands`` (the command line
+    that starts each node, :func:`node_commands`) are kept in the metrics for the run's video.
+    A Ctrl-C while they are written waits for them (``interrupt``); one pressed during the run
+    is raised after them.
     """
     try:
+        write_log(out_dir / LOG_FILE, log_lines)
         metrics = compute_metrics(observer.finish(), world_model, setpoint=setpoint,
                                   wall_time_s=time.perf_counter() - wall_start,
                                   node_errors=node_errors)
@@ -855,6 +985,7 @@ def write_outputs(out_dir: Path, observer: Observer, world_model: World,
         metrics['ended_by'] = ended_by
         metrics['ignored'] = world_model.ignored
         metrics['run_mode'] = run_mode
+        metrics['commands'] = list(commands)
         (out_dir / 'metrics.json').write_text(json.dumps(metrics, indent=2) + '\n')
         if plot:
             plot_trajectory(observer.trace, world_model, out_dir / 'trajectory.png',
@@ -874,12 +1005,9 @@ class LiveGraph:
         self.bridge = bridge
         self.executor = executor
 
-    def node(self, name: str):
+    def node(self, name: str, sim_time: bool = False):
         """Create one of the runner's own nodes in the bridge's context and executor."""
-        from rclpy.node import Node
-        node = Node(name, context=self.bridge.context, use_global_arguments=False,
-                    start_parameter_services=False, enable_rosout=False,
-                    parameter_overrides=[NO_TYPE_DESCRIPTION_SERVICE])
+        node = runner_node(name, self.bridge.context, sim_time)
         self.executor.add_node(node)
         return node
 
@@ -888,7 +1016,7 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
                    duration_s: float, out_dir: Path, remap: Sequence[str],
                    ros_args: Sequence[str],
                    setpoint: float | None, quiet: bool, record: bool, plot: bool,
-                   field_checks: bool,
+                   field_checks: bool, segments: Sequence[Segment] = (),
                    progress: Callable[[float, float], None] | None = None) -> RunResult:
     """
     Run the node file ``target`` as its own process against the simulator run live here.
@@ -898,9 +1026,11 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
     own timer. Simulated time starts when the node is in the ROS graph (bounded by
     NODE_START_TIMEOUT_S of wall time) and the process is stopped (SIGINT, then SIGTERM, then
     SIGKILL, as launch does) after ``duration_s`` of it. Outputs as a stepped run's; what the
-    node prints is the run's console output. ``mode`` says why the file is not stepped;
-    ``progress(sim_s, duration_s)`` is called as simulated time passes. Ctrl-C and RunStopped
-    end it as they end a stepped run: the node stopped, the outputs written.
+    node prints is the run's console output, each line kept at the sim time it arrived.
+    ``segments`` drive the robot as in a stepped run (:class:`Teleop`).
+    ``mode`` says why the file is not stepped; ``progress(sim_s, duration_s)`` is called as
+    simulated time passes. Ctrl-C and RunStopped end it as they end a stepped run: the node
+    stopped, the outputs written.
     """
     import rclpy
     from rclpy.context import Context
@@ -913,7 +1043,7 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
     domain = DomainReservation()
     env = process_environment(os.environ, domain.domain_id)
     env['ROS_PYTHON_CHECK_FIELDS'] = '1' if field_checks else ''
-    to_console(f'{target_name(target)} runs as its own process: {mode.reason}\n')
+    to_terminal(f'{target_name(target)} runs as its own process: {mode.reason}\n')
     wall_start = time.perf_counter()
     with tempfile.TemporaryDirectory() as scratch:
         params_file = Path(scratch) / 'params.yaml'
@@ -929,6 +1059,7 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
             rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
         executor = SingleThreadedExecutor(context=context)
         bag, outputs_open, interrupt = None, False, UserInterrupt()
+        log = NodeLog(record)
         try:
             bridge = SimBridge(stepped=False, context=context, use_global_arguments=False,
                                cli_args=['--ros-args', '--params-file', str(bridge_params_file)],
@@ -936,7 +1067,10 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
                                parameter_overrides=[NO_TYPE_DESCRIPTION_SERVICE])
             executor.add_node(bridge)
             observer = Observer(bridge.sim, duration_s)
-            recorder = RunRecorder(LiveGraph(bridge, executor), observer, record)
+            graph = LiveGraph(bridge, executor)
+            recorder = RunRecorder(graph, observer, record, log)
+            if segments:
+                Teleop(graph, bridge, world_model, segments)
             bag = open_outputs(out_dir, params_file, record)
             recorder.record(bag)
             outputs_open = True
@@ -949,7 +1083,9 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
                 if not quiet:
                     print_line(line)
 
-            with LiveRun([spec], env=env, out=out) as live, interrupt:
+            def keep(index: int, stream: str, line: str) -> None:
+                log.add(bridge.now_ns, '', stream, line)
+            with LiveRun([spec], env=env, out=out, on_line=keep) as live, interrupt:
                 live.start()
                 name = live.names[0]
                 deadline = time.monotonic() + NODE_START_TIMEOUT_S
@@ -976,7 +1112,7 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
                     for warning in (parameter_warnings(node_params, declared, dict(nodes))
                                     + unconnected_topics(bridge, nodes)):
                         warnings.append(warning)
-                        to_console(f'warning: {warning}\n')
+                        to_terminal(f'warning: {warning}\n')
                 else:
                     code = live.returncodes[name]
                     ended = (f'{name} ended (exit status {code}) at {bridge.sim.time:g} s of '
@@ -997,7 +1133,10 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
             node_errors.append({'node': BRIDGE_NODE, 'error': f'{stop} (in the simulator)'})
         finally:
             executor.shutdown()
+            if log.warning():
+                warnings.append(log.warning())
             if bag is not None:
+                recorder.write_log()
                 bag.close()
             context.try_shutdown()
             domain.release()
@@ -1005,7 +1144,8 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
         out_dir, observer, world_model, interrupt, plot=plot,
         title=f'{world_model.name}: {target_name(target)}', setpoint=setpoint,
         wall_start=wall_start, node_errors=node_errors, warnings=warnings, ended_by=ended_by,
-        run_mode={'mode': 'process', 'reason': mode.reason})
+        run_mode={'mode': 'process', 'reason': mode.reason},
+        commands=node_commands([target], remap, ros_args), log_lines=log.entries)
 
 
 def process_error(node: str, ended: str, output: Iterable[str], path: Path, lidar: Any) -> dict:
@@ -1031,15 +1171,6 @@ def process_error(node: str, ended: str, output: Iterable[str], path: Path, lida
         'error': f'{ended}: {error_line}{code.stack_origin(frames)}'
                  + (f' ({hint})' if hint else ''),
         'traceback': code.stack_traceback(frames, [error_line + '\n'])})
-
-
-def to_console(text: str) -> None:
-    """Write ``text`` on stderr; a node that closed it (``os.close(2)``) costs its run nothing."""
-    try:
-        sys.stderr.write(text)
-        sys.stderr.flush()
-    except (OSError, ValueError):  # ValueError: sys.stderr.close() in the node's code
-        pass
 
 
 def summary_table(metrics: dict) -> str:
@@ -1079,9 +1210,8 @@ def terminal_progress() -> Callable[[float, float], None]:
             return
         done = int(30 * sim_s / duration_s)
         bar = '#' * done + '.' * (30 - done)
-        sys.stderr.write(f'\r[{bar}] {sim_s:6.1f} / {duration_s:g} s sim')
-        sys.stderr.write('\n' if sim_s >= duration_s else '')
-        sys.stderr.flush()
+        to_terminal(f'\r[{bar}] {sim_s:6.1f} / {duration_s:g} s sim'
+                    + ('\n' if sim_s >= duration_s else ''))
     return draw
 
 
@@ -1118,6 +1248,12 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     parser.add_argument('--no-record', action='store_true',
                         help='write no rosbag2 recording (a faster run)')
     parser.add_argument('--no-plot', action='store_true', help='write no trajectory.png')
+    parser.add_argument('--video', type=Path, metavar='FILE.mp4',
+                        help="also write the run's video (sim_bridge.video): the world and the "
+                             "robot beside the nodes' terminal")
+    parser.add_argument('--names', default='', help="the students' names, on every frame")
+    parser.add_argument('--speed', type=float, default=1.0, metavar='N',
+                        help='simulated seconds per second of video (default 1: real time)')
     parser.add_argument('--no-field-checks', action='store_true',
                         help="run with Jazzy's default: no type check of message fields "
                              '(a wrong type is sent as garbage, as on a robot)')
@@ -1135,6 +1271,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     split = argv.index('--ros-args') if '--ros-args' in argv else len(argv)
     ros_args = argv[split:]
     args = parse_args(argv[:split])
+    if args.video is not None and args.no_record:
+        print('error: --video is made from the recording: drop --no-record', file=sys.stderr)
+        return 2
     try:
         params: Params = {}
         for text in args.param:
@@ -1158,9 +1297,21 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 130
     print(f'\nRun summary ({result.out_dir}):')
     print(summary_table(result.metrics))
-    written = ['metrics.json', *(['trajectory.png'] if not args.no_plot else []),
+    written = ['metrics.json', LOG_FILE, *(['trajectory.png'] if not args.no_plot else []),
                *(['run/ (rosbag2, MCAP)'] if not args.no_record else [])]
     print(f"  outputs: {result.out_dir}/{', '.join(written)}")
+    if args.video is not None:
+        from sim_bridge.video import render_video, VideoError
+        try:
+            info = render_video(result.out_dir, args.video, args.names, speed=args.speed)
+        except VideoError as error:
+            print(f'error: video: {error}', file=sys.stderr)
+            return 2
+        except OSError as error:
+            print(f'error: cannot write {error.filename or args.video}: '
+                  f'{error.strerror or error}', file=sys.stderr)
+            return 2
+        print(f'  video: {info.path} ({info.duration_s:.1f} s at {args.speed:g}x)')
     return 0 if result.ok else 1
 
 

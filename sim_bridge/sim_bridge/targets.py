@@ -206,6 +206,23 @@ def module_file(where: str) -> str | None:
     return spec.origin if spec is not None and spec.has_location else None
 
 
+def node_command(target: str, arguments: Iterable[str] = ()) -> str:
+    """
+    Return the command a person types to start TARGET's node, with ``arguments`` after it.
+
+    ``ros2 run PACKAGE NAME`` for a console script, ``python3 FILE`` for a file (its name
+    only: a report never carries the grader's paths), ``python3 -m MODULE`` for a module.
+    """
+    where, _ = split_target(target)
+    if where.endswith('.py') or '/' in where or Path(where).is_file():
+        start = f'python3 {Path(where).name}'
+    else:
+        entry = next(iter(entry_points(group='console_scripts', name=where)), None)
+        package = entry.dist.name if entry is not None and entry.dist is not None else None
+        start = f'ros2 run {package} {where}' if package else f'python3 -m {where}'
+    return ' '.join([start, *arguments])
+
+
 def run_mode(target: str) -> Decision:
     """
     Return whether TARGET's file allows stepping (sim_bridge.node_styles), with the reason.

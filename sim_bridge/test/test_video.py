@@ -1,0 +1,315 @@
+"""
+A run's video: an H.264 MP4 that decodes, at simulated time, with the terminal and the names.
+
+The runs are real (scan_ahead in the obstacles world, a few simulated seconds); the videos are
+decoded with the FFmpeg imageio-ffmpeg ships, and their frames compared with frames drawn
+without the part under test (the names, a console line).
+"""
+
+import json
+import os
+from pathlib import Path
+import subprocess
+import sys
+
+import imageio_ffmpeg
+import numpy as np
+import pytest
+
+from sim_bridge import grade, lab_video, video
+from sim_bridge.lab_tasks import video_name
+from sim_bridge.run import main as run_main, run_simulation
+from sim_bridge.video import (
+    BANNER_HEIGHT, FRAME_HEIGHT, FRAME_WIDTH, FrameRenderer, load_footage, LogLine,
+    render_video, terminal_rows, VideoError, WORLD_WIDTH)
+
+FIXTURES = Path(__file__).parent / 'fixtures'
+DURATION_S = 3.0
+#: A console line written at 1.55 s of sim time, the text the test looks for.
+KNOWN_T = 1.55
+KNOWN_LINE = '[INFO] [1795499925.029450212] [scan_ahead]: KNOWN LINE 4242 Range ahead: 0.87 m'
+NAMES = 'Hassan Rizwan 335753, Ada Lovelace 100001'
+#: The lab's tasks handed in as videos, by the handout's numbers (issue 18: marks 2, 3, 2, 3).
+HANDOUT = {'scan_ahead': 1, 'wanderbot': 2, 'scan_around': 3, 'wall_follow': 4}
+
+
+def write_log(out_dir: Path, lines: list[tuple[float, str]]) -> None:
+    """Write a log.jsonl as the runner writes it: one JSON object a line."""
+    with (out_dir / video.LOG_FILE).open('w', encoding='utf-8') as stream:
+        for t, line in lines:
+            stream.write(json.dumps({'t': t, 'node': 'scan_ahead', 'level': 'INFO',
+                                     'text': line.partition(': ')[2], 'line': line}) + '\n')
+
+
+@pytest.fixture(scope='module')
+def run_dir(tmp_path_factory):
+    """Return a finished 3 s run, with console lines every 0.5 s and KNOWN_LINE at KNOWN_T."""
+    out = tmp_path_factory.mktemp('video') / 'run'
+    run_simulation('obstacles', ['scan_ahead'], duration_s=DURATION_S, seed=1, out_dir=out,
+                   quiet=True, plot=False)
+    lines = [(0.5 * k, f'[INFO] [1795499925.0] [scan_ahead]: Range ahead: {k}.00 m')
+             for k in range(1, 6)]
+    write_log(out, sorted(lines + [(KNOWN_T, KNOWN_LINE)]))
+    return out
+
+
+def decode(path: Path) -> tuple[dict, list[np.ndarray]]:
+    """Return a video's metadata and every frame (H, W, 3 uint8), decoded by FFmpeg."""
+    reader = imageio_ffmpeg.read_frames(str(path))
+    meta = next(reader)
+    width, height = meta['size']
+    frames = [np.frombuffer(frame, np.uint8).reshape(height, width, 3) for frame in reader]
+    return meta, frames
+
+
+def difference(a: np.ndarray, b: np.ndarray) -> float:
+    """Return the mean absolute difference of two images (0 to 255)."""
+    return float(np.abs(a.astype(float) - b.astype(float)).mean())
+
+
+@pytest.mark.parametrize('speed, fps', [(1.0, 10.0), (2.0, 10.0), (0.5, 12.0)])
+def test_a_runs_video_decodes_with_its_frames_size_and_simulated_duration(
+        run_dir, tmp_path, speed, fps):
+    info = render_video(run_dir, tmp_path / 'run.mp4', NAMES, speed=speed, fps=fps)
+    meta, frames = decode(info.path)
+    assert meta['codec'] == 'h264' and meta['pix_fmt'].startswith('yuv420p')
+    assert meta['size'] == (FRAME_WIDTH, FRAME_HEIGHT) and FRAME_WIDTH % 2 == FRAME_HEIGHT % 2 == 0
+    assert len(frames) == info.frames == round(DURATION_S / speed * fps)
+    assert meta['fps'] == pytest.approx(fps)
+    assert meta['duration'] == pytest.approx(DURATION_S / speed, abs=1.0 / fps)
+
+
+def test_the_video_is_faststart_so_a_browser_plays_it_while_loading(run_dir, tmp_path):
+    data = render_video(run_dir, tmp_path / 'run.mp4').path.read_bytes()
+    assert data.index(b'moov') < data.index(b'mdat')
+
+
+def test_a_console_line_appears_in_the_terminal_at_its_simulated_time(run_dir, tmp_path):
+    fps = 10.0
+    info = render_video(run_dir, tmp_path / 'run.mp4', NAMES, fps=fps)
+    _, frames = decode(info.path)
+    with_line = FrameRenderer(load_footage(run_dir), NAMES)
+    footage = load_footage(run_dir)
+    footage.log = [entry for entry in footage.log if entry.line != KNOWN_LINE]
+    without = FrameRenderer(footage, NAMES)
+    terminal = np.s_[BANNER_HEIGHT:, WORLD_WIDTH:]
+    # Frame k shows the run at (k + 1) / fps s: frame 14 at 1.5 s, before the line was
+    # written (1.55 s), frame 15 at 1.6 s, after.
+    before, after = 14, 15
+    assert np.array_equal(with_line.frame(1.5), without.frame(1.5))
+    shown, hidden = with_line.frame(1.6)[terminal], without.frame(1.6)[terminal]
+    # Where the two differ: the rows of the terminal the line takes (the rest scrolled too).
+    rows = np.any(shown != hidden, axis=(1, 2))
+    assert rows.any()
+    decoded = frames[after][terminal][rows]
+    assert difference(decoded, shown[rows]) < difference(decoded, hidden[rows]) / 4
+    earlier = frames[before][terminal][rows]
+    assert difference(earlier, hidden[rows]) < difference(earlier, shown[rows]) / 4
+
+
+def test_the_terminal_shows_the_known_line_and_the_nodes_command(run_dir):
+    footage = load_footage(run_dir)
+    assert footage.commands == ['ros2 run scan_pkg scan_ahead --ros-args --params-file '
+                                'params.yaml -p use_sim_time:=true']
+    pane = FrameRenderer(footage, NAMES).terminal
+    count = pane.count_at(KNOWN_T)
+    with_line, before = np.asarray(pane.image(count)), np.asarray(pane.image(count - 1))
+    rows = np.flatnonzero(np.any(with_line != before, axis=(1, 2)))
+    # The new line is drawn below the command and the earlier lines, in one text row.
+    assert rows.min() >= pane.header_height + 3 * video.TERMINAL_LINE_HEIGHT
+    assert rows.max() - rows.min() < video.TERMINAL_LINE_HEIGHT
+    alone = FrameRenderer(footage, NAMES).terminal
+    alone.log = [LogLine(KNOWN_T, 'INFO', KNOWN_LINE)]
+    alone.times = np.array([KNOWN_T])
+    drawn = np.asarray(alone.image(1))
+    # The same text drawn alone is the same pixels, one row up (nothing above it but the header).
+    top = pane.header_height
+    shift = rows.min() - top - (rows.min() - top) % video.TERMINAL_LINE_HEIGHT
+    assert np.array_equal(with_line[top + shift:top + shift + video.TERMINAL_LINE_HEIGHT],
+                          drawn[top:top + video.TERMINAL_LINE_HEIGHT])
+
+
+def test_the_terminal_scrolls_and_wraps_as_a_terminal_does():
+    assert terminal_rows('ab\tc\x1b[31mred\x1b[0m', 80) == ['ab      cred']
+    assert terminal_rows('x' * 25, 10) == ['x' * 10, 'x' * 10, 'x' * 5]
+    pane = video.TerminalPane((400, 200), ['my_node --ros-args'],
+                              [LogLine(k, 'INFO', f'line {k}') for k in range(100)])
+    assert pane.capacity < 100
+    full, later = np.asarray(pane.image(50)), np.asarray(pane.image(51))
+    body = np.s_[pane.header_height:]
+    assert not np.array_equal(full[body], later[body])  # everything moved up a row
+    assert np.array_equal(full[:pane.header_height - 8], later[:pane.header_height - 8])
+
+
+def test_the_names_are_on_the_first_and_the_last_frame(run_dir, tmp_path):
+    info = render_video(run_dir, tmp_path / 'run.mp4', NAMES)
+    _, frames = decode(info.path)
+    renderer = FrameRenderer(load_footage(run_dir), NAMES)
+    banner = np.s_[:BANNER_HEIGHT, :WORLD_WIDTH]
+    times = video.frame_times(DURATION_S, 1.0, video.DEFAULT_FPS)
+    for index in (0, len(frames) - 1):
+        named = renderer.frame(times[index])[banner]
+        unnamed = renderer.frame(times[index], names=False)[banner]
+        assert difference(named, unnamed) > 5.0
+        assert difference(frames[index][banner], named) < difference(
+            frames[index][banner], unnamed) / 4
+
+
+def test_the_robot_moves_in_the_world_pane(tmp_path):
+    out = tmp_path / 'run'
+    run_simulation('wall_follow_box', ['wall_follow'], duration_s=4.0, seed=1, out_dir=out,
+                   quiet=True, plot=False)
+    renderer = FrameRenderer(load_footage(out), NAMES)
+    world = np.s_[BANNER_HEIGHT:, :WORLD_WIDTH]
+    assert difference(renderer.frame(0.5)[world], renderer.frame(4.0)[world]) > 0.1
+    # Drawn in any order, a frame is the same frame.
+    assert np.array_equal(renderer.frame(0.5), FrameRenderer(load_footage(out), NAMES).frame(0.5))
+
+
+def test_a_folder_without_a_run_is_one_line_error(tmp_path, capsys):
+    assert video.main([str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith('error: ') and 'metrics.json' in err and err.count('\n') == 1
+    with pytest.raises(VideoError, match=r'log.jsonl:2'):
+        (tmp_path / video.LOG_FILE).write_text('{"t": 0, "line": "a"}\nnot json\n')
+        video.read_log(tmp_path / video.LOG_FILE)
+
+
+def test_the_runner_writes_the_video_it_is_asked_for(tmp_path, capfd):
+    target = tmp_path / 'labscan_task1.mp4'
+    status = run_main(['--world', 'obstacles', '--node', 'scan_ahead', '--duration', '2',
+                       '--out', str(tmp_path / 'run'), '--quiet', '--video', str(target),
+                       '--names', NAMES, '--speed', '2'])
+    assert status == 0
+    meta, frames = decode(target)
+    assert len(frames) == 10 and meta['duration'] == pytest.approx(1.0, abs=0.1)
+    assert run_main(['--world', 'obstacles', '--node', 'scan_ahead', '--no-record',
+                     '--video', str(target)]) == 2
+    assert '--no-record' in capfd.readouterr().err
+
+
+def test_the_video_of_a_failing_graded_run_plays_from_its_report(tmp_path):
+    scenario = tmp_path / 'raiser.yaml'
+    scenario.write_text(
+        f"world: obstacles\nnodes: ['{FIXTURES / 'raising_node.py'}']\nduration: 3.0\n"
+        'criteria: [len(node_errors) == 0]\n')
+    out = tmp_path / 'grade'
+    status = grade.main([str(scenario), '--out', str(out), '--quiet', '--video',
+                         '--names', NAMES])
+    assert status == 1
+    page = (out / grade.PAGE_NAME).read_text()
+    videos = video_sources(page)
+    assert len(videos) == 1
+    played = (out / videos[0]).resolve()
+    assert played == (out / 'raiser' / 'seed_0' / 'video.mp4').resolve()
+    meta, frames = decode(played)
+    assert meta['codec'] == 'h264' and len(frames) >= 1
+    assert f'href="{videos[0]}"' in page
+
+
+def video_sources(page: str) -> list[str]:
+    """Return the ``src`` of each ``<video>`` of a page."""
+    from html.parser import HTMLParser
+
+    class Videos(HTMLParser):
+
+        def __init__(self):
+            super().__init__()
+            self.sources = []
+
+        def handle_starttag(self, tag, attrs):
+            if tag == 'video':
+                self.sources += [value for name, value in attrs if name == 'src']
+    parser = Videos()
+    parser.feed(page)
+    return parser.sources
+
+
+def test_ffmpeg_is_the_one_imageio_ffmpeg_ships():
+    version = subprocess.run([imageio_ffmpeg.get_ffmpeg_exe(), '-hide_banner', '-encoders'],
+                             capture_output=True, text=True, check=True).stdout
+    assert 'libx264' in version
+
+
+def test_a_recorded_live_session_has_a_runs_outputs_and_its_video(tmp_path):
+    """``./lab live TASK --record OUT`` (two ROS 2 processes on a domain of this test's own)."""
+    out = tmp_path / 'live'
+    env = dict(os.environ, ROS_DOMAIN_ID=str(200 + os.getpid() % 30))
+    env.pop('ROS_AUTOMATIC_DISCOVERY_RANGE', None)
+    result = subprocess.run(
+        [sys.executable, '-m', 'sim_bridge.live', 'scan_ahead', '--duration', '6', '--record',
+         str(out)], env=env, capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stdout + result.stderr
+    metrics = json.loads((out / 'metrics.json').read_text())
+    assert metrics['sim_time_s'] > 0 and metrics['run_mode']['mode'] == 'live'
+    assert (out / 'trajectory.png').is_file() and (out / 'params.yaml').is_file()
+    log = video.read_log(out / video.LOG_FILE)
+    ranges = [entry for entry in log if 'Range ahead' in entry.line]
+    # In the order printed, at the sim time then (before this process hears the first /clock,
+    # while DDS discovery completes, told from the wall clock).
+    times = [entry.t for entry in ranges]
+    assert times == sorted(times) and 0 < times[-1] <= metrics['sim_time_s']
+    assert len(set(times)) == len(times)  # scan_ahead logs once a scan, every 0.1 s
+    # The node's lines, as the terminal showed them (launch's prefix aside); not the simulator's.
+    assert all(f'[scan_ahead-2] {entry.line}' in result.stdout for entry in log)
+    assert not any('[sim_bridge]' in entry.line for entry in log)
+    info = render_video(out, tmp_path / 'live.mp4', NAMES)
+    meta, frames = decode(info.path)
+    assert len(frames) == round(metrics['sim_time_s'] * video.DEFAULT_FPS)
+    footage = load_footage(out)
+    assert len(footage.scans) > 10 and footage.commands[0].startswith('ros2 run scan_pkg')
+
+
+@pytest.mark.parametrize('text, task', [('scan_ahead', 'scan_ahead'), ('1', 'scan_ahead'),
+                                        ('task2', 'wanderbot'), ('3', 'scan_around'),
+                                        ('4', 'wall_follow')])
+def test_a_lab_task_is_named_or_numbered_as_the_handout_numbers_it(text, task):
+    assert lab_video.task_name(text) == task
+    assert video_name(task) == f'labscan_task{HANDOUT[task]}.mp4'
+
+
+def test_lab_video_writes_the_handouts_video_of_a_task(tmp_path, monkeypatch, capfd):
+    monkeypatch.chdir(tmp_path)
+    assert lab_video.main(['1', '--names', NAMES, '--speed', '2']) == 0
+    meta, frames = decode(tmp_path / 'labscan_task1.mp4')
+    metrics = json.loads((tmp_path / 'out' / 'video' / 'scan_ahead' / 'metrics.json').read_text())
+    assert len(frames) == round(metrics['sim_time_s'] / 2 * video.DEFAULT_FPS)
+    assert 'labscan_task1.mp4' in capfd.readouterr().out
+    with pytest.raises(SystemExit):
+        lab_video.main(['9', '--names', NAMES])
+    assert "'9': a lab task is one of" in capfd.readouterr().err
+
+
+def test_names_too_long_for_one_line_are_made_smaller_or_wrapped_never_cut():
+    names = ', '.join(f'Student Number{index} With A Long Name 10000{index}' for index in range(5))
+    banner = video.names_banner(names, 800)
+    assert banner.size == (800, BANNER_HEIGHT)
+    # The last name is drawn: the banner without it differs.
+    without_last = video.names_banner(names.rpartition(', ')[0] + ',', 800)
+    assert not np.array_equal(np.asarray(banner), np.asarray(without_last))
+    # Two lines: ink in the top and the bottom half.
+    ink = np.any(np.asarray(banner) != video.BANNER_BACKGROUND, axis=(1, 2))
+    assert ink[:BANNER_HEIGHT // 2].any() and ink[BANNER_HEIGHT // 2:].any()
+
+
+def test_a_real_runs_console_lines_reach_its_video_at_their_time(tmp_path):
+    """End to end: the lines the runner kept (log.jsonl) in the decoded video, when written."""
+    out = tmp_path / 'run'
+    run_simulation('obstacles', ['scan_ahead'], duration_s=2.0, seed=1, out_dir=out,
+                   quiet=True, plot=False)
+    footage = load_footage(out)
+    lines = [entry for entry in footage.log if 'Range ahead' in entry.line]
+    assert lines and lines[0].line.startswith('[INFO] [') and 0 < lines[0].t < 2.0
+    fps = 10.0
+    _, frames = decode(render_video(out, tmp_path / 'run.mp4', NAMES, fps=fps).path)
+    first = lines[0]
+    index = int(np.ceil(first.t * fps - 1e-9)) - 1  # the first frame at or after it
+    footage.log = [entry for entry in footage.log if entry is not first]
+    without = FrameRenderer(footage, NAMES).frame((index + 1) / fps)
+    shown = FrameRenderer(load_footage(out), NAMES).frame((index + 1) / fps)
+    terminal = np.s_[BANNER_HEIGHT:, WORLD_WIDTH:]
+    rows = np.any(shown[terminal] != without[terminal], axis=(1, 2))
+    assert rows.any()
+    decoded = frames[index][terminal][rows]
+    assert difference(decoded, shown[terminal][rows]) < difference(
+        decoded, without[terminal][rows]) / 4
