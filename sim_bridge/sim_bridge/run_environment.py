@@ -56,15 +56,15 @@ def run_environment(field_checks: bool = True) -> Iterator[None]:
     """Set the run's variables (and message modules' field-check flag); restore them after."""
     check = '1' if field_checks else ''
     modules = {module: module.ros_python_check_fields for module in _message_modules()}
+    outside = os.environ.get(CHECK_FIELDS_VARIABLE, '')  # what a module first imported here gets
     with environment_set({'ROS_AUTOMATIC_DISCOVERY_RANGE': 'OFF', CHECK_FIELDS_VARIABLE: check}):
         for module in modules:
             module.ros_python_check_fields = check
         try:
             yield
         finally:
-            default = os.environ.get(CHECK_FIELDS_VARIABLE, '')
             for module in _message_modules():
-                module.ros_python_check_fields = modules.get(module, default)
+                module.ros_python_check_fields = modules.get(module, outside)
 
 
 def is_field_check_failure(error: BaseException) -> bool:
