@@ -154,7 +154,8 @@ def run_scenario(run: ScenarioRun, out_dir: Path, *, simulate: Simulate | None =
         result = simulate(scenario.world, list(scenario.nodes), duration_s=scenario.duration_s,
                           seed=run.seed, params=run.params, out_dir=out_dir,
                           start=scenario.start, robot=scenario.robot, remap=scenario.remap,
-                          setpoint=scenario.setpoint.get('wall_distance_m'), quiet=quiet,
+                          setpoint=scenario.setpoint.get('wall_distance_m'),
+                          printed=scenario.printed, quiet=quiet,
                           record=record, plot=plot, progress=progress)
     except Exception as error:  # one broken run must not stop the batch
         from sim_bridge.run import RunError

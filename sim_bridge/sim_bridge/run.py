@@ -615,7 +615,7 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
                    out_dir: Path | str | None = None,
                    start: Sequence[float] | str | None = None, robot: str | None = None,
                    remap: Sequence[str] = (), setpoint: float | None = None,
-                   quiet: bool = False,
+                   printed: Sequence[str] = (), quiet: bool = False,
                    record: bool = True, plot: bool = True, gui: bool = False,
                    field_checks: bool = True,
                    progress: Callable[[float, float], None] | None = None) -> RunResult:
@@ -627,7 +627,9 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
     ``robot`` names a robot model spawned instead of the world's own (see :func:`load_world`);
     ``remap`` holds ROS remapping rules (``FROM:=TO``, ``NODE:FROM:=TO``) for the target nodes;
     ``setpoint`` is the wall distance (m) ``wall_distance_m`` is measured against, by default
-    the value of a node's ``distance`` parameter (SETPOINT_PARAMETER), if one has it.
+    the value of a node's ``distance`` parameter (SETPOINT_PARAMETER), if one has it;
+    ``printed`` names the values (printed_values.KINDS) whose printed lines are scored against
+    the scans (``metrics['printed']``).
     What the world's files hold that the simulator does not simulate (``World.ignored``) is
     logged once by the simulator at start and kept in ``metrics['ignored']``.
     ``gui`` shows the run in the pybullet window at wall-clock pace. ``field_checks``: rosidl
@@ -659,8 +661,8 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
                            'run takes one node file: run it alone')
         return run_as_process(
             world_model, target, mode, node_params, duration_s=duration_s, out_dir=out_dir,
-            remap=remap, setpoint=setpoint, quiet=quiet, record=record, plot=plot,
-            field_checks=field_checks, progress=progress)
+            remap=remap, setpoint=setpoint, printed=printed, quiet=quiet, record=record,
+            plot=plot, field_checks=field_checks, progress=progress)
     run_modes = {'mode': 'stepped', 'reason': '; '.join(mode.reason for mode in modes)}
 
     node_errors, warnings, ended_by = [], [], None
@@ -737,24 +739,27 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
     return write_outputs(
         out_dir, observer, world_model, interrupt, plot=plot,
         title=f"{world_model.name}: {', '.join(map(target_name, targets))}", setpoint=setpoint,
-        wall_start=wall_start, node_errors=node_errors, warnings=warnings, ended_by=ended_by,
-        run_mode=run_modes)
+        printed=printed, wall_start=wall_start, node_errors=node_errors, warnings=warnings,
+        ended_by=ended_by, run_mode=run_modes)
 
 
 def write_outputs(out_dir: Path, observer: Observer, world_model: World,
                   interrupt: 'UserInterrupt', *, plot: bool, title: str,
                   setpoint: float | None, wall_start: float, node_errors: list,
+                  printed: Sequence[str] = (),
                   warnings: list[str], ended_by: str | None, run_mode: Any) -> RunResult:
     """
     Score a finished run and write ``metrics.json`` and the plot; return the RunResult.
 
-    ``wall_start`` is the run's start on the perf counter (s). A Ctrl-C while they are written
+    ``wall_start`` is the run's start on the perf counter (s); ``printed`` as in
+    :func:`run_simulation`. A Ctrl-C while they are written
     waits for them (``interrupt``); one pressed during the run is raised after them.
     """
     try:
         metrics = compute_metrics(observer.finish(), world_model, setpoint=setpoint,
                                   wall_time_s=time.perf_counter() - wall_start,
-                                  node_errors=node_errors)
+                                  node_errors=node_errors, printed=printed,
+                                  runner_nodes=(BRIDGE_NODE,))
         metrics['warnings'] = [*metrics.get('warnings', []), *warnings]
         metrics['ended_by'] = ended_by
         metrics['ignored'] = world_model.ignored
@@ -791,7 +796,7 @@ class LiveGraph:
 def run_as_process(world_model: World, target: str, mode: Decision, node_params: Params, *,
                    duration_s: float, out_dir: Path, remap: Sequence[str],
                    setpoint: float | None, quiet: bool, record: bool, plot: bool,
-                   field_checks: bool,
+                   field_checks: bool, printed: Sequence[str] = (),
                    progress: Callable[[float, float], None] | None = None) -> RunResult:
     """
     Run the node file ``target`` as its own process against the simulator run live here.
@@ -882,7 +887,8 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
     return write_outputs(
         out_dir, observer, world_model, interrupt, plot=plot,
         title=f'{world_model.name}: {target_name(target)}', setpoint=setpoint,
-        wall_start=wall_start, node_errors=node_errors, warnings=warnings, ended_by=ended_by,
+        printed=printed, wall_start=wall_start, node_errors=node_errors, warnings=warnings,
+        ended_by=ended_by,
         run_mode={'mode': 'process', 'reason': mode.reason})
 
 
