@@ -64,3 +64,9 @@ def test_wanderbot_runs_five_seeds_of_ten_minutes_in_the_room():
     assert len(scenario.seeds) == 5
     assert {run.params['wanderbot']['seed'] for run in scenario.runs()} == set(scenario.seeds)
     assert {'min(turns_deg) > 90', 'max_stationary_s <= 5'} <= set(criteria(scenario))
+
+
+@pytest.mark.parametrize('name, printed', [
+    ('scan_ahead', 'range_ahead'), ('scan_around', 'regions'), ('closest_obstacle', 'closest')])
+def test_reading_scenarios_grade_what_their_node_prints(name, printed):
+    assert load_scenario(SCENARIOS / f'{name}.yaml').printed == (printed,)
