@@ -320,17 +320,21 @@ class LiveRun:
 
     ``specs``' processes are started by :meth:`start` with :func:`child_environment` of
     ``env`` (default: this process's). Each line they write, and each of launch's lines about
-    them, goes to ``out`` as it comes (default: stdout). As a context manager it stops every
-    process still running when the block ends, however it ends.
+    them, goes to ``out`` as it comes (default: stdout). With ``on_line``, each process's
+    stdout and stderr are read apart, and ``on_line(index, stream, line)`` ('STDOUT' or
+    'STDERR') is called in a reader thread as each line arrives, before ``out`` prints it. As a
+    context manager it stops every process still running when the block ends, however it ends.
     """
 
     def __init__(self, specs: Iterable[ProcessSpec], *, env: Mapping[str, str] | None = None,
                  out: Output = print_line, sigterm_timeout_s: float = SIGTERM_TIMEOUT_S,
-                 sigkill_timeout_s: float = SIGKILL_TIMEOUT_S, settle_s: float = SETTLE_S):
+                 sigkill_timeout_s: float = SIGKILL_TIMEOUT_S, settle_s: float = SETTLE_S,
+                 on_line: Callable[[int, str, str], None] | None = None):
         self.specs = list(specs)
         self.names = process_names(self.specs)
         self.env, self.env_warning = child_environment(os.environ if env is None else env)
         self.out = out
+        self.on_line = on_line
         self.sigterm_timeout_s = sigterm_timeout_s
         self.sigkill_timeout_s = sigkill_timeout_s
         self.settle_s = settle_s
@@ -339,6 +343,7 @@ class LiveRun:
         self.returncodes: dict[str, int] = {}
         self._lines: queue.Queue = queue.Queue()
         self._eof: set[int] = set()
+        self._open_streams: dict[int, int] = {}
         self._exit_seen: dict[int, float] = {}
         self._stopping: set[int] = set()
         self._readers: list[threading.Thread] = []
@@ -355,19 +360,27 @@ class LiveRun:
             self.out(log_line('WARNING', LOGGER, self.env_warning))
         preexec = _child_setup()
         for index, (spec, name) in enumerate(zip(self.specs, self.names)):
+            apart = self.on_line is not None
             process = subprocess.Popen(
                 spec.cmd, env=self.env, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-                stderr=subprocess.STDOUT, start_new_session=True, preexec_fn=preexec)
+                stderr=subprocess.PIPE if apart else subprocess.STDOUT,
+                start_new_session=True, preexec_fn=preexec)
             self.processes.append(process)
             self.out(started_line(name, process.pid))
-            reader = threading.Thread(target=self._read, args=(index, process.stdout),
-                                      name=f'live-output-{name}', daemon=True)
-            reader.start()
-            self._readers.append(reader)
+            streams = [('STDOUT', process.stdout), ('STDERR', process.stderr)][:1 + apart]
+            self._open_streams[index] = len(streams)
+            for stream_name, stream in streams:
+                reader = threading.Thread(target=self._read, args=(index, stream_name, stream),
+                                          name=f'live-output-{name}', daemon=True)
+                reader.start()
+                self._readers.append(reader)
 
-    def _read(self, index: int, stream) -> None:
+    def _read(self, index: int, stream_name: str, stream) -> None:
         for raw in iter(stream.readline, b''):
-            self._lines.put((index, raw.decode('utf-8', errors='replace').rstrip('\r\n')))
+            line = raw.decode('utf-8', errors='replace').rstrip('\r\n')
+            if self.on_line is not None:
+                self.on_line(index, stream_name, line)
+            self._lines.put((index, line))
         stream.close()
         self._lines.put((index, None))
 
@@ -399,7 +412,9 @@ class LiveRun:
                     except queue.Empty:
                         break
                 if line is None:
-                    self._eof.add(index)
+                    self._open_streams[index] -= 1
+                    if not self._open_streams[index]:
+                        self._eof.add(index)
                 else:
                     self.out(prefixed(self.names[index], line))
 

@@ -45,8 +45,9 @@ from ruamel.yaml import YAML
 
 from sim_bridge.cdr_padding import PaddingZeroer
 
-#: Topics recorded when none are named: what the bridge and the nodes under test exchange.
-DEFAULT_TOPICS = ('/scan', '/cmd_vel', '/odom', '/tf', '/tf_static', '/clock')
+#: Topics recorded when none are named: what the bridge and the nodes under test exchange,
+#: and what the nodes wrote (/rosout).
+DEFAULT_TOPICS = ('/scan', '/cmd_vel', '/odom', '/tf', '/tf_static', '/clock', '/rosout')
 #: rosbag2 metadata version of ROS 2 Jazzy.
 BAG_VERSION = 9
 #: The ``ros_distro`` of the metadata: the messages are Jazzy's (rosbag2 writes $ROS_DISTRO).
@@ -70,8 +71,10 @@ def offered_qos(*, reliable: bool = True, transient_local: bool = False) -> Qos:
                avoid_ros_namespace_conventions=False)
 
 
-#: Offered QoS per topic; topics not listed get a reliable, volatile profile.
-DEFAULT_QOS = {'/tf_static': offered_qos(transient_local=True)}
+#: Offered QoS per topic; topics not listed get a reliable, volatile profile. (A node's
+#: /rosout publisher is transient local, as /tf_static's.)
+DEFAULT_QOS = {'/tf_static': offered_qos(transient_local=True),
+               '/rosout': offered_qos(transient_local=True)}
 
 
 def message_type_name(msg_or_class: Any) -> str:

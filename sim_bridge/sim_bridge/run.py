@@ -9,6 +9,7 @@ runs before physics advances, see sim_bridge.stepping), as if each had been star
 """
 
 import argparse
+from contextlib import contextmanager
 from dataclasses import dataclass
 import difflib
 import functools
@@ -24,7 +25,7 @@ import sys
 import tempfile
 import threading
 import time
-from typing import Any, Callable, Iterable, Sequence
+from typing import Any, Callable, Iterable, Iterator, Sequence
 
 import numpy as np
 from rclpy.event_handler import SubscriptionEventCallbacks
@@ -33,6 +34,9 @@ from rclpy.serialization import serialize_message
 from sim_bridge.hints import ros_module_hint, scan_hint
 from sim_bridge.live import LiveRun, print_line
 from sim_bridge.metrics import compute_metrics
+from sim_bridge.node_output import (
+    LOG_FILE, NodeLog, OutputCapture, rosout_message, ROSOUT_TOPIC, ROSOUT_TYPE, to_terminal,
+    write_log)
 from sim_bridge.node_styles import Decision
 from sim_bridge.paths import find_world
 from sim_bridge.plot import plot_trajectory
@@ -236,15 +240,17 @@ class RunRecorder:
     The bridge's own messages are serialised by rclpy (``serialize_message``) as they are
     published; every other recorded topic (/cmd_vel, TF) has a raw subscription on the
     runner's own node, as ``ros2 bag record`` has. Messages are stamped with the sim time of the
-    step that sent them. Messages sent before :meth:`record` (while the nodes start) are held,
-    so that a run which cannot start has written nothing.
+    step that sent them. The lines the nodes wrote (``log``) are recorded on /rosout, each at
+    its own time, before the next message. Messages sent before :meth:`record` (while the nodes
+    start) are held, so that a run which cannot start has written nothing.
     """
 
-    def __init__(self, run: 'SteppedRun', observer: 'Observer', record: bool):
+    def __init__(self, run: 'SteppedRun', observer: 'Observer', record: bool, log: NodeLog):
         from rclpy.qos import DurabilityPolicy, QoSProfile
         self.run = run
         self.observer = observer
         self.recording = record
+        self.log = log
         self.held: list[tuple[str, str, bytes, int]] | None = []
         self.bag = None
         self.type_names: dict[type, str] = {}
@@ -280,13 +286,24 @@ class RunRecorder:
 
     def write(self, topic: str, type_name: str, data: bytes) -> None:
         """Write (or hold) one message's CDR bytes at the current sim time."""
+        self.write_log()
+        self.store(topic, type_name, data, self.run.bridge.now_ns)
+
+    def write_log(self) -> None:
+        """Write (or hold) the nodes' lines not yet recorded, on /rosout at their own times."""
+        for t_ns, entry in self.log.take_pending():
+            self.store(ROSOUT_TOPIC, ROSOUT_TYPE, rosout_message(entry, t_ns), t_ns)
+
+    def store(self, topic: str, type_name: str, data: bytes, t_ns: int) -> None:
+        """Write (or hold) one message's CDR bytes at ``t_ns`` (ns)."""
         if self.bag is not None:
-            self.bag.write(topic, type_name, data, self.run.bridge.now_ns)
+            self.bag.write(topic, type_name, data, t_ns)
         elif self.held is not None:
-            self.held.append((topic, type_name, data, self.run.bridge.now_ns))
+            self.held.append((topic, type_name, data, t_ns))
 
     def record(self, bag: BagRecorder | None) -> None:
         """Write the held messages to ``bag`` and everything sent from now on."""
+        self.write_log()
         if bag is not None:
             for message in self.held:
                 bag.write(*message)
@@ -311,9 +328,9 @@ class SteppedRun:
         from rclpy.impl.implementation_singleton import rclpy_implementation
         from rclpy.signals import SignalHandlerOptions
         self.rclpy = rclpy
+        self.quiet = quiet
         self.node_arguments = ['--ros-args', '--params-file', str(params_file),
                                '-p', 'use_sim_time:=true',
-                               *(['--disable-stdout-logs'] if quiet else []),
                                *(argument for rule in remap for argument in ('-r', rule))]
         self.bridge_arguments = ['--ros-args', '--params-file',
                                  str(bridge_params_file or params_file)]
@@ -337,7 +354,22 @@ class SteppedRun:
                     start_parameter_services=False, enable_rosout=False,
                     parameter_overrides=[NO_TYPE_DESCRIPTION_SERVICE])
         self.executor.add_node(node)
+        self.executor.own_nodes.add(node)
         return node
+
+    @contextmanager
+    def capture_output(self, log: NodeLog) -> Iterator[OutputCapture]:
+        """
+        Keep what the nodes write in the block in ``log``, each line at the sim time of its code.
+
+        Shown on the terminal as written, unless the run is quiet (sim_bridge.node_output).
+        """
+        with OutputCapture(log, lambda: self.bridge.now_ns, quiet=self.quiet) as capture:
+            self.executor.output = capture
+            try:
+                yield capture
+            finally:
+                self.executor.output = None
 
     def start(self, node_class: type, label: str, **kwargs):
         """
@@ -345,14 +377,22 @@ class SteppedRun:
 
         A parameter override of the wrong type is a RunError; any other exception from the
         node's constructor is the node failing, reported as a NodeError under ``label``; a
-        constructor that shuts ROS down ends the run (NodeEnded).
+        constructor that shuts ROS down ends the run (NodeEnded). What the constructor writes
+        is the node's, at the time the run is at.
         """
+        output, name = self.executor.output, ''
+        if output is not None:
+            output.sync()
         try:
             node = node_class(**kwargs)
+            name = node.get_name()
         except self.rclpy.exceptions.InvalidParameterTypeException as error:
             raise RunError(f'{label}: {error}') from None
         except BaseException as error:  # noqa: B902 sys.exit() in a constructor ends the run
             raise NodeError(label, error, code=self.executor.code) from error
+        finally:
+            if output is not None:
+                output.sync(name)
         self.nodes.append(node)
         if not self.context.ok():
             raise NodeEnded(label, 'its constructor', self.executor.shutdown_where or '')
@@ -374,6 +414,7 @@ class SteppedRun:
                 enable_rosout=False, parameter_overrides=[NO_TYPE_DESCRIPTION_SERVICE])
         except NodeError as error:
             raise RunError(f'{BRIDGE_NODE}: {describe(error.original)}') from None
+        self.executor.own_nodes.add(self.bridge)
         return self.bridge
 
     def start_nodes(self, targets: Iterable[tuple[str, type]],
@@ -675,7 +716,7 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
         except TargetError as error:
             failure = import_failure(error)
             if not quiet and failure.traceback:
-                to_console(failure.traceback)  # what `python3 node.py` would print
+                to_terminal(failure.traceback)  # what `python3 node.py` would print
             raise failure from None
         code = StudentCode.of(inspect.getfile(node_class) for node_class in classes)
         params_file = Path(scratch) / 'params.yaml'
@@ -686,26 +727,29 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
         run = SteppedRun(params_file, quiet, code, bridge_params_file=bridge_params_file,
                          remap=remap)
         bag, interrupt, outputs_open = None, UserInterrupt(), False
+        log = NodeLog(record)
         try:
             bridge = run.start_simulator(SimBridge)
             observer = Observer(bridge.sim)
-            recorder = RunRecorder(run, observer, record)
-            start_failure = run.start_nodes(zip(targets, classes), node_params)
-            if start_failure is None:
-                warnings += run.parameter_warnings(node_params)
-                for warning in warnings:
-                    to_console(f'warning: {warning}\n')
-            if setpoint is None:
-                setpoint = run.parameter(SETPOINT_PARAMETER)
-            bag = open_outputs(out_dir, params_file, record)
-            recorder.record(bag)
-            outputs_open = True
-            if start_failure is not None:
-                raise start_failure
-            pacing = Pacing(duration_s, gui, progress)
-            pacing(bridge.now_ns)  # the nodes are up: simulated time starts
-            with interrupt:
-                run.advance(round(duration_s * NANOSECONDS_PER_SECOND), pacing.step_ns, pacing)
+            recorder = RunRecorder(run, observer, record, log)
+            with run.capture_output(log):
+                start_failure = run.start_nodes(zip(targets, classes), node_params)
+                if start_failure is None:
+                    warnings += run.parameter_warnings(node_params)
+                    for warning in warnings:
+                        to_terminal(f'warning: {warning}\n')
+                if setpoint is None:
+                    setpoint = run.parameter(SETPOINT_PARAMETER)
+                bag = open_outputs(out_dir, params_file, record)
+                recorder.record(bag)
+                outputs_open = True
+                if start_failure is not None:
+                    raise start_failure
+                pacing = Pacing(duration_s, gui, progress)
+                pacing(bridge.now_ns)  # the nodes are up: simulated time starts
+                with interrupt:
+                    run.advance(round(duration_s * NANOSECONDS_PER_SECOND), pacing.step_ns,
+                                pacing)
         except KeyboardInterrupt:
             if not interrupt.pressed:
                 raise
@@ -714,7 +758,7 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
             ended_by = str(end)
             warnings.append(f'{end}: the run ended at {bridge.now_ns / NANOSECONDS_PER_SECOND:g} '
                             f's of its {duration_s:g} s')
-            to_console(f'warning: {warnings[-1]}\n')
+            to_terminal(f'warning: {warnings[-1]}\n')
         except NodeError as error:
             student_traceback = error.code.traceback(error.original)
             if not interrupt.pressed:  # a Ctrl-C while a callback ran is the user's
@@ -723,7 +767,7 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
                                               'traceback': student_traceback}))
             if not quiet and not interrupt.pressed:
                 # What the node's own process would print before dying, its own part.
-                to_console(student_traceback)
+                to_terminal(student_traceback)
         except RunStopped as stop:
             if not outputs_open:  # stopped while starting: there is nothing to write yet
                 raise
@@ -732,34 +776,40 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
             if outputs_open and run.context.ok():  # a node's rclpy.shutdown() ends the graph
                 for warning in run.unconnected_topics():
                     warnings.append(warning)
-                    to_console(f'warning: {warning}\n')
+                    to_terminal(f'warning: {warning}\n')
+            if log.warning():
+                warnings.append(log.warning())
             if bag is not None:
+                recorder.write_log()
                 bag.close()
             run.close()
     return write_outputs(
         out_dir, observer, world_model, interrupt, plot=plot,
         title=f"{world_model.name}: {', '.join(map(target_name, targets))}", setpoint=setpoint,
         printed=printed, wall_start=wall_start, node_errors=node_errors, warnings=warnings,
-        ended_by=ended_by, run_mode=run_modes)
+        ended_by=ended_by, run_mode=run_modes, log_lines=log.entries)
 
 
 def write_outputs(out_dir: Path, observer: Observer, world_model: World,
                   interrupt: 'UserInterrupt', *, plot: bool, title: str,
                   setpoint: float | None, wall_start: float, node_errors: list,
-                  printed: Sequence[str] = (),
-                  warnings: list[str], ended_by: str | None, run_mode: Any) -> RunResult:
+                  warnings: list[str], ended_by: str | None, run_mode: Any,
+                  log_lines: Sequence[dict] = (), printed: Sequence[str] = ()) -> RunResult:
     """
-    Score a finished run and write ``metrics.json`` and the plot; return the RunResult.
+    Score a finished run and write ``metrics.json``, ``log.jsonl`` and the plot; return it.
 
-    ``wall_start`` is the run's start on the perf counter (s); ``printed`` as in
-    :func:`run_simulation`. A Ctrl-C while they are written
-    waits for them (``interrupt``); one pressed during the run is raised after them.
+    ``wall_start`` is the run's start on the perf counter (s); ``log_lines`` the lines the
+    nodes wrote, dicts with the keys ``t`` (sim time, s), ``node``, ``level``, ``text`` and
+    ``line`` (sim_bridge.node_output), in the order written; ``printed`` as in
+    :func:`run_simulation`. A Ctrl-C while they are written waits for them (``interrupt``); one
+    pressed during the run is raised after them.
     """
     try:
+        write_log(out_dir / LOG_FILE, log_lines)
         metrics = compute_metrics(observer.finish(), world_model, setpoint=setpoint,
                                   wall_time_s=time.perf_counter() - wall_start,
-                                  node_errors=node_errors, printed=printed,
-                                  runner_nodes=(BRIDGE_NODE,))
+                                  node_errors=node_errors, log_lines=log_lines,
+                                  printed=printed, runner_nodes=(BRIDGE_NODE,))
         metrics['warnings'] = [*metrics.get('warnings', []), *warnings]
         metrics['ended_by'] = ended_by
         metrics['ignored'] = world_model.ignored
@@ -806,9 +856,10 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
     own timer. Simulated time starts when the node is in the ROS graph (bounded by
     NODE_START_TIMEOUT_S of wall time) and the process is stopped (SIGINT, then SIGTERM, then
     SIGKILL, as launch does) after ``duration_s`` of it. Outputs as a stepped run's; what the
-    node prints is the run's console output. ``mode`` says why the file is not stepped;
-    ``progress(sim_s, duration_s)`` is called as simulated time passes. Ctrl-C and RunStopped
-    end it as they end a stepped run: the node stopped, the outputs written.
+    node prints is the run's console output, each line kept at the sim time it arrived.
+    ``mode`` says why the file is not stepped; ``progress(sim_s, duration_s)`` is called as
+    simulated time passes. Ctrl-C and RunStopped end it as they end a stepped run: the node
+    stopped, the outputs written.
     """
     import rclpy
     from rclpy.context import Context
@@ -821,7 +872,7 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
     domain = DomainReservation()
     env = process_environment(os.environ, domain.domain_id)
     env['ROS_PYTHON_CHECK_FIELDS'] = '1' if field_checks else ''
-    to_console(f'{target_name(target)} runs as its own process: {mode.reason}\n')
+    to_terminal(f'{target_name(target)} runs as its own process: {mode.reason}\n')
     wall_start = time.perf_counter()
     with tempfile.TemporaryDirectory() as scratch:
         params_file = Path(scratch) / 'params.yaml'
@@ -836,6 +887,7 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
             rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
         executor = SingleThreadedExecutor(context=context)
         bag, outputs_open, interrupt = None, False, UserInterrupt()
+        log = NodeLog(record)
         try:
             bridge = SimBridge(stepped=False, context=context, use_global_arguments=False,
                                cli_args=['--ros-args', '--params-file', str(bridge_params_file)],
@@ -843,12 +895,15 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
                                parameter_overrides=[NO_TYPE_DESCRIPTION_SERVICE])
             executor.add_node(bridge)
             observer = Observer(bridge.sim)
-            recorder = RunRecorder(LiveGraph(bridge, executor), observer, record)
+            recorder = RunRecorder(LiveGraph(bridge, executor), observer, record, log)
             bag = open_outputs(out_dir, params_file, record)
             recorder.record(bag)
             outputs_open = True
             out = (lambda line: None) if quiet else print_line
-            with LiveRun([spec], env=env, out=out) as live, interrupt:
+
+            def keep(index: int, stream: str, line: str) -> None:
+                log.add(bridge.now_ns, '', stream, line)
+            with LiveRun([spec], env=env, out=out, on_line=keep) as live, interrupt:
                 live.start()
                 name = live.names[0]
                 deadline = time.monotonic() + NODE_START_TIMEOUT_S
@@ -880,7 +935,10 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
             node_errors.append({'node': BRIDGE_NODE, 'error': f'{stop} (in the simulator)'})
         finally:
             executor.shutdown()
+            if log.warning():
+                warnings.append(log.warning())
             if bag is not None:
+                recorder.write_log()
                 bag.close()
             context.try_shutdown()
             domain.release()
@@ -888,17 +946,8 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
         out_dir, observer, world_model, interrupt, plot=plot,
         title=f'{world_model.name}: {target_name(target)}', setpoint=setpoint,
         printed=printed, wall_start=wall_start, node_errors=node_errors, warnings=warnings,
-        ended_by=ended_by,
-        run_mode={'mode': 'process', 'reason': mode.reason})
-
-
-def to_console(text: str) -> None:
-    """Write ``text`` on stderr; a node that closed it (``os.close(2)``) costs its run nothing."""
-    try:
-        sys.stderr.write(text)
-        sys.stderr.flush()
-    except (OSError, ValueError):  # ValueError: sys.stderr.close() in the node's code
-        pass
+        ended_by=ended_by, run_mode={'mode': 'process', 'reason': mode.reason},
+        log_lines=log.entries)
 
 
 def summary_table(metrics: dict) -> str:
@@ -938,9 +987,8 @@ def terminal_progress() -> Callable[[float, float], None]:
             return
         done = int(30 * sim_s / duration_s)
         bar = '#' * done + '.' * (30 - done)
-        sys.stderr.write(f'\r[{bar}] {sim_s:6.1f} / {duration_s:g} s sim')
-        sys.stderr.write('\n' if sim_s >= duration_s else '')
-        sys.stderr.flush()
+        to_terminal(f'\r[{bar}] {sim_s:6.1f} / {duration_s:g} s sim'
+                    + ('\n' if sim_s >= duration_s else ''))
     return draw
 
 
@@ -1008,7 +1056,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 130
     print(f'\nRun summary ({result.out_dir}):')
     print(summary_table(result.metrics))
-    written = ['metrics.json', *(['trajectory.png'] if not args.no_plot else []),
+    written = ['metrics.json', LOG_FILE, *(['trajectory.png'] if not args.no_plot else []),
                *(['run/ (rosbag2, MCAP)'] if not args.no_record else [])]
     print(f"  outputs: {result.out_dir}/{', '.join(written)}")
     return 0 if result.ok else 1

@@ -322,7 +322,7 @@ def test_the_sim_clock_has_one_message_at_each_recorded_time_before_the_messages
         recorder.write('/cmd_vel', 'geometry_msgs/msg/Twist', twist, 20)
         recorder.write('clock', 'rosgraph_msgs/msg/Clock', clock_at(35), 35)
         recorder.write('/cmd_vel', 'geometry_msgs/msg/Twist', twist, 35)
-        recorder.write('/rosout', 'geometry_msgs/msg/Twist', twist, 50)  # not recorded
+        recorder.write('/parameter_events', 'geometry_msgs/msg/Twist', twist, 50)  # not kept
     read, _ = read_bag(tmp_path / 'run')
     assert [(topic, t_ns) for topic, _, t_ns, _ in read] == [
         ('/clock', 0), ('/odom', 0), ('/clock', 20), ('/odom', 20), ('/cmd_vel', 20),
@@ -395,7 +395,7 @@ def test_only_the_topics_asked_for_are_recorded(tmp_path):
 
 def test_a_topic_not_recorded_is_ignored_whatever_its_type(tmp_path):
     with BagRecorder(tmp_path / 'run') as recorder:
-        recorder.write('/rosout', 'no_such_pkg/msg/Nothing', b'not cdr', 5)
+        recorder.write('/parameter_events', 'no_such_pkg/msg/Nothing', b'not cdr', 5)
         with pytest.raises(ValueError, match=r"'no_such_pkg/msg/Nothing' on /odom"):
             recorder.write('/odom', 'no_such_pkg/msg/Nothing', b'not cdr', 5)
         recorder.write('/clock', 'rosgraph_msgs/msg/Clock', serialize_message(Clock()), 6)

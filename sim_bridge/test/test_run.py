@@ -192,10 +192,15 @@ def test_run_records_a_bag_rosbags_reads_back(scan_ahead_run):
     messages = read_bag(out_dir / 'run')
     duration_s = 2
     counts = {topic: len(items) for topic, items in messages.items()}
-    # /clock at the start and at each recorded message's time: the odometry's (record.py).
+    # /clock at the start and at each recorded message's time: the odometry's (record.py);
+    # /rosout: scan_ahead's line for each scan, at the scan's time.
     assert without_tf(counts) == {'/clock': 1 + ODOM_RATE * duration_s,
                                   '/odom': ODOM_RATE * duration_s,
-                                  '/scan': SCAN_RATE * duration_s}
+                                  '/scan': SCAN_RATE * duration_s,
+                                  '/rosout': SCAN_RATE * duration_s}
+    assert [time for time, _ in messages['/rosout']] == [time for time, _ in messages['/scan']]
+    assert all(log.name == 'scan_ahead' and log.msg.startswith('Range ahead: ')
+               for _, log in messages['/rosout'])
     if HAS_TF:
         assert (counts['/tf'], counts['/tf_static']) == (ODOM_RATE * duration_s, 1)
     for timestamp, clock in messages['/clock']:
@@ -343,7 +348,7 @@ def test_an_output_folder_with_spaces_unicode_and_a_newline_gets_every_output(tm
                                  '0.3', '--quiet', '--out', str(out_dir))
     assert status == 0, stderr
     assert {path.name for path in out_dir.iterdir()} == {
-        'metrics.json', 'params.yaml', 'trajectory.png', 'run'}
+        'metrics.json', 'log.jsonl', 'params.yaml', 'trajectory.png', 'run'}
 
 
 def test_start_error_leaves_a_previous_run_in_the_folder_untouched(tmp_path, run_main):
@@ -812,8 +817,9 @@ def test_no_record_and_no_plot_leave_only_the_metrics(tmp_path, run_main):
                                  '0.5', '--quiet', '--no-record', '--no-plot',
                                  '--out', str(out_dir))
     assert status == 0
-    assert sorted(path.name for path in out_dir.iterdir()) == ['metrics.json', 'params.yaml']
-    assert f'outputs: {out_dir}/metrics.json\n' in stdout
+    assert sorted(path.name for path in out_dir.iterdir()) == [
+        'log.jsonl', 'metrics.json', 'params.yaml']
+    assert f'outputs: {out_dir}/metrics.json, log.jsonl\n' in stdout
 
 
 @pytest.mark.parametrize('source, mentions', [

@@ -1,0 +1,111 @@
+"""What the nodes write is kept with the simulated time of the code that wrote it (log.jsonl)."""
+
+import json
+from pathlib import Path
+import re
+
+import pytest
+from rosbags.rosbag2 import Reader
+from rosbags.typesys import get_typestore, Stores
+from sim_bridge.node_output import console_pattern, log_entry, LOG_FILE, NodeLog
+from sim_bridge.run import run_simulation
+
+FIXTURES = Path(__file__).parent / 'fixtures'
+KEYS = ['t', 'node', 'level', 'text', 'line']
+CONSOLE_LINE = r'\[INFO\] \[\d+\.\d{{9}}\] \[{name}\]: Count: {count}'
+
+
+def read_log(out_dir: Path) -> list[dict]:
+    return [json.loads(line) for line in (out_dir / LOG_FILE).read_text().splitlines()]
+
+
+def test_default_console_format_is_read_back():
+    entry = log_entry(1.5, '', 'STDERR', '\x1b[32m[WARN] [1712.300000000] [ns.scan_ahead]: '
+                      'Range ahead: [1.23]\x1b[0m', console_pattern())
+    assert entry == {'t': 1.5, 'node': 'ns.scan_ahead', 'level': 'WARN',
+                     'text': 'Range ahead: [1.23]',
+                     'line': '[WARN] [1712.300000000] [ns.scan_ahead]: Range ahead: [1.23]'}
+    raw = log_entry(2.0, 'scan_ahead', 'STDOUT', '[1, 2] not a log line', console_pattern())
+    assert raw == {'t': 2.0, 'node': 'scan_ahead', 'level': 'STDOUT',
+                   'text': '[1, 2] not a log line', 'line': '[1, 2] not a log line'}
+
+
+def test_a_custom_console_format_is_read_back():
+    pattern = console_pattern('{time} {severity} {name} {file_name}:{line_number}> {message}')
+    entry = log_entry(0.0, '', 'STDERR', '1712.3 ERROR wall_follow f.py:3> lost: {x}', pattern)
+    assert (entry['node'], entry['level'], entry['text']) == (
+        'wall_follow', 'ERROR', 'lost: {x}')
+    assert console_pattern('{time}: {message}') is None  # no severity: every line is raw
+
+
+def test_a_flood_of_lines_is_capped(monkeypatch):
+    monkeypatch.setattr('sim_bridge.node_output.MAX_LINES', 3)
+    log = NodeLog()
+    for count in range(5):
+        log.add(count, '', 'STDOUT', f'line {count}')
+    assert [entry['text'] for entry in log.entries] == ['line 0', 'line 1', 'line 2']
+    assert '2 more were not kept' in log.warning()
+
+
+def test_a_stepped_run_keeps_log_and_print_lines_at_the_sim_time_of_their_callback(
+        tmp_path, capfd):
+    result = run_simulation('wall_follow_box', [str(FIXTURES / 'counting_logger.py')],
+                            duration_s=3.5, out_dir=tmp_path, plot=False)
+    assert result.ok
+    log = read_log(tmp_path)
+    assert all(list(entry) == KEYS for entry in log)
+    assert log[0] == {'t': 0.0, 'node': 'counting_logger', 'level': 'STDOUT',
+                      'text': 'counting_logger started', 'line': 'counting_logger started'}
+    logged = [entry for entry in log if entry['level'] == 'INFO']
+    printed = [entry for entry in log[1:] if entry['level'] == 'STDOUT']
+    assert [(entry['t'], entry['node'], entry['text']) for entry in logged] == [
+        (float(count), 'counting_logger', f'Count: {count}') for count in (1, 2, 3)]
+    assert [(entry['t'], entry['node'], entry['text']) for entry in printed] == [
+        (float(count), 'counting_logger', f'printed count {count}') for count in (1, 2, 3)]
+    for count, entry in enumerate(logged, start=1):
+        assert re.fullmatch(CONSOLE_LINE.format(name='counting_logger', count=count),
+                            entry['line'])
+    # The terminal still shows them, as the nodes wrote them.
+    out, err = capfd.readouterr()
+    assert 'printed count 3\n' in out
+    assert logged[-1]['line'] + '\n' in err
+    # And the recording has them on /rosout, stamped in sim time.
+    typestore = get_typestore(Stores.ROS2_JAZZY)
+    with Reader(tmp_path / 'run') as bag:
+        rosout = [(time, typestore.deserialize_cdr(raw, connection.msgtype))
+                  for connection, time, raw in bag.messages(
+                      [c for c in bag.connections if c.topic == '/rosout'])]
+        assert {c.msgtype for c in bag.connections if c.topic == '/rosout'} == {
+            'rcl_interfaces/msg/Log'}
+    assert [(time, msg.stamp.sec, msg.stamp.nanosec, msg.level, msg.name, msg.msg)
+            for time, msg in rosout] == [
+        (round(entry['t'] * 1e9), int(entry['t']), 0, 20, entry['node'], entry['text'])
+        for entry in log]  # INFO and STDOUT are both Log.INFO
+
+
+def test_a_quiet_run_keeps_the_lines_and_shows_only_the_printed_ones(tmp_path, capfd):
+    run_simulation('wall_follow_box', [str(FIXTURES / 'counting_logger.py')], duration_s=2.5,
+                   out_dir=tmp_path, plot=False, record=False, quiet=True)
+    assert [entry['text'] for entry in read_log(tmp_path)] == [
+        'counting_logger started', 'Count: 1', 'printed count 1', 'Count: 2', 'printed count 2']
+    out, err = capfd.readouterr()
+    assert out == 'counting_logger started\nprinted count 1\nprinted count 2\n'
+    assert 'Count' not in err
+
+
+def test_a_process_run_keeps_each_line_at_the_live_sim_time(tmp_path):
+    result = run_simulation('wall_follow_box', [str(FIXTURES / 'threaded_counting_logger.py')],
+                            duration_s=3.5, out_dir=tmp_path, plot=False)
+    assert result.metrics['run_mode']['mode'] == 'process'
+    log = read_log(tmp_path)
+    assert all(list(entry) == KEYS for entry in log)
+    for level, node, text in (('INFO', 'threaded_counter', 'Count: {}'),
+                              ('STDOUT', '', 'printed count {}'),
+                              ('STDERR', '', 'stderr count {}')):
+        lines = [entry for entry in log if entry['level'] == level][:3]
+        assert [(entry['node'], entry['text']) for entry in lines] == [
+            (node, text.format(count)) for count in (1, 2, 3)]
+        # Stamped as they arrive from the process, the node's clock a hair behind ours.
+        assert [entry['t'] for entry in lines] == pytest.approx([1.0, 2.0, 3.0], abs=0.25)
+    with Reader(tmp_path / 'run') as bag:
+        assert sum(c.msgcount for c in bag.connections if c.topic == '/rosout') == len(log)
