@@ -428,6 +428,10 @@ def _metres(value: float) -> str:
     return f'{value:.2f} m'
 
 
+def _error(value: float) -> str:
+    return f'{value:.3f} m'
+
+
 def _nearest_truth(worst: Mapping[str, Any]) -> float:
     low, high = worst['truth_m']
     return min(max(worst['printed_m'], low), high)
@@ -469,8 +473,8 @@ def judge_printed(kind: str, scored: Mapping[str, Any] | None, *, max_error_m: f
     if fraction < min_matched_fraction:
         return False, (f'{who}{missed} of {scans} scans with no line giving the {title} '
                        f'({100.0 * fraction:.0f} % printed, {100.0 * min_matched_fraction:.0f} '
-                       f"% wanted; worst error {_metres(scored['worst_error_m'])} in "
+                       f"% wanted; worst error {_error(scored['worst_error_m'])} in "
                        f'{lines} lines)')
     bearing_text = (f", bearing within {scored['worst_bearing_error_deg']:.1f} deg"
                     if bearing else '')
-    return True, f"worst error {_metres(scored['worst_error_m'])}{bearing_text} ({tally})"
+    return True, f"worst error {_error(scored['worst_error_m'])}{bearing_text} ({tally})"
