@@ -180,6 +180,17 @@ def test_run_writes_metrics_with_every_required_key(scan_ahead_run):
     assert metrics['min_clearance_m'] == pytest.approx(clearance, abs=1e-6)
 
 
+def test_a_run_scores_what_its_node_prints_against_every_scan(tmp_path):
+    result = run_simulation('obstacles', ['scan_ahead'], duration_s=2.0, out_dir=tmp_path,
+                            printed=('range_ahead',), quiet=True, record=False, plot=False)
+    scored = result.metrics['printed']
+    assert list(scored) == ['range_ahead']
+    # The lidar's 10 Hz over 2 s, each scan with its 'Range ahead: 2.00 m' line.
+    assert (scored['range_ahead']['scans'], scored['range_ahead']['lines'],
+            scored['range_ahead']['missed']) == (20, 20, 0)
+    assert scored['range_ahead']['worst_error_m'] <= 0.005 + 1e-6  # printed to the cm
+
+
 def test_run_writes_a_trajectory_plot(scan_ahead_run):
     *_, out_dir = scan_ahead_run
     assert (out_dir / 'trajectory.png').read_bytes()[:8] == b'\x89PNG\r\n\x1a\n'
