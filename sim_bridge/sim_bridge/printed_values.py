@@ -162,7 +162,9 @@ def read_regions(text: str) -> list[tuple[str, Number]]:
     Return the (region name, value) pairs a line gives, in the line's order.
 
     Labels are read as students write them: "front-right", "front_right", "Front Right",
-    "fright", "FR", "right front"; "min_left", "left region", "left distance is ...".
+    "fright", "FR", "right front"; "min_left", "left region", "left distance is ...". A line
+    of exactly five lengths and no label (``print(min(ranges[0:7]), ...)``) gives the regions
+    right to left, in the order of the beams.
     """
     pairs = []
     blanked = _INDEXED.sub(lambda match: ' ' * len(match.group()), text)
@@ -173,6 +175,11 @@ def read_regions(text: str) -> list[tuple[str, Number]]:
             continue
         value = _parse(match['number']) * _LENGTH_UNITS.get(unit, 1.0)
         pairs.append((name, Number(value, _written(match), match.start('number'), unit)))
+    if not pairs:
+        lengths = [number for number in numbers_in(text)
+                   if number.unit not in _TIME_UNITS and number.unit not in _ANGLE_UNITS]
+        if len(lengths) == len(REGION_NAMES):
+            pairs = list(zip(REGION_NAMES, lengths))
     return pairs
 
 

@@ -88,6 +88,8 @@ REGION_VALUES = {'right': 0.88, 'front_right': 1.2, 'front': 2.0, 'front_left': 
     'right region is 0.88 m, front-right region is 1.2 m, front region is 2.0 m, '
     'front-left region is 1.1 m, left region is 10.0 m',
     'Right: 88 cm | Front-Right: 120 cm | Front: 200 cm | Front-Left: 110 cm | Left: 1000 cm',
+    '0.88 1.2 2.0 1.1 10.0',
+    '[0.88, 1.2, 2.0, 1.1, 10.0]',
 ])
 def test_five_regions_are_read_in_any_order_and_spelling(text):
     assert {name: number.value for name, number in read_regions(text)} == \
@@ -108,7 +110,8 @@ def test_a_region_on_a_line_of_its_own_is_read(text, name, value):
 
 
 @pytest.mark.parametrize('text', ['Turning left', 'front is clear', 'left: n/a',
-                                  'ranges[28:35]', 'scan 12 received'])
+                                  'ranges[28:35]', 'scan 12 received', '0.88 1.2 2.0 1.1',
+                                  'regions at t=1.0 s: 1 2 3 4'])
 def test_lines_without_a_region_value_give_none(text):
     assert read_regions(text) == []
 
