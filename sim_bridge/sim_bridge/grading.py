@@ -155,8 +155,9 @@ def run_scenario(run: ScenarioRun, out_dir: Path, *, simulate: Simulate | None =
                           seed=run.seed, params=run.params, out_dir=out_dir,
                           start=scenario.start, robot=scenario.robot, remap=scenario.remap,
                           setpoint=scenario.setpoint.get('wall_distance_m'),
-                          printed=scenario.printed, quiet=quiet,
-                          record=record, plot=plot, progress=progress)
+                          printed=scenario.printed, quiet=quiet, record=record, plot=plot,
+                          drive=scenario.drive or None,
+                          progress=progress)
     except Exception as error:  # one broken run must not stop the batch
         from sim_bridge.run import RunError
         # A run that cannot start keeps the node's part of the traceback (its import failed),

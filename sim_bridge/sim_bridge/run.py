@@ -31,6 +31,7 @@ import numpy as np
 from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.parameter import get_parameter_value, Parameter, parameter_value_to_python
 from rclpy.serialization import serialize_message
+from sim_bridge.drive import check_obstacles, DriveError, DrivePlan, parse_drive, Segment
 from sim_bridge.hints import ros_module_hint, scan_hint
 from sim_bridge.live import LiveRun, print_line
 from sim_bridge.metrics import compute_metrics
@@ -67,6 +68,10 @@ SETPOINT_PARAMETER = 'distance'
 ROS_TOPICS = ('/rosout', '/parameter_events', '/clock')
 PROGRESS_AFTER_S = 2.0
 GUI_FRAME_RATE = 60
+#: The runner's teleop node (a scenario's ``drive:``), and how often (Hz of sim time) it
+#: publishes the command, as a held key of teleop_twist_keyboard repeats it.
+TELEOP_NODE = 'teleop'
+TELEOP_RATE_HZ = 20.0
 #: Longest wait (wall s) for a node run as a process to join the ROS graph.
 NODE_START_TIMEOUT_S = 20.0
 NANOSECONDS_PER_SECOND = 10 ** 9
@@ -202,6 +207,66 @@ def write_params_file(path: Path, params: Params) -> None:
     """Write per-node parameters as a ROS 2 params file (``node: ros__parameters: ...``)."""
     document = {node: {'ros__parameters': values} for node, values in params.items()}
     path.write_text(yaml.safe_dump(document, sort_keys=False))
+
+
+def runner_node(name: str, context, sim_time: bool):
+    """Return a node of the runner's own: no services or /rosout; on sim time if asked."""
+    from rclpy.node import Node
+    return Node(name, context=context, use_global_arguments=False,
+                start_parameter_services=False, enable_rosout=False,
+                parameter_overrides=[NO_TYPE_DESCRIPTION_SERVICE,
+                                     *([Parameter('use_sim_time', value=True)] if sim_time
+                                       else [])])
+
+
+class Teleop:
+    """
+    The person at the teleop: a node of the runner's driving the robot by a DrivePlan.
+
+    Every 1/TELEOP_RATE_HZ s of sim time it publishes the plan's command on the simulator's
+    command topic (its type: Twist, or TwistStamped), as teleop_twist_keyboard publishes while
+    a key is held; once the plan is done, a zero command, and nothing more. The robot's centre
+    is the simulator's ground truth (what the person sees), for segments that end near an
+    obstacle of ``world``.
+    """
+
+    def __init__(self, graph: 'SteppedRun | LiveGraph', bridge, world: World,
+                 segments: Sequence[Segment]):
+        self.bridge = bridge
+        subscription = next(sub for sub in bridge.subscriptions
+                            if sub.callback == bridge.on_cmd_vel)
+        self.msg_type = subscription.msg_type
+        self.node = graph.node(TELEOP_NODE, sim_time=True)
+        self.publisher = self.node.create_publisher(self.msg_type, subscription.topic_name, 10)
+        self.plan = DrivePlan(segments, lambda name, x, y: world.obstacle(name).distance(x, y))
+        self.timer = self.node.create_timer(1.0 / TELEOP_RATE_HZ, self.tick)
+        self.tick()  # the first segment starts with the run
+
+    def tick(self) -> None:
+        """Publish the command of the plan at the current sim time."""
+        now = self.node.get_clock().now()
+        x, y, _ = self.bridge.sim.pose
+        command = self.plan.command(now.nanoseconds / NANOSECONDS_PER_SECOND, x, y)
+        if command is None:
+            self.timer.cancel()
+        message = self.msg_type()
+        twist = getattr(message, 'twist', message)
+        twist.linear.x, twist.angular.z = command or (0.0, 0.0)
+        if twist is not message:
+            message.header.stamp = now.to_msg()
+        self.publisher.publish(message)
+
+
+def drive_plan(drive: Sequence[Any] | None, world: World) -> tuple[Segment, ...]:
+    """Return the validated segments of ``drive`` (see sim_bridge.drive); RunError if bad."""
+    if drive is None:
+        return ()
+    try:
+        segments = parse_drive(drive)
+        check_obstacles(segments, [obstacle.name for obstacle in world.obstacles], world.name)
+    except DriveError as error:
+        raise RunError(str(error)) from None
+    return segments
 
 
 class Observer:
@@ -347,12 +412,9 @@ class SteppedRun:
         self.nodes = []
         self.bridge = None
 
-    def node(self, name: str):
-        """Create one of the runner's own nodes: no clock of its own, services or /rosout."""
-        from rclpy.node import Node
-        node = Node(name, context=self.context, use_global_arguments=False,
-                    start_parameter_services=False, enable_rosout=False,
-                    parameter_overrides=[NO_TYPE_DESCRIPTION_SERVICE])
+    def node(self, name: str, sim_time: bool = False):
+        """Create one of the runner's own nodes: no services or /rosout; on sim time if asked."""
+        node = runner_node(name, self.context, sim_time)
         self.executor.add_node(node)
         self.executor.own_nodes.add(node)
         return node
@@ -504,7 +566,7 @@ class SteppedRun:
         timer falls due; ``on_step(now_ns)`` is called every ``step_ns`` of sim time.
         """
         bridge, executor = self.bridge, self.executor
-        targets = [node for node in self.nodes if node is not bridge]
+        targets = [node for node in (*self.nodes, *executor.own_nodes) if node is not bridge]
         if bridge.now_ns == 0:
             bridge.publish(bridge.clock_pub, bridge.clock)
         spin_until_idle(executor)
@@ -658,7 +720,7 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
                    remap: Sequence[str] = (), setpoint: float | None = None,
                    printed: Sequence[str] = (), quiet: bool = False,
                    record: bool = True, plot: bool = True, gui: bool = False,
-                   field_checks: bool = True,
+                   field_checks: bool = True, drive: Sequence[Any] | None = None,
                    progress: Callable[[float, float], None] | None = None) -> RunResult:
     """
     Run ``targets`` (see sim_bridge.targets) with the simulator in ``world`` for ``duration_s``.
@@ -675,7 +737,9 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
     logged once by the simulator at start and kept in ``metrics['ignored']``.
     ``gui`` shows the run in the pybullet window at wall-clock pace. ``field_checks``: rosidl
     refuses a value of the wrong type in a message field (see sim_bridge.run_environment); off,
-    the run behaves as Jazzy's default does on a robot. Raises RunError when the
+    the run behaves as Jazzy's default does on a robot. ``drive`` is a list of segments
+    (sim_bridge.drive) the runner's teleop node publishes on the simulator's command topic
+    while the nodes run, as a person at teleop_twist_keyboard would. Raises RunError when the
     run cannot start, before writing anything to ``out_dir``; a node that raises (while
     starting or during the run) ends it early, is reported in ``metrics['node_errors']`` and,
     unless ``quiet``, with its traceback on stderr, and every output is written up to that
@@ -690,6 +754,7 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
         raise RunError(f'duration must be a positive number of seconds, got {duration_s}')
     remap = [check_remap(rule) for rule in remap]
     world_model = load_world(world, robot, start)
+    segments = drive_plan(drive, world_model)
     node_params = node_parameters(world_model, params, seed=seed, gui=gui, start=start,
                                   robot=robot)
     out_dir = Path(out_dir) if out_dir is not None else default_out_dir(world_model, targets)
@@ -703,7 +768,7 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
         return run_as_process(
             world_model, target, mode, node_params, duration_s=duration_s, out_dir=out_dir,
             remap=remap, setpoint=setpoint, printed=printed, quiet=quiet, record=record,
-            plot=plot, field_checks=field_checks, progress=progress)
+            plot=plot, field_checks=field_checks, segments=segments, progress=progress)
     run_modes = {'mode': 'stepped', 'reason': '; '.join(mode.reason for mode in modes)}
 
     node_errors, warnings, ended_by = [], [], None
@@ -732,6 +797,8 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
             bridge = run.start_simulator(SimBridge)
             observer = Observer(bridge.sim)
             recorder = RunRecorder(run, observer, record, log)
+            if segments:
+                Teleop(run, bridge, world_model, segments)
             with run.capture_output(log):
                 start_failure = run.start_nodes(zip(targets, classes), node_params)
                 if start_failure is None:
@@ -809,7 +876,7 @@ def write_outputs(out_dir: Path, observer: Observer, world_model: World,
         metrics = compute_metrics(observer.finish(), world_model, setpoint=setpoint,
                                   wall_time_s=time.perf_counter() - wall_start,
                                   node_errors=node_errors, log_lines=log_lines,
-                                  printed=printed, runner_nodes=(BRIDGE_NODE,))
+                                  printed=printed, runner_nodes=(BRIDGE_NODE, TELEOP_NODE))
         metrics['warnings'] = [*metrics.get('warnings', []), *warnings]
         metrics['ended_by'] = ended_by
         metrics['ignored'] = world_model.ignored
@@ -833,12 +900,9 @@ class LiveGraph:
         self.bridge = bridge
         self.executor = executor
 
-    def node(self, name: str):
+    def node(self, name: str, sim_time: bool = False):
         """Create one of the runner's own nodes in the bridge's context and executor."""
-        from rclpy.node import Node
-        node = Node(name, context=self.bridge.context, use_global_arguments=False,
-                    start_parameter_services=False, enable_rosout=False,
-                    parameter_overrides=[NO_TYPE_DESCRIPTION_SERVICE])
+        node = runner_node(name, self.bridge.context, sim_time)
         self.executor.add_node(node)
         return node
 
@@ -846,7 +910,8 @@ class LiveGraph:
 def run_as_process(world_model: World, target: str, mode: Decision, node_params: Params, *,
                    duration_s: float, out_dir: Path, remap: Sequence[str],
                    setpoint: float | None, quiet: bool, record: bool, plot: bool,
-                   field_checks: bool, printed: Sequence[str] = (),
+                   field_checks: bool, segments: Sequence[Segment] = (),
+                   printed: Sequence[str] = (),
                    progress: Callable[[float, float], None] | None = None) -> RunResult:
     """
     Run the node file ``target`` as its own process against the simulator run live here.
@@ -857,6 +922,7 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
     NODE_START_TIMEOUT_S of wall time) and the process is stopped (SIGINT, then SIGTERM, then
     SIGKILL, as launch does) after ``duration_s`` of it. Outputs as a stepped run's; what the
     node prints is the run's console output, each line kept at the sim time it arrived.
+    ``segments`` drive the robot as in a stepped run (:class:`Teleop`).
     ``mode`` says why the file is not stepped; ``progress(sim_s, duration_s)`` is called as
     simulated time passes. Ctrl-C and RunStopped end it as they end a stepped run: the node
     stopped, the outputs written.
@@ -895,7 +961,10 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
                                parameter_overrides=[NO_TYPE_DESCRIPTION_SERVICE])
             executor.add_node(bridge)
             observer = Observer(bridge.sim)
-            recorder = RunRecorder(LiveGraph(bridge, executor), observer, record, log)
+            graph = LiveGraph(bridge, executor)
+            recorder = RunRecorder(graph, observer, record, log)
+            if segments:
+                Teleop(graph, bridge, world_model, segments)
             bag = open_outputs(out_dir, params_file, record)
             recorder.record(bag)
             outputs_open = True

@@ -23,6 +23,10 @@ A scenario is a YAML mapping; every key not listed here is an error::
                                   # FROM:=TO, or NODE:FROM:=TO for one node
     setpoint:                     # optional: the value a metric is measured against, whatever
       wall_distance_m: 0.5        # the node's own parameters are called (m)
+    drive:                        # optional: the robot driven as from the teleop, segment by
+      - {duration: 3, linear: 0.3}            # segment (sim_bridge.drive): forward 3 s,
+      - {duration: 2, angular: 0.8}           # turn left 2 s, forward until 0.4 m from
+      - {duration: 15, linear: 0.2, until: {within_m: 0.4, of: cube}}  # the cube (<= 15 s)
     criteria:                     # every one must hold for a run to pass
       - len(node_errors) == 0
       - collisions == 0
@@ -70,6 +74,7 @@ from pathlib import Path
 import re
 from typing import Any, Callable
 
+from sim_bridge.drive import DriveError, parse_drive, Segment
 from sim_bridge.metrics import METRIC_KINDS
 from sim_bridge.printed_values import judge_printed, KINDS as PRINTED_KINDS
 from sim_bridge.targets import split_target
@@ -88,7 +93,7 @@ MAX_DURATION_S = 86400.0
 #: What a NODE of ``--node-override NODE=TARGET`` can be: a node's name, no path.
 _OVERRIDE_NODE = re.compile(r'[\w.-]+')
 _KEYS = ('description', 'world', 'nodes', 'params', 'duration', 'seed', 'seeds', 'start',
-         'robot', 'remap', 'setpoint', 'criteria')
+         'robot', 'remap', 'setpoint', 'drive', 'criteria')
 #: The params file key of parameters for every node (ROS's wildcard node name).
 EVERY_NODE = '/**'
 #: What a scenario's ``setpoint:`` can set, and the unit of each.
@@ -308,7 +313,8 @@ class Scenario:
     ``duration_s`` in s; ``start`` is None, 'mirrored' or (x m, y m, yaw rad); ``params`` maps
     node names to parameter values; ``world`` and file ``nodes`` are resolved paths or names;
     ``robot`` a robot model or None; ``remap`` ROS remapping rules; ``setpoint`` maps metrics
-    of SETPOINTS to the value (m) they measure against.
+    of SETPOINTS to the value (m) they measure against; ``drive`` the segments the runner's
+    teleop drives the robot by (sim_bridge.drive), none when empty.
     """
 
     name: str
@@ -324,6 +330,7 @@ class Scenario:
     robot: str | None = None
     remap: tuple[str, ...] = ()
     setpoint: dict[str, float] = field(default_factory=dict)
+    drive: tuple[Segment, ...] = ()
 
     def runs(self) -> list[ScenarioRun]:
         """Return one run per seed."""
@@ -563,6 +570,13 @@ def scenario_from_dict(data: Any, name: str, path: Path | None = None) -> Scenar
             raise fail(f'setpoint.{metric}', f'must be a number ({SETPOINTS[metric]}), got '
                        f'{_kind(value)}')
 
+    drive = ()
+    if data.get('drive') is not None:
+        try:
+            drive = parse_drive(data['drive'])
+        except DriveError as error:
+            raise fail(None, str(error)) from None
+
     description = data.get('description', '')
     if not isinstance(description, str):
         raise fail('description', f'must be text, got {_kind(description)}')
@@ -572,7 +586,8 @@ def scenario_from_dict(data: Any, name: str, path: Path | None = None) -> Scenar
                     duration_s=float(duration), criteria=tuple(parsed), seeds=tuple(seeds),
                     params={str(node): dict(values) for node, values in params.items()},
                     start=start, description=description, robot=robot, remap=tuple(remap),
-                    setpoint={str(metric): float(value) for metric, value in setpoint.items()})
+                    setpoint={str(metric): float(value) for metric, value in setpoint.items()},
+                    drive=drive)
 
 
 def load_scenarios(paths: list[str | os.PathLike]) -> list[Scenario]:
