@@ -421,11 +421,22 @@ def _score_scan(kind: str, scan: Scan, lines: list[Mapping[str, Any]],
     return bool(got['lines']), got
 
 
+def excerpt(text: str, at: int, chars: int = QUOTE_CHARS) -> str:
+    """Return ``text``, or the ``chars`` of it around position ``at``, cuts marked '...'."""
+    if len(text) <= chars:
+        return text
+    # The number read ends the excerpt's first two thirds: what labels it comes before it.
+    start = min(max(at - 2 * chars // 3, 0), len(text) - chars)
+    head = '...' if start > 0 else ''
+    tail = '...' if start + chars < len(text) else ''
+    return head + text[start + len(head):start + chars - len(tail)] + tail
+
+
 def _quote(comparison: Comparison, cap: float) -> dict[str, Any]:
     line = comparison.line
     text = str(line.get('text', ''))
     return {'t': float(line['t']), 'node': str(line.get('node') or ''),
-            'text': text if len(text) <= QUOTE_CHARS else text[:QUOTE_CHARS - 3] + '...',
+            'text': excerpt(text, comparison.printed.start),
             'what': comparison.what, 'printed': comparison.printed.written,
             'printed_m': _capped(comparison.printed.value, cap),
             'truth_m': list(comparison.truth)}

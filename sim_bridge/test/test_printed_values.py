@@ -8,7 +8,7 @@ import pytest
 from scan_pkg.laser import Scan
 from scan_pkg.report import closest_line, range_ahead_line, regions_line
 from sim_bridge.printed_values import (
-    closest_truth, judge_printed, range_ahead_truth, read_closest, read_range_ahead,
+    closest_truth, excerpt, judge_printed, range_ahead_truth, read_closest, read_range_ahead,
     read_regions, region_truths, score_printed)
 from sim_bridge.run_trace import ScanSnapshot
 
@@ -304,3 +304,13 @@ def test_nothing_in_range_is_right_when_nothing_is():
     near = snapshot([0.5] * BEAMS)
     scored = score_printed('closest', [near], [line(0.0, 'No valid obstacle readings.')])
     assert scored['worst_error_m'] == pytest.approx(9.5)
+
+
+def test_a_long_line_is_quoted_around_the_value_read():
+    text = ("{'right': 10.0, 'fright': 10.0, 'front': 2.243856430053711, 'fleft': 10.0, "
+            "'left': 10.0}")
+    quoted = excerpt(text, text.rindex('10.0'))
+    assert len(quoted) == 70
+    assert quoted.startswith('...') and quoted.endswith("'left': 10.0}")
+    assert excerpt(text, 1).startswith("{'right': 10.0") and excerpt(text, 1).endswith('...')
+    assert excerpt('Range ahead: 1.23 m', 13) == 'Range ahead: 1.23 m'
