@@ -1,12 +1,16 @@
 """The shipped scenarios cover every lab task and state issue 5's pass criteria and durations."""
 
+import math
 from pathlib import Path
 
 import pytest
+from rosbags.rosbag2 import Reader
+from rosbags.typesys import get_typestore, Stores
 
 from sim_bridge.lab_tasks import LAB_TASKS
 from sim_bridge.metrics import offset_path_length
 from sim_bridge.paths import world_names
+from sim_bridge.run import run_simulation
 from sim_bridge.scenario import load_scenario, load_scenarios
 from sim_bridge.simulation.world import World
 
@@ -70,3 +74,32 @@ def test_wanderbot_runs_five_seeds_of_ten_minutes_in_the_room():
     ('scan_ahead', 'range_ahead'), ('scan_around', 'regions'), ('closest_obstacle', 'closest')])
 def test_reading_scenarios_grade_what_their_node_prints(name, printed):
     assert load_scenario(SCENARIOS / f'{name}.yaml').printed == (printed,)
+
+
+def front_ranges(bag_path: Path) -> list[float]:
+    """Return each recorded scan's front-most range (m): beams within one increment of ahead."""
+    typestore = get_typestore(Stores.ROS2_JAZZY)
+    fronts = []
+    with Reader(bag_path) as bag:
+        for connection, _, raw in bag.messages(
+                [c for c in bag.connections if c.topic == '/scan']):
+            scan = typestore.deserialize_cdr(raw, connection.msgtype)
+            fronts.append(min(value for index, value in enumerate(scan.ranges)
+                              if abs(scan.angle_min + index * scan.angle_increment)
+                              <= scan.angle_increment))
+    return fronts
+
+
+@pytest.mark.parametrize('name', ['scan_ahead', 'scan_around', 'closest_obstacle'])
+def test_the_reading_scenarios_drive_the_robot_towards_and_past_the_obstacles(name, tmp_path):
+    scenario = load_scenario(SCENARIOS / f'{name}.yaml')
+    assert scenario.drive
+    result = run_simulation(scenario.world, list(scenario.nodes), duration_s=scenario.duration_s,
+                            seed=scenario.seeds[0], start=scenario.start, out_dir=tmp_path,
+                            quiet=True, plot=False, drive=scenario.drive)
+    assert result.ok and result.metrics['collisions'] == 0
+    fronts = front_ranges(tmp_path / 'run')
+    seen = [front for front in fronts if math.isfinite(front)]
+    # From metres away to under 0.5 m, and stretches with nothing ahead (out of range).
+    assert max(seen) > 2.5 and min(seen) < 0.5
+    assert len(seen) < 0.75 * len(fronts)
