@@ -312,15 +312,18 @@ def _bearing_error(printed: float, truth: float) -> float:
 
 
 def score_printed(kind: str, scans: Sequence[Any], lines: Iterable[Mapping[str, Any]], *,
-                  cap: float = LAB_MAX_RANGE,
-                  ignore_nodes: Iterable[str] = ()) -> dict[str, Any]:
+                  cap: float = LAB_MAX_RANGE, ignore_nodes: Iterable[str] = (),
+                  lateness_s: float = 0.0) -> dict[str, Any]:
     """
     Compare the values of ``kind`` (one of KINDS) the lines print with their scans' truth.
 
     ``scans`` are the run's scans in time order (``run_trace.ScanSnapshot``: time s, ranges m,
     angle_min and angle_increment rad, range_min and range_max m); ``lines`` the nodes' log
     lines (dicts with ``t`` s, ``node``, ``level``, ``text``), those of ``ignore_nodes`` and
-    of stderr left out. Returns a JSON-ready dict: ``scans`` (those a value is defined for),
+    of stderr left out. A line is about the last scan at or before its time; with
+    ``lateness_s`` (s: a process run's lines are stamped when they arrive, and a node that
+    falls behind prints about a scan it had queued) about whichever scan of that long before
+    it it matches best. Returns a JSON-ready dict: ``scans`` (those a value is defined for),
     ``lines`` (lines a value was read from), ``missed`` (scans with no line giving it; for
     regions, giving all five), ``matched_fraction``, ``mae_m`` and ``worst_error_m`` (m) and
     ``worst`` (the line of the worst error: ``t``, ``node``, ``text``, ``what``, ``printed``
@@ -332,29 +335,51 @@ def score_printed(kind: str, scans: Sequence[Any], lines: Iterable[Mapping[str, 
         raise ValueError(f'unknown printed value {kind!r}; one of {", ".join(KINDS)}')
     ignored = set(ignore_nodes)
     times = [snapshot.time for snapshot in scans]
-    per_scan: dict[int, list[Mapping[str, Any]]] = {}
+    truths: dict[int, Any] = {}
+
+    def truth_of(index: int) -> Any:
+        if index not in truths:
+            truths[index] = _TRUTHS[kind](scan_of(scans[index]), cap)
+        return truths[index]
+
+    per_scan: dict[int, list[tuple[list[Comparison], float | None]]] = {}
     for line in lines:
         if line.get('node') in ignored or line.get('level') in IGNORED_LEVELS:
             continue
-        index = bisect.bisect_right(times, float(line['t']) + TIME_SLACK_S) - 1
-        if index >= 0:
-            per_scan.setdefault(index, []).append(line)
+        values, bearing = _READERS[kind](str(line.get('text', '')))
+        if not values:
+            continue
+        time = float(line['t'])
+        last = bisect.bisect_right(times, time + TIME_SLACK_S) - 1
+        first = min(bisect.bisect_left(times, time - lateness_s - TIME_SLACK_S), last)
+        candidates = [(_compare_line(kind, values, truth_of(index), cap, line), index)
+                      for index in range(last, first - 1, -1)]
+        candidates = [(found, index) for found, index in candidates if found]
+        if candidates:
+            # The best match; of equal ones, the latest scan.
+            found, index = min(candidates, key=lambda item: max(c.error for c in item[0]))
+            per_scan.setdefault(index, []).append((found, bearing))
     comparisons: list[Comparison] = []
     bearing_errors: list[tuple[float, Comparison, float]] = []
-    matched_lines = 0
-    counted = missed = 0
+    matched_lines = counted = missed = 0
     printed_regions: set[str] = set()
-    for index, snapshot in enumerate(scans):
-        scan = scan_of(snapshot)
-        found, got = _score_scan(kind, scan, per_scan.get(index, []), cap)
-        if found is None:
+    for index in range(len(scans)):
+        truth = truth_of(index)
+        wanted = _wanted(kind, truth)
+        if not wanted:
             continue
         counted += 1
-        matched_lines += got['lines']
-        comparisons += got['comparisons']
-        bearing_errors += got['bearings']
-        printed_regions |= got['regions']
-        missed += not found
+        got = set()
+        for found, bearing in per_scan.get(index, []):
+            matched_lines += 1
+            comparisons += found
+            got |= {comparison.what for comparison in found}
+            true_bearing = truth[1] if kind == 'closest' else None
+            if bearing is not None and true_bearing is not None:
+                bearing_errors.append((_bearing_error(bearing, true_bearing), found[0],
+                                       true_bearing))
+        printed_regions |= got
+        missed += not got >= wanted
     result: dict[str, Any] = {
         'scans': counted, 'lines': matched_lines, 'missed': missed,
         'matched_fraction': (counted - missed) / counted if counted else None,
@@ -365,7 +390,8 @@ def score_printed(kind: str, scans: Sequence[Any], lines: Iterable[Mapping[str, 
         result['worst_error_m'] = worst.error
         result['worst'] = _quote(worst, cap)
     if kind == 'regions':
-        result['unprinted'] = [name for name in REGION_NAMES if name not in printed_regions]
+        result['unprinted'] = [name for name in REGION_NAMES
+                               if _label(name) not in printed_regions]
     if kind == 'closest':
         result.update({'bearing_lines': len(bearing_errors), 'bearing_mae_deg': None,
                        'worst_bearing_error_deg': None, 'worst_bearing': None})
@@ -379,46 +405,57 @@ def score_printed(kind: str, scans: Sequence[Any], lines: Iterable[Mapping[str, 
     return result
 
 
-def _score_scan(kind: str, scan: Scan, lines: list[Mapping[str, Any]],
-                cap: float) -> tuple[bool | None, dict[str, Any]]:
-    """Return (whether the scan got a value, None if it has none to give; what was found)."""
-    got: dict[str, Any] = {'lines': 0, 'comparisons': [], 'bearings': [], 'regions': set()}
-    if kind == 'range_ahead':
-        truth = range_ahead_truth(scan, cap)
-        if truth is None:
-            return None, got
-        for line in lines:
-            printed = read_range_ahead(str(line.get('text', '')))
-            if printed is not None:
-                got['lines'] += 1
-                got['comparisons'].append(_compare('range ahead', printed, truth, cap, line))
-        return bool(got['lines']), got
-    if kind == 'regions':
-        truths = region_truths(scan, cap)
-        wanted = {name for name, truth in truths.items() if truth is not None}
-        if not wanted:
-            return None, got
-        for line in lines:
-            pairs = [(name, value) for name, value in read_regions(str(line.get('text', '')))
-                     if name in wanted]
-            got['lines'] += bool(pairs)
-            for name, printed in pairs:
-                got['regions'].add(name)
-                got['comparisons'].append(_compare(name.replace('_', '-'), printed,
-                                                   truths[name], cap, line))
-        return got['regions'] >= wanted, got
-    distance, bearing = closest_truth(scan, cap)
-    for line in lines:
-        printed, printed_bearing = read_closest(str(line.get('text', '')))
-        if printed is None:
-            continue
-        got['lines'] += 1
-        comparison = _compare('closest obstacle', printed, (distance, distance), cap, line)
-        got['comparisons'].append(comparison)
-        if printed_bearing is not None and bearing is not None:
-            got['bearings'].append((_bearing_error(printed_bearing, bearing), comparison,
-                                    bearing))
-    return bool(got['lines']), got
+def _label(name: str) -> str:
+    """Return how a report names a region: 'front-left' for ``front_left``."""
+    return name.replace('_', '-')
+
+
+def _read_range_ahead_values(text: str) -> tuple[list[tuple[str, Number]], None]:
+    printed = read_range_ahead(text)
+    return ([('range ahead', printed)] if printed is not None else []), None
+
+
+def _read_region_values(text: str) -> tuple[list[tuple[str, Number]], None]:
+    return [(_label(name), printed) for name, printed in read_regions(text)], None
+
+
+def _read_closest_values(text: str) -> tuple[list[tuple[str, Number]], float | None]:
+    printed, bearing = read_closest(text)
+    return ([('closest obstacle', printed)] if printed is not None else []), bearing
+
+
+def _region_truths_by_label(scan: Scan, cap: float) -> dict[str, tuple[float, float]]:
+    return {_label(name): truth for name, truth in region_truths(scan, cap).items()
+            if truth is not None}
+
+
+def _range_ahead_by_label(scan: Scan, cap: float) -> dict[str, tuple[float, float]]:
+    truth = range_ahead_truth(scan, cap)
+    return {'range ahead': truth} if truth is not None else {}
+
+
+#: Per kind: what reads a line's values ([(what, Number)], bearing rad or None) ...
+_READERS = {'range_ahead': _read_range_ahead_values, 'regions': _read_region_values,
+            'closest': _read_closest_values}
+#: ... and what gives a scan's truth: {what: (lowest, highest) m}, or for closest
+#: (distance m, bearing rad or None).
+_TRUTHS = {'range_ahead': _range_ahead_by_label, 'regions': _region_truths_by_label,
+           'closest': closest_truth}
+
+
+def _wanted(kind: str, truth: Any) -> set[str]:
+    """Return what a line must give about a scan of ``truth``: nothing when none is defined."""
+    return {'closest obstacle'} if kind == 'closest' else set(truth)
+
+
+def _compare_line(kind: str, values: list[tuple[str, Number]], truth: Any, cap: float,
+                  line: Mapping[str, Any]) -> list[Comparison]:
+    """Return the comparisons of a line's values with a scan's truth (those it defines)."""
+    if kind == 'closest':
+        return [_compare(what, printed, (truth[0], truth[0]), cap, line)
+                for what, printed in values]
+    return [_compare(what, printed, truth[what], cap, line) for what, printed in values
+            if what in truth]
 
 
 def excerpt(text: str, at: int, chars: int = QUOTE_CHARS) -> str:

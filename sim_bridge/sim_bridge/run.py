@@ -72,6 +72,9 @@ GUI_FRAME_RATE = 60
 #: publishes the command, as a held key of teleop_twist_keyboard repeats it.
 TELEOP_NODE = 'teleop'
 TELEOP_RATE_HZ = 20.0
+#: A process run stamps a line when it arrives; its node, on a busy machine behind the live
+#: simulator, may be printing about a scan it had queued this long (s) before.
+PROCESS_LINE_LATENESS_S = 0.5
 #: Longest wait (wall s) for a node run as a process to join the ROS graph.
 NODE_START_TIMEOUT_S = 20.0
 NANOSECONDS_PER_SECOND = 10 ** 9
@@ -876,7 +879,9 @@ def write_outputs(out_dir: Path, observer: Observer, world_model: World,
         metrics = compute_metrics(observer.finish(), world_model, setpoint=setpoint,
                                   wall_time_s=time.perf_counter() - wall_start,
                                   node_errors=node_errors, log_lines=log_lines,
-                                  printed=printed, runner_nodes=(BRIDGE_NODE, TELEOP_NODE))
+                                  printed=printed, runner_nodes=(BRIDGE_NODE, TELEOP_NODE),
+                                  printed_lateness_s=PROCESS_LINE_LATENESS_S
+                                  if run_mode.get('mode') == 'process' else 0.0)
         metrics['warnings'] = [*metrics.get('warnings', []), *warnings]
         metrics['ended_by'] = ended_by
         metrics['ignored'] = world_model.ignored
