@@ -5,9 +5,11 @@ Lab tasks 1 and 3 (and the guide's closest-obstacle node) are graded on what a n
 every scan: the range straight ahead, the minimum of five regions, the nearest obstacle. A log
 line (a dict ``{'t', 'node', 'level', 'text', 'line'}``: sim time s, node name, level, message
 text, console line) is compared with the truth of the scan the node had just received: the last
-scan published at or before the line's time. Numbers are read from free-form text as students
-write it ("Range ahead: 1.23", "F=1.2 m", "1.234", "inf", "front_left: 0.9 | left: 2.1"); a
-scan that no line gives a value for counts as missed.
+scan published at or before the line's time (a process run's lines, stamped as they arrive, may
+be about a scan a little before: see :func:`score_printed`). Lines on stderr (a traceback) and
+the runner's own nodes' are not what a node prints. Numbers are read from free-form text as
+students write it ("Range ahead: 1.23", "F=1.2 m", "1.234", "inf", "front_left: 0.9 | left:
+2.1"); a scan that no line gives a value for counts as missed.
 
 Truth, as ``scan_pkg`` computes it (:mod:`scan_pkg.laser`): readings are capped at the lab's
 ``max_range`` (10 m: +inf and longer readings become 10 m, -inf and readings below range_min
