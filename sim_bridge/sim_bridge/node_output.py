@@ -57,8 +57,8 @@ SEVERITIES = {'DEBUG': 10, 'INFO': 20, 'WARN': 30, 'ERROR': 40, 'FATAL': 50}
 STREAM_LEVELS = {'STDOUT': 20, 'STDERR': 40}
 #: Most lines a run keeps: a node printing without end must not take the grader's memory.
 MAX_LINES = 200_000
-#: Longest wait (wall s) at a sync for output already written to reach the reader thread; a
-#: thread of a node writing without pause would otherwise hold the run there.
+#: Longest wait (wall s) at a sync for output already written to reach the reader thread (it
+#: takes microseconds; a reader starved of the CPU must not hold the run).
 SYNC_TIMEOUT_S = 1.0
 #: Bytes read from a pipe at once, and the pipe size asked for (a node's burst fits in it).
 CHUNK_BYTES = 2 ** 16
@@ -189,6 +189,9 @@ class _Stream:
             pass
         os.dup2(write_fd, fd)
         os.close(write_fd)
+        os.set_blocking(self.read_fd, False)
+        #: Bytes the reader has taken from the pipe.
+        self.taken = 0
         self.partial = b''
         self.partial_stamp: tuple[int, str] | None = None
         # A quiet run's line not shown yet (it may be a logger's), and whether the line
@@ -225,7 +228,6 @@ class OutputCapture:
         self.quiet = quiet
         self.streams: list[_Stream] = []
         self._chunks: list[tuple[_Stream, bytes]] = []
-        self._busy = False
         self._ready = threading.Condition()
         self._thread: threading.Thread | None = None
         self._stop_read = self._stop_write = -1
@@ -271,17 +273,20 @@ class OutputCapture:
                 if stream is None:  # the block ended (a process a node started may hold a pipe)
                     selector.close()
                     return
-                self._busy = True  # before the read: sync waits for what the read takes
-                data = os.read(stream.read_fd, CHUNK_BYTES)
-                if not data:
-                    selector.unregister(stream.read_fd)
-                else:
-                    self._show(stream, data)
+                # Read and count under the lock: a sync sees each byte unread or handed over.
                 with self._ready:
+                    try:
+                        data = os.read(stream.read_fd, CHUNK_BYTES)
+                    except BlockingIOError:
+                        continue
                     if data:
                         self._chunks.append((stream, data))
-                    self._busy = False
-                    self._ready.notify_all()
+                        stream.taken += len(data)
+                        self._ready.notify_all()
+                if data:
+                    self._show(stream, data)
+                else:
+                    selector.unregister(stream.read_fd)
         selector.close()
 
     def _show(self, stream: _Stream, data: bytes) -> None:
@@ -322,10 +327,6 @@ class OutputCapture:
                 pass
         self._libc.fflush(None)  # C's stdio: rcutils' stdout, a library's printf
 
-    def _drained(self) -> bool:
-        # Unread bytes first, then the reader: a read in between sets _busy before it.
-        return all(stream.unread() == 0 for stream in self.streams) and not self._busy
-
     def sync(self, node: str = '', keep: bool = True) -> None:
         """
         Cut what was written since the last sync into lines, stamped now and ``node``.
@@ -334,7 +335,11 @@ class OutputCapture:
         """
         self._flush_writers()
         with self._ready:
-            self._ready.wait_for(self._drained, timeout=SYNC_TIMEOUT_S)
+            # What was written so far: taken by the reader, or still in the pipe. Bytes
+            # written after this (a node's thread) may come along, and need not be waited for.
+            wanted = [(stream, stream.taken + stream.unread()) for stream in self.streams]
+            self._ready.wait_for(lambda: all(stream.taken >= count for stream, count in wanted),
+                                 timeout=SYNC_TIMEOUT_S)
             chunks, self._chunks = self._chunks, []
         if chunks:
             stamp = (self.clock_ns(), node if keep else None)
