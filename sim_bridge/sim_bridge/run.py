@@ -834,9 +834,13 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
                 node_errors.append(json_safe({'node': error.node_name,
                                               'error': node_failure(error),
                                               'traceback': student_traceback}))
-            if not quiet and not interrupt.pressed:
-                # What the node's own process would print before dying, its own part.
-                to_terminal(student_traceback)
+            if not interrupt.pressed:
+                # What the node's own process would print before dying, its own part: on
+                # the terminal and, as a process run's would be, among the node's lines.
+                for line in student_traceback.splitlines():
+                    log.add(bridge.now_ns, error.node_name, 'STDERR', line)
+                if not quiet:
+                    to_terminal(student_traceback)
         except RunStopped as stop:
             if not outputs_open:  # stopped while starting: there is nothing to write yet
                 raise

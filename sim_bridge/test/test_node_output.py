@@ -134,6 +134,22 @@ def test_a_stepped_run_keeps_log_and_print_lines_at_the_sim_time_of_their_callba
         for entry in log]  # INFO and STDOUT are both Log.INFO
 
 
+def test_a_node_error_s_traceback_is_among_the_node_s_lines_at_the_time_it_raised(tmp_path):
+    result = run_simulation('obstacles', [str(FIXTURES / 'raising_node.py')], duration_s=2.0,
+                            out_dir=tmp_path, quiet=True, plot=False, record=False)
+    assert not result.ok
+    log = read_log(tmp_path)
+    assert [entry['text'] for entry in log[:4]] == [
+        f'scan {count}: 36 beams' for count in (1, 2, 3, 4)]
+    traceback = log[4:]
+    assert {(entry['t'], entry['node'], entry['level']) for entry in traceback} == {
+        (0.5, 'raiser', 'STDERR')}
+    assert traceback[0]['text'] == 'Traceback (most recent call last):'
+    assert traceback[-1]['text'] == 'ZeroDivisionError: no valid beam to average'
+    assert '\n'.join(entry['line'] for entry in traceback) + '\n' == \
+        result.metrics['node_errors'][0]['traceback']
+
+
 def test_a_quiet_run_keeps_the_lines_and_shows_only_the_printed_ones(tmp_path, capfd):
     run_simulation('wall_follow_box', [str(FIXTURES / 'counting_logger.py')], duration_s=2.5,
                    out_dir=tmp_path, plot=False, record=False, quiet=True)
