@@ -29,6 +29,7 @@ node's pipes (sim_bridge.live) and stamps each line with the live simulated time
 """
 
 import collections
+import contextlib
 import ctypes
 import faulthandler
 import fcntl
@@ -41,7 +42,9 @@ import selectors
 import sys
 import termios
 import threading
-from typing import Callable, Iterable
+from typing import Callable, ContextManager, Iterable
+
+from sim_bridge.run_environment import environment_set
 
 #: The file of the run's output folder that holds the lines, one JSON object each.
 LOG_FILE = 'log.jsonl'
@@ -51,6 +54,7 @@ ROSOUT_TYPE = 'rcl_interfaces/msg/Log'
 #: rcutils' console format when RCUTILS_CONSOLE_OUTPUT_FORMAT does not set one.
 DEFAULT_CONSOLE_FORMAT = '[{severity}] [{time}] [{name}]: {message}'
 FORMAT_VARIABLE = 'RCUTILS_CONSOLE_OUTPUT_FORMAT'
+COLOUR_VARIABLE = 'RCUTILS_COLORIZED_OUTPUT'
 #: Logger severities as rcutils prints them, and their rcl_interfaces/msg/Log levels.
 SEVERITIES = {'DEBUG': 10, 'INFO': 20, 'WARN': 30, 'ERROR': 40, 'FATAL': 50}
 #: The Log level a raw line gets in the recording.
@@ -67,6 +71,18 @@ F_SETPIPE_SZ = 1031  # fcntl.F_SETPIPE_SZ, Linux only, named in Python 3.10+ on 
 
 _ANSI = re.compile(r'\x1b\[[0-9;]*[A-Za-z]')
 _TOKEN = re.compile(r'\{(\w+)\}')
+
+
+def terminal_colours() -> ContextManager[None]:
+    """
+    Keep rcutils' colours on a terminal while the output is captured, for the block.
+
+    rcutils colours its lines when stderr is a terminal (RCUTILS_COLORIZED_OUTPUT unset); in a
+    capture it is a pipe. The variable is read when rcutils' logging starts (``rclpy.init``).
+    """
+    if os.environ.get(COLOUR_VARIABLE) is None and sys.stderr.isatty():
+        return environment_set({COLOUR_VARIABLE: '1'})
+    return contextlib.nullcontext()
 
 
 def console_pattern(console_format: str | None = None) -> re.Pattern | None:
