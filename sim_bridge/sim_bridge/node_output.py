@@ -44,6 +44,7 @@ import termios
 import threading
 from typing import Callable, ContextManager, Iterable
 
+from sim_bridge.report_text import printable
 from sim_bridge.run_environment import environment_set
 
 #: The file of the run's output folder that holds the lines, one JSON object each.
@@ -118,9 +119,11 @@ def log_entry(t_s: float, node: str, stream: str, line: str,
     """
     Return the entry of one console ``line`` (no newline) written at ``t_s`` (s) on ``stream``.
 
-    ``stream`` is 'STDOUT' or 'STDERR'; ``node`` is the node whose code wrote it, or ''.
+    ``stream`` is 'STDOUT' or 'STDERR'; ``node`` is the node whose code wrote it, or ''. The
+    line is kept printable (report_text.printable: a student's text that is not UTF-8, a
+    control character, shown as escapes), its colour codes removed.
     """
-    line = _ANSI.sub('', line).rstrip('\r')
+    line = printable(_ANSI.sub('', line).rstrip('\r'))
     match = pattern.match(line) if pattern is not None else None
     if match is None:
         return {'t': t_s, 'node': node, 'level': stream, 'text': line, 'line': line}

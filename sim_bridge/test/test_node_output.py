@@ -31,6 +31,9 @@ def test_default_console_format_is_read_back():
     raw = log_entry(2.0, 'scan_ahead', 'STDOUT', '[1, 2] not a log line', console_pattern())
     assert raw == {'t': 2.0, 'node': 'scan_ahead', 'level': 'STDOUT',
                    'text': '[1, 2] not a log line', 'line': '[1, 2] not a log line'}
+    # A traceback's text from a file name that is not UTF-8, a bell: JSON-able, inert.
+    odd = log_entry(0.0, '', 'STDERR', 'open caf\udce9.txt\a', console_pattern())
+    assert odd['text'] == odd['line'] == 'open caf\\xe9.txt\\x07'
 
 
 def test_a_custom_console_format_is_read_back():
