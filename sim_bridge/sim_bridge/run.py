@@ -36,8 +36,8 @@ from sim_bridge.hints import ros_module_hint, scan_hint
 from sim_bridge.live import LiveRun, print_line
 from sim_bridge.metrics import compute_metrics
 from sim_bridge.node_output import (
-    LOG_FILE, NodeLog, OutputCapture, rosout_message, ROSOUT_TOPIC, ROSOUT_TYPE, to_terminal,
-    write_log)
+    LOG_FILE, NodeLog, OutputCapture, rosout_message, ROSOUT_TOPIC, ROSOUT_TYPE,
+    terminal_colours, to_terminal, write_log)
 from sim_bridge.node_styles import Decision
 from sim_bridge.paths import find_world
 from sim_bridge.plot import plot_trajectory
@@ -776,7 +776,8 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
 
     node_errors, warnings, ended_by = [], [], None
     wall_start = time.perf_counter()
-    with run_environment(field_checks), tempfile.TemporaryDirectory() as scratch:
+    with run_environment(field_checks), terminal_colours(), \
+            tempfile.TemporaryDirectory() as scratch:
         from rclpy.node import Node
         from sim_bridge.bridge import SimBridge
         try:
@@ -835,9 +836,13 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
                 node_errors.append(json_safe({'node': error.node_name,
                                               'error': node_failure(error),
                                               'traceback': student_traceback}))
-            if not quiet and not interrupt.pressed:
-                # What the node's own process would print before dying, its own part.
-                to_terminal(student_traceback)
+            if not interrupt.pressed:
+                # What the node's own process would print before dying, its own part: on
+                # the terminal and, as a process run's would be, among the node's lines.
+                for line in student_traceback.splitlines():
+                    log.add(bridge.now_ns, error.node_name, 'STDERR', line)
+                if not quiet:
+                    to_terminal(student_traceback)
         except RunStopped as stop:
             if not outputs_open:  # stopped while starting: there is nothing to write yet
                 raise

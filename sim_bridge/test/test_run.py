@@ -500,7 +500,10 @@ def test_node_raising_in_its_constructor_fails_the_run(tmp_path, run_main):
     assert status == 1
     (error,) = load_metrics(out_dir)['node_errors']
     assert error['node'] == 'wall_follow' and 'side must be one of' in error['error']
-    assert set(read_bag(out_dir / 'run')) <= {'/clock', '/tf_static'}
+    messages = read_bag(out_dir / 'run')
+    assert set(messages) <= {'/clock', '/tf_static', '/rosout'}
+    # /rosout: the node's traceback, its own process's last lines.
+    assert messages['/rosout'][-1][1].msg.startswith('ValueError: ')
 
 
 def test_rclpy_spin_once_inside_a_callback_works_as_in_the_nodes_own_process(tmp_path, capfd):
