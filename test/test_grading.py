@@ -31,19 +31,34 @@ NO_NODE_ERRORS = 'len(node_errors) == 0'
 COLLISION_FREE = 'collisions == 0'
 #: The run graded with its rosbag2 recording and trajectory plot written, as the demo does.
 RECORDED_RUN = 'wall_follow_box_cw/seed_1'
-#: Scenario name prefix -> naive node file that must fail that scenario on every seed.
-NAIVE_OVERRIDES = {'wall_follow_': 'naive_wall_follow.py', 'wanderbot': 'naive_wanderbot.py'}
+#: Scenario name prefix -> naive node files that must each fail that scenario on every seed.
+NAIVE_OVERRIDES = {
+    'wall_follow_': ('naive_wall_follow.py',), 'wanderbot': ('naive_wanderbot.py',),
+    'scan_ahead': ('constant_scan_ahead.py', 'first_beam_scan_ahead.py', 'silent_scan_ahead.py'),
+    'scan_around': ('handout_scan_around.py',),
+    'closest_obstacle': ('closest_obstacle_from_zero.py',),
+}
+#: Naive reading node -> what the one-line reason of its failed printed-value criterion says.
+NAIVE_REASONS = {
+    'constant_scan_ahead.py': 'scan_ahead: range ahead printed 42 at t=',
+    'first_beam_scan_ahead.py': 'range ahead printed ',
+    'silent_scan_ahead.py': 'no line printed the range ahead (',
+    'handout_scan_around.py': 'scan_around: left printed ',
+    'closest_obstacle_from_zero.py': "closest_obstacle: closest obstacle's bearing ",
+}
 #: Scenario name prefix -> the behaviour criteria its naive node passes (it fails all others).
 #: Round the post (radius 0.1 m) the naive node's fixed circle, of radius 1.0 m about a point
 #: 0.4 m beyond the post's centre, goes round the post 0.35 m clear of it: it does its laps
 #: without touching it and fails on the wall distance only (0.5 to 1.3 m from the post).
 NAIVE_PASSES = {'wall_follow_post_': {'laps <= -1', 'laps >= 1', COLLISION_FREE,
-                                      'min_clearance_m >= 0.15'}}
+                                      'min_clearance_m >= 0.15'},
+                # The teleop drives the reading nodes' robot: they fail on what they print.
+                'scan_': {COLLISION_FREE}, 'closest_obstacle': {COLLISION_FREE}}
 
 SHIPPED_RUNS = [run for scenario in load_scenarios([SCENARIOS]) for run in scenario.runs()]
 NAIVE_RUNS = [run for scenario in load_scenarios([SCENARIOS])
-              for prefix, node_file in NAIVE_OVERRIDES.items()
-              if scenario.name.startswith(prefix)
+              for prefix, node_files in NAIVE_OVERRIDES.items()
+              if scenario.name.startswith(prefix) for node_file in node_files
               for run in scenario.with_node_override(str(NAIVE_NODES / node_file)).runs()]
 
 
@@ -82,7 +97,8 @@ class Figures:
 
     WALL_FOLLOW = ('run', 'laps', 'first lap s', 'MAE m', 'min clearance m', 'collisions')
     WANDER = ('run', 'collisions', 'turns', 'min turn deg', 'max stationary s', 'coverage')
-    OTHER = ('run', 'node errors', 'collisions', 'min clearance m')
+    OTHER = ('run', 'node errors', 'collisions', 'min clearance m', 'printed lines',
+             'scans missed', 'worst error m')
     NAIVE = ('run', 'failed criteria')
 
     def __init__(self) -> None:
@@ -105,9 +121,11 @@ class Figures:
                 number(min(turns) if turns else None, 1), number(metrics['max_stationary_s'], 2),
                 number(metrics['coverage'], 2)))
         else:
+            printed = next(iter(metrics['printed'].values()), {})
             self.rows[self.OTHER].append((
                 name, str(len(metrics['node_errors'])), str(metrics['collisions']),
-                number(metrics['min_clearance_m'])))
+                number(metrics['min_clearance_m']), str(printed.get('lines', '-')),
+                str(printed.get('missed', '-')), number(printed.get('worst_error_m'))))
 
     def add_failure(self, label: str, failed: dict[str, str]) -> None:
         """Add a run that had to fail, with the criteria it failed and their measured values."""
@@ -182,15 +200,21 @@ def test_naive_node_runs_to_the_end_but_fails_its_behaviour_criteria(run, graded
                    if run.scenario.name.startswith(prefix)), set())
     assert failed_criteria(report).keys() == behaviour - passes
     assert failed_criteria(report)
+    says = NAIVE_REASONS.get(Path(run.scenario.nodes[0]).name)
+    if says is not None:
+        [why] = [shown for criterion, shown in failed_criteria(report).items()
+                 if criterion.startswith('printed_')]
+        assert says in why and '\n' not in why
 
 
 def test_every_naive_node_is_graded_on_every_seed_of_its_scenarios():
     graded = {(Path(run.scenario.nodes[0]).name, run.name) for run in NAIVE_RUNS}
     expected = {(node_file, run.name) for run in SHIPPED_RUNS
-                for prefix, node_file in NAIVE_OVERRIDES.items()
-                if run.scenario.name.startswith(prefix)}
+                for prefix, node_files in NAIVE_OVERRIDES.items()
+                if run.scenario.name.startswith(prefix) for node_file in node_files}
     assert graded == expected
-    assert {node_file for node_file, _ in graded} == set(NAIVE_OVERRIDES.values())
+    assert {node_file for node_file, _ in graded} == {
+        node_file for node_files in NAIVE_OVERRIDES.values() for node_file in node_files}
 
 
 def test_grader_cli_fails_an_int_in_a_float_field_naming_the_field(tmp_path, capsys, figures):
@@ -204,8 +228,10 @@ def test_grader_cli_fails_an_int_in_a_float_field_naming_the_field(tmp_path, cap
     [run] = report['runs']
     names = grade.report_names(tmp_path)  # a report names paths as a student may read them
     assert run['nodes'] == [names.path(node_file)] and not run['passed'] and run['error'] is None
+    # Its run ends at its first command, and it prints no range ahead: no other reason to fail.
     assert [criterion['criterion'] for criterion in run['criteria']
-            if not criterion['passed']] == [NO_NODE_ERRORS]
+            if not criterion['passed']] == [NO_NODE_ERRORS, 'printed_range_ahead: max_error_m '
+                                            '0.06, min_matched_fraction 0.9']
     [error] = run['metrics']['node_errors']
     figures.add_failure(f'int_twist@{run["run"]}', {NO_NODE_ERRORS: error['error']})
     assert error['node'] == 'straight_ahead'

@@ -85,6 +85,12 @@ def test_the_shipped_scenarios_carry_the_labs_marks():
     assert total(tasks.values())[1] == 10.0
 
 
+@pytest.mark.parametrize('name, printed', [
+    ('scan_ahead', 'range_ahead'), ('scan_around', 'regions'), ('closest_obstacle', 'closest')])
+def test_reading_scenarios_grade_what_their_node_prints(name, printed):
+    assert load_scenario(SCENARIOS / f'{name}.yaml').printed == (printed,)
+
+
 def front_ranges(bag_path: Path) -> list[float]:
     """Return each recorded scan's front-most range (m): beams within one increment of ahead."""
     typestore = get_typestore(Stores.ROS2_JAZZY)

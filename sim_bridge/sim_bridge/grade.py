@@ -174,6 +174,7 @@ def fingerprint(job: GradeJob, options: dict[str, Any], limits: Limits) -> str:
         'world': scenario.world, 'nodes': scenario.nodes, 'duration_s': scenario.duration_s,
         'start': scenario.start, 'robot': scenario.robot, 'remap': scenario.remap,
         'setpoint': scenario.setpoint,
+        'drive': [segment.as_dict() for segment in scenario.drive],
         'criteria': [criterion.text for criterion in scenario.criteria],
         'options': options, 'limits': asdict(limits)}, sort_keys=True, default=str).encode())
     try:

@@ -94,7 +94,8 @@ class RunReport:
             'world': path(scenario.world), 'nodes': [path(node) for node in scenario.nodes],
             'seed': self.run.seed, 'duration_s': scenario.duration_s,
             'params': self.run.params, 'start': scenario.start, 'robot': scenario.robot,
-            'remap': list(scenario.remap), 'setpoint': scenario.setpoint, 'passed': self.passed,
+            'remap': list(scenario.remap), 'setpoint': scenario.setpoint,
+            'drive': [segment.as_dict() for segment in scenario.drive], 'passed': self.passed,
             'error': self.error, 'traceback': self.traceback,
             'criteria': [result.as_dict() for result in self.results],
             'out_dir': names.path(self.out_dir), 'wall_time_s': self.wall_time_s,
@@ -155,8 +156,9 @@ def run_scenario(run: ScenarioRun, out_dir: Path, *, simulate: Simulate | None =
         result = simulate(scenario.world, list(scenario.nodes), duration_s=scenario.duration_s,
                           seed=run.seed, params=run.params, out_dir=out_dir,
                           start=scenario.start, robot=scenario.robot, remap=scenario.remap,
-                          setpoint=scenario.setpoint.get('wall_distance_m'), quiet=quiet,
-                          record=record, plot=plot, drive=scenario.drive or None,
+                          setpoint=scenario.setpoint.get('wall_distance_m'),
+                          printed=scenario.printed, quiet=quiet, record=record, plot=plot,
+                          drive=scenario.drive or None,
                           progress=progress)
     except Exception as error:  # one broken run must not stop the batch
         from sim_bridge.run import RunError

@@ -1,6 +1,9 @@
 """
 Score a run from its trace: laps, wall distance, turns, stationary time, coverage, clearance.
 
+And, when asked, what the nodes printed against the scans they received
+(:mod:`sim_bridge.printed_values`).
+
 Each score is a plain function of numpy arrays (units in its docstring); ``compute_metrics``
 assembles them into the JSON-ready dict the runner writes as ``metrics.json`` and the grader's
 criteria read. The world's obstacles count as the robot could hit them: their slice through the
@@ -14,6 +17,7 @@ from typing import Any, Iterable, Mapping, Sequence
 import contourpy
 import numpy as np
 
+from sim_bridge.printed_values import KINDS as PRINTED_KINDS, score_printed
 from sim_bridge.run_trace import Trace
 from sim_bridge.simulation.geometry import Footprint, signed_distance
 
@@ -38,6 +42,12 @@ OFFSET_GRID_SIDE = 2000
 #: What a node error in the metrics holds: the node's name, what it raised and where, and
 #: the traceback when there is one.
 NODE_ERROR_KEYS = ('node', 'error', 'traceback')
+#: The scores of each printed value (see printed_values.score_printed) and its worst line.
+_WORST_LINE = {'t': 'number', 'node': 'text', 'text': 'text', 'what': 'text', 'printed': 'text',
+               'printed_m': 'number', 'truth_m': 'list'}
+_PRINTED_SCORES = {'scans': 'number', 'lines': 'number', 'missed': 'number',
+                   'matched_fraction': 'number', 'mae_m': 'number', 'worst_error_m': 'number',
+                   'worst': _WORST_LINE}
 #: What ``compute_metrics`` returns: each key's kind ('number', 'list', 'text') or, for a
 #: nested dict, the kinds of its keys. Scenario criteria are checked against it.
 METRIC_KINDS = {
@@ -48,6 +58,11 @@ METRIC_KINDS = {
                         'setpoint': 'number'},
     'turns_deg': 'list', 'max_stationary_s': 'number', 'coverage': 'number',
     'node_errors': 'list',
+    'printed': {'range_ahead': _PRINTED_SCORES,
+                'regions': {**_PRINTED_SCORES, 'unprinted': 'list'},
+                'closest': {**_PRINTED_SCORES, 'bearing_lines': 'number',
+                            'bearing_mae_deg': 'number', 'worst_bearing_error_deg': 'number',
+                            'worst_bearing': {**_WORST_LINE, 'truth_deg': 'number'}}},
 }
 
 
@@ -252,7 +267,10 @@ def offset_path_length(footprints: Sequence[Footprint], distance: float,
 
 def compute_metrics(trace: Trace, world: Any, *, setpoint: float | None = None,
                     wall_time_s: float,
-                    node_errors: Iterable[Mapping[str, str]] = ()) -> dict[str, Any]:
+                    node_errors: Iterable[Mapping[str, str]] = (),
+                    log_lines: Sequence[Mapping[str, Any]] = (), printed: Iterable[str] = (),
+                    runner_nodes: Iterable[str] = (),
+                    printed_lateness_s: float = 0.0) -> dict[str, Any]:
     """
     Score a run; return a JSON-serialisable dict (plain floats and ints, None for no value).
 
@@ -262,7 +280,11 @@ def compute_metrics(trace: Trace, world: Any, *, setpoint: float | None = None,
     outline, the only one a robot could circle); ``setpoint`` (m) the wall
     distance the node aims for, if it has one; ``wall_time_s`` (s) how long the run took;
     ``node_errors`` the failures to report, each a mapping with ``node``, ``error`` and
-    optionally ``traceback``.
+    optionally ``traceback``; ``log_lines`` what the nodes printed (dicts with ``t`` s,
+    ``node``, ``level``, ``text``, ``line``), scored for the ``printed`` values (of
+    printed_values.KINDS) against the trace's scans, the lines of ``runner_nodes`` (the
+    simulator's own) left out, a line about a scan up to ``printed_lateness_s`` (s) before it
+    (see printed_values.score_printed).
     """
     time, x, y = trace.array('time'), trace.array('x'), trace.array('y')
     sim_time = float(time[-1]) if len(time) else 0.0
@@ -279,6 +301,7 @@ def compute_metrics(trace: Trace, world: Any, *, setpoint: float | None = None,
         wall_distance = distance_stats(signed_distance(np.column_stack((x, y)), target),
                                        setpoint)
     obstacles = world.footprints()
+    printed = set(printed)
     return {
         'sim_time_s': sim_time,
         'wall_time_s': finite_or_none(wall_time_s),
@@ -298,4 +321,7 @@ def compute_metrics(trace: Trace, world: Any, *, setpoint: float | None = None,
         'coverage': coverage(x, y, world.bounds, obstacles, trace.robot_radius),
         'node_errors': [{key: str(error[key]) for key in NODE_ERROR_KEYS if key in error}
                         for error in node_errors],
+        'printed': {kind: score_printed(kind, trace.scans, log_lines, ignore_nodes=runner_nodes,
+                                        lateness_s=printed_lateness_s)
+                    for kind in PRINTED_KINDS if kind in printed},
     }

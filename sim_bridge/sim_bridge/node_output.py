@@ -29,6 +29,7 @@ node's pipes (sim_bridge.live) and stamps each line with the live simulated time
 """
 
 import collections
+import contextlib
 import ctypes
 import faulthandler
 import fcntl
@@ -41,7 +42,10 @@ import selectors
 import sys
 import termios
 import threading
-from typing import Callable, Iterable
+from typing import Callable, ContextManager, Iterable
+
+from sim_bridge.report_text import printable
+from sim_bridge.run_environment import environment_set
 
 #: The file of the run's output folder that holds the lines, one JSON object each.
 LOG_FILE = 'log.jsonl'
@@ -51,14 +55,15 @@ ROSOUT_TYPE = 'rcl_interfaces/msg/Log'
 #: rcutils' console format when RCUTILS_CONSOLE_OUTPUT_FORMAT does not set one.
 DEFAULT_CONSOLE_FORMAT = '[{severity}] [{time}] [{name}]: {message}'
 FORMAT_VARIABLE = 'RCUTILS_CONSOLE_OUTPUT_FORMAT'
+COLOUR_VARIABLE = 'RCUTILS_COLORIZED_OUTPUT'
 #: Logger severities as rcutils prints them, and their rcl_interfaces/msg/Log levels.
 SEVERITIES = {'DEBUG': 10, 'INFO': 20, 'WARN': 30, 'ERROR': 40, 'FATAL': 50}
 #: The Log level a raw line gets in the recording.
 STREAM_LEVELS = {'STDOUT': 20, 'STDERR': 40}
 #: Most lines a run keeps: a node printing without end must not take the grader's memory.
 MAX_LINES = 200_000
-#: Longest wait (wall s) at a sync for output already written to reach the reader thread; a
-#: thread of a node writing without pause would otherwise hold the run there.
+#: Longest wait (wall s) at a sync for output already written to reach the reader thread (it
+#: takes microseconds; a reader starved of the CPU must not hold the run).
 SYNC_TIMEOUT_S = 1.0
 #: Bytes read from a pipe at once, and the pipe size asked for (a node's burst fits in it).
 CHUNK_BYTES = 2 ** 16
@@ -67,6 +72,18 @@ F_SETPIPE_SZ = 1031  # fcntl.F_SETPIPE_SZ, Linux only, named in Python 3.10+ on 
 
 _ANSI = re.compile(r'\x1b\[[0-9;]*[A-Za-z]')
 _TOKEN = re.compile(r'\{(\w+)\}')
+
+
+def terminal_colours() -> ContextManager[None]:
+    """
+    Keep rcutils' colours on a terminal while the output is captured, for the block.
+
+    rcutils colours its lines when stderr is a terminal (RCUTILS_COLORIZED_OUTPUT unset); in a
+    capture it is a pipe. The variable is read when rcutils' logging starts (``rclpy.init``).
+    """
+    if os.environ.get(COLOUR_VARIABLE) is None and sys.stderr.isatty():
+        return environment_set({COLOUR_VARIABLE: '1'})
+    return contextlib.nullcontext()
 
 
 def console_pattern(console_format: str | None = None) -> re.Pattern | None:
@@ -102,9 +119,11 @@ def log_entry(t_s: float, node: str, stream: str, line: str,
     """
     Return the entry of one console ``line`` (no newline) written at ``t_s`` (s) on ``stream``.
 
-    ``stream`` is 'STDOUT' or 'STDERR'; ``node`` is the node whose code wrote it, or ''.
+    ``stream`` is 'STDOUT' or 'STDERR'; ``node`` is the node whose code wrote it, or ''. The
+    line is kept printable (report_text.printable: a student's text that is not UTF-8, a
+    control character, shown as escapes), its colour codes removed.
     """
-    line = _ANSI.sub('', line).rstrip('\r')
+    line = printable(_ANSI.sub('', line).rstrip('\r'))
     match = pattern.match(line) if pattern is not None else None
     if match is None:
         return {'t': t_s, 'node': node, 'level': stream, 'text': line, 'line': line}
@@ -189,6 +208,9 @@ class _Stream:
             pass
         os.dup2(write_fd, fd)
         os.close(write_fd)
+        os.set_blocking(self.read_fd, False)
+        #: Bytes the reader has taken from the pipe.
+        self.taken = 0
         self.partial = b''
         self.partial_stamp: tuple[int, str] | None = None
         # A quiet run's line not shown yet (it may be a logger's), and whether the line
@@ -225,7 +247,6 @@ class OutputCapture:
         self.quiet = quiet
         self.streams: list[_Stream] = []
         self._chunks: list[tuple[_Stream, bytes]] = []
-        self._busy = False
         self._ready = threading.Condition()
         self._thread: threading.Thread | None = None
         self._stop_read = self._stop_write = -1
@@ -271,17 +292,20 @@ class OutputCapture:
                 if stream is None:  # the block ended (a process a node started may hold a pipe)
                     selector.close()
                     return
-                self._busy = True  # before the read: sync waits for what the read takes
-                data = os.read(stream.read_fd, CHUNK_BYTES)
-                if not data:
-                    selector.unregister(stream.read_fd)
-                else:
-                    self._show(stream, data)
+                # Read and count under the lock: a sync sees each byte unread or handed over.
                 with self._ready:
+                    try:
+                        data = os.read(stream.read_fd, CHUNK_BYTES)
+                    except BlockingIOError:
+                        continue
                     if data:
                         self._chunks.append((stream, data))
-                    self._busy = False
-                    self._ready.notify_all()
+                        stream.taken += len(data)
+                        self._ready.notify_all()
+                if data:
+                    self._show(stream, data)
+                else:
+                    selector.unregister(stream.read_fd)
         selector.close()
 
     def _show(self, stream: _Stream, data: bytes) -> None:
@@ -322,10 +346,6 @@ class OutputCapture:
                 pass
         self._libc.fflush(None)  # C's stdio: rcutils' stdout, a library's printf
 
-    def _drained(self) -> bool:
-        # Unread bytes first, then the reader: a read in between sets _busy before it.
-        return all(stream.unread() == 0 for stream in self.streams) and not self._busy
-
     def sync(self, node: str = '', keep: bool = True) -> None:
         """
         Cut what was written since the last sync into lines, stamped now and ``node``.
@@ -334,7 +354,11 @@ class OutputCapture:
         """
         self._flush_writers()
         with self._ready:
-            self._ready.wait_for(self._drained, timeout=SYNC_TIMEOUT_S)
+            # What was written so far: taken by the reader, or still in the pipe. Bytes
+            # written after this (a node's thread) may come along, and need not be waited for.
+            wanted = [(stream, stream.taken + stream.unread()) for stream in self.streams]
+            self._ready.wait_for(lambda: all(stream.taken >= count for stream, count in wanted),
+                                 timeout=SYNC_TIMEOUT_S)
             chunks, self._chunks = self._chunks, []
         if chunks:
             stamp = (self.clock_ns(), node if keep else None)

@@ -204,8 +204,9 @@ def reason(entry: dict[str, Any]) -> str:
     node_errors = (entry.get('metrics') or {}).get('node_errors') or []
     if node_errors:
         return first_line(str(node_errors[0].get('error')))
-    failed = [result['criterion'] for result in entry.get('criteria', [])
-              if not result.get('passed')]
+    # A criterion whose measured value is a text (what a node printed) says itself why.
+    failed = [result['value'] if isinstance(result.get('value'), str) else result['criterion']
+              for result in entry.get('criteria', []) if not result.get('passed')]
     return first_line(', '.join(failed) or 'failed')
 
 

@@ -1,11 +1,13 @@
 """
 What a run leaves behind for scoring and plotting: the robot's ground-truth path and scans.
 
-The runner appends one sample per physics step and keeps a scan now and then; metrics and plots
-read the frozen arrays. Pure: no rclpy, no pybullet.
+The runner appends one sample per physics step and every scan the lidar published; metrics (what
+the nodes printed is compared with the scans they received) and plots read them. Pure: no
+rclpy, no pybullet.
 """
 
 from dataclasses import dataclass, field
+import math
 
 import numpy as np
 
@@ -13,11 +15,12 @@ import numpy as np
 @dataclass(frozen=True)
 class ScanSnapshot:
     """
-    A lidar scan and the pose it was taken from, for drawing.
+    A lidar scan as the nodes received it, and the pose it was taken from.
 
-    ``time`` in s; ``pose`` (x m, y m, yaw rad) of the laser frame in the world; ``ranges`` in m
-    (+inf for no return); beam i points at ``angle_min + i * angle_increment`` (rad) in the
-    laser frame.
+    ``time`` in s (the step that published it); ``pose`` (x m, y m, yaw rad) of the laser frame
+    in the world; ``ranges`` in m (+inf for no return), as the message carried them (float32);
+    beam i points at ``angle_min + i * angle_increment`` (rad) in the laser frame;
+    ``range_min``/``range_max`` (m) the sensor's limits.
     """
 
     time: float
@@ -25,6 +28,8 @@ class ScanSnapshot:
     ranges: np.ndarray
     angle_min: float
     angle_increment: float
+    range_min: float = 0.0
+    range_max: float = math.inf
 
 
 @dataclass(frozen=True)

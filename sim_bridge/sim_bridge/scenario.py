@@ -37,6 +37,7 @@ A scenario is a YAML mapping; every key not listed here is an error::
       - laps <= -1
       - wall_distance_m.mae <= 0.10
       - all(turns_deg) > 90
+      - printed_range_ahead: {max_error_m: 0.05, min_matched_fraction: 0.95}
 
 Relative paths (a world file, a node file) are relative to the scenario file. The scenario's
 name is the file name without ``.yaml``. A seed is an integer from 0 to MAX_SEED (2**63 - 1).
@@ -63,6 +64,14 @@ or a function of a list metric: ``min(turns_deg)``, ``max(...)``, ``len(...)``, 
 (every entry satisfies the comparison; true for an empty list), ``any(...)``; ``abs(laps)``
 for a number. The number may be ``inf`` or ``-inf``. Nothing is evaluated as Python. A metric
 that has no value (null, e.g. no wall distance without a target) fails its criterion.
+
+What a node prints on each scan (:mod:`sim_bridge.printed_values`) is a criterion of its own,
+a mapping: ``printed_range_ahead``, ``printed_regions`` or ``printed_closest``, with
+``max_error_m`` (m, the worst error of a printed value allowed) and ``min_matched_fraction``
+(the share of the scans a line must give the value for, 0 to 1); ``printed_closest`` may add
+``max_bearing_error_deg`` (deg), checked on the lines that print a bearing. Its result is one
+line: the worst printed value, where, and the truth. The run scores the printed values a
+scenario's criteria name (``printed.<kind>.worst_error_m`` and the rest are metrics too).
 """
 
 from collections.abc import Mapping
@@ -76,6 +85,7 @@ from typing import Any, Callable
 
 from sim_bridge.drive import DriveError, parse_drive, Segment
 from sim_bridge.metrics import METRIC_KINDS
+from sim_bridge.printed_values import judge_printed, KINDS as PRINTED_KINDS
 from sim_bridge.targets import split_target
 from sim_bridge.yaml_loader import load_yaml, read_text
 import yaml
@@ -100,6 +110,11 @@ MARKINGS = ('all', 'proportional')
 #: What a scenario's ``setpoint:`` can set, and the unit of each.
 SETPOINTS = {'wall_distance_m': 'm'}
 _REQUIRED = ('world', 'nodes', 'duration', 'criteria')
+#: A printed-value criterion's key: ``printed_<kind>`` for each kind of printed_values.KINDS.
+PRINTED_PREFIX = 'printed_'
+#: A printed-value criterion's settings, and whether each is required.
+PRINTED_SETTINGS = {'max_error_m': True, 'min_matched_fraction': True,
+                    'max_bearing_error_deg': False}
 _OPERATORS: dict[str, Callable[[Any, Any], bool]] = {
     '<=': operator.le, '>=': operator.ge, '==': operator.eq, '!=': operator.ne,
     '<': operator.lt, '>': operator.gt}
@@ -175,6 +190,65 @@ class Criterion:
         return CriterionResult(self.text, holds(value), value, format_value(value))
 
 
+@dataclass(frozen=True)
+class PrintedCriterion:
+    """
+    A criterion on what the nodes print: ``kind`` of printed_values.KINDS within tolerances.
+
+    ``max_error_m`` (m) bounds the worst printed value's error, ``min_matched_fraction`` the
+    share of scans a line gave the value for; ``max_bearing_error_deg`` (deg) the closest
+    obstacle's printed bearing, when it is printed.
+    """
+
+    text: str
+    kind: str
+    max_error_m: float
+    min_matched_fraction: float
+    max_bearing_error_deg: float | None = None
+
+    def evaluate(self, metrics: Mapping[str, Any]) -> CriterionResult:
+        """Judge the criterion on a run's metrics; the measured value is the one-line why."""
+        scored = (metrics.get('printed') or {}).get(self.kind)
+        passed, why = judge_printed(self.kind, scored, max_error_m=self.max_error_m,
+                                    min_matched_fraction=self.min_matched_fraction,
+                                    max_bearing_error_deg=self.max_bearing_error_deg)
+        return CriterionResult(self.text, passed, why, why)
+
+
+def parse_printed_criterion(item: Mapping[Any, Any]) -> PrintedCriterion:
+    """
+    Parse ``{printed_<kind>: {max_error_m: .., min_matched_fraction: ..}}``.
+
+    ValueError says what is wrong: the key, a setting unknown or missing, a value out of range.
+    """
+    names = ', '.join(PRINTED_PREFIX + kind for kind in PRINTED_KINDS)
+    if len(item) != 1:
+        raise ValueError(f'a printed-value criterion is one key ({names}), got {len(item)}')
+    key, settings = next(iter(item.items()))
+    kind = str(key)[len(PRINTED_PREFIX):] if str(key).startswith(PRINTED_PREFIX) else None
+    if kind not in PRINTED_KINDS:
+        raise ValueError(f"unknown criterion '{key}'; a mapping criterion is one of {names}")
+    if not isinstance(settings, Mapping):
+        raise ValueError(f"'{key}' must map settings to numbers, e.g. {{max_error_m: 0.05, "
+                         f'min_matched_fraction: 0.95}}, got {_kind(settings)}')
+    allowed = [name for name in PRINTED_SETTINGS
+               if kind == 'closest' or name != 'max_bearing_error_deg']
+    for name, value in settings.items():
+        if name not in allowed:
+            raise ValueError(f"'{key}.{name}': unknown setting; expected {', '.join(allowed)}")
+        limit = 1.0 if name == 'min_matched_fraction' else math.inf
+        if not _is_number(value) or not 0.0 <= value <= limit:
+            wanted = 'from 0 to 1' if limit == 1.0 else 'at least 0'
+            raise ValueError(f"'{key}.{name}' must be a number {wanted}, got {_kind(value)}")
+    for name in allowed:
+        if PRINTED_SETTINGS[name] and name not in settings:
+            raise ValueError(f"'{key}.{name}' is missing")
+    shown = [f'{name} {settings[name]:g}' for name in allowed if name in settings]
+    text = f'{key}: ' + ', '.join(shown)
+    return PrintedCriterion(text, kind, **{name: float(value)
+                                           for name, value in settings.items()})
+
+
 def parse_criterion(text: str) -> Criterion:
     """
     Parse ``<value> <op> <number>`` (see the module docstring); ValueError says what is wrong.
@@ -182,7 +256,8 @@ def parse_criterion(text: str) -> Criterion:
     The metric must be one ``compute_metrics`` produces, of a kind the function fits.
     """
     if not isinstance(text, str):
-        raise ValueError(f'must be a text like "collisions == 0", got {text!r}')
+        raise ValueError(f'must be a text like "collisions == 0" (or a mapping like '
+                         f'printed_range_ahead: {{...}}), got {text!r}')
     match = _CRITERION.match(text)
     if match is None:
         raise ValueError(f"cannot read '{text}': expected '<metric> <op> <number>' with <op> "
@@ -260,7 +335,7 @@ class Scenario:
     world: str
     nodes: tuple[str, ...]
     duration_s: float
-    criteria: tuple[Criterion, ...]
+    criteria: tuple[Criterion | PrintedCriterion, ...]
     seeds: tuple[int, ...] = (0,)
     params: dict[str, dict[str, Any]] = field(default_factory=dict)
     start: str | tuple[float, float, float] | None = None
@@ -281,6 +356,14 @@ class Scenario:
     def runs(self) -> list[ScenarioRun]:
         """Return one run per seed."""
         return [ScenarioRun(self, seed) for seed in self.seeds]
+
+    @property
+    def printed(self) -> tuple[str, ...]:
+        """Return the printed values (printed_values.KINDS) the criteria look at."""
+        kinds = {criterion.kind if isinstance(criterion, PrintedCriterion) else
+                 criterion.path[1] if criterion.path[:1] == ('printed',)
+                 and len(criterion.path) > 1 else None for criterion in self.criteria}
+        return tuple(kind for kind in PRINTED_KINDS if kind in kinds)
 
     def judge(self, metrics: Mapping[str, Any]) -> list[CriterionResult]:
         """Judge every criterion on one run's metrics."""
@@ -480,7 +563,8 @@ def scenario_from_dict(data: Any, name: str, path: Path | None = None) -> Scenar
     parsed = []
     for index, text in enumerate(criteria):
         try:
-            parsed.append(parse_criterion(text))
+            parsed.append(parse_printed_criterion(text) if isinstance(text, Mapping)
+                          else parse_criterion(text))
         except ValueError as error:
             raise fail(f'criteria[{index}]', str(error)) from None
 

@@ -334,7 +334,10 @@ def test_a_run_is_resumed_only_while_its_world_and_models_are_unchanged(tmp_path
 
 @pytest.mark.parametrize('key, value', [
     ('robot', 'turtlebot3_burger'), ('remap', ['/robot/scan:=/scan']),
-    ('setpoint', {'wall_distance_m': 0.4})])
+    ('setpoint', {'wall_distance_m': 0.4}),
+    ('drive', [{'duration': 2.0, 'linear': 0.2, 'angular': 0.0},
+               {'duration': 9.0, 'linear': 0.1, 'angular': 0.0,
+                'until': {'within_m': 0.4, 'of': 'box'}}])])
 def test_a_scenarios_robot_remap_and_setpoint_reach_the_run_and_its_fingerprint(
         key, value, tmp_path):
     plain = scenario_from_dict(SCENARIO, 'box_ccw')
@@ -348,7 +351,8 @@ def test_a_scenarios_robot_remap_and_setpoint_reach_the_run_and_its_fingerprint(
     report = run_scenario(changed.runs()[0], tmp_path, simulate=fake_simulate)
     options = CALLS[-1][2]
     given = {'robot': options['robot'], 'remap': list(options['remap']),
-             'setpoint': {'wall_distance_m': options['setpoint']}}
+             'setpoint': {'wall_distance_m': options['setpoint']},
+             'drive': [segment.as_dict() for segment in options['drive'] or ()]}
     assert given[key] == value
     assert report.as_dict()[key] == value
 

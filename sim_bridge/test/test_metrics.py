@@ -10,7 +10,8 @@ import pytest
 
 from sim_bridge.metrics import (compute_metrics, coverage, laps_around, longest_stationary,
                                 METRIC_KINDS, offset_path_length, stop_and_turn_angles)
-from sim_bridge.run_trace import CollisionEvent, Trace
+from sim_bridge.printed_values import KINDS as PRINTED_KINDS
+from sim_bridge.run_trace import CollisionEvent, ScanSnapshot, Trace
 from sim_bridge.simulation.geometry import Footprint, Shape, signed_distance
 from sim_bridge.simulation.world import Obstacle, World
 
@@ -397,8 +398,16 @@ def test_metrics_of_a_real_trace_hold_only_builtin_types():
 
 
 def test_metrics_have_the_keys_and_kinds_criteria_are_checked_against():
-    metrics = metrics_of(drive([(0.5, 0.0, 2.0), (0.0, 1.0, 2.0)]), setpoint=0.5)
-    kinds = {'number': (int, float), 'list': list}
+    trace = drive([(0.5, 0.0, 2.0), (0.0, 1.0, 2.0)])
+    ranges = np.full(36, 2.0, dtype=np.float32)
+    trace.scans.append(ScanSnapshot(0.1, (0.0, 0.0, 0.0), ranges, -1.57, 3.14 / 35, 0.12, 10.0))
+    said = ['Range ahead: 2.00 m',
+            'right: 2 | front-right: 2 | front: 2 | front-left: 2 | left: 2',
+            'Closest obstacle: 2.00 m at -90.0 deg']
+    lines = [{'t': 0.1, 'node': 'reader', 'level': 'INFO', 'text': text, 'line': text}
+             for text in said]
+    metrics = metrics_of(trace, setpoint=0.5, log_lines=lines, printed=PRINTED_KINDS)
+    kinds = {'number': (int, float), 'list': list, 'text': str}
 
     def check(values, schema):
         assert values.keys() == schema.keys()

@@ -6,7 +6,8 @@ import os
 import pytest
 
 from sim_bridge.report_text import (
-    cap_text, count_cell, format_measured, json_safe, one_line, PathNames, printable)
+    cap_text, count_cell, first_line, format_measured, json_safe, one_line, PathNames,
+    printable, reason)
 
 
 def test_lone_surrogates_show_the_bytes_they_stand_for():
@@ -73,3 +74,12 @@ def test_a_class_cell_gives_the_worst_reason():
     assert count_cell([passed, failed]) == ('1/2', 'criteria failed')
     assert count_cell([failed, missing]) == ('0/2', 'not submitted')
     assert count_cell([]) == ('-', '')
+
+
+def test_a_criterion_that_says_why_gives_the_reason_of_a_failed_run():
+    why = "scan_ahead: range ahead printed 42 at t=0.1 s, truth 2.00 m: 'Range ahead: 42'"
+    entry = {'passed': False, 'error': None, 'metrics': {'node_errors': []}, 'criteria': [
+        {'criterion': 'collisions == 0', 'passed': True, 'value': 0, 'shown': '0'},
+        {'criterion': 'printed_range_ahead: max_error_m 0.05', 'passed': False, 'value': why,
+         'shown': why}]}
+    assert reason(entry) == first_line(why)

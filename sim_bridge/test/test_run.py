@@ -180,6 +180,17 @@ def test_run_writes_metrics_with_every_required_key(scan_ahead_run):
     assert metrics['min_clearance_m'] == pytest.approx(clearance, abs=1e-6)
 
 
+def test_a_run_scores_what_its_node_prints_against_every_scan(tmp_path):
+    result = run_simulation('obstacles', ['scan_ahead'], duration_s=2.0, out_dir=tmp_path,
+                            printed=('range_ahead',), quiet=True, record=False, plot=False)
+    scored = result.metrics['printed']
+    assert list(scored) == ['range_ahead']
+    # The lidar's 10 Hz over 2 s, each scan with its 'Range ahead: 2.00 m' line.
+    assert (scored['range_ahead']['scans'], scored['range_ahead']['lines'],
+            scored['range_ahead']['missed']) == (20, 20, 0)
+    assert scored['range_ahead']['worst_error_m'] <= 0.005 + 1e-6  # printed to the cm
+
+
 def test_run_writes_a_trajectory_plot(scan_ahead_run):
     *_, out_dir = scan_ahead_run
     assert (out_dir / 'trajectory.png').read_bytes()[:8] == b'\x89PNG\r\n\x1a\n'
@@ -489,7 +500,10 @@ def test_node_raising_in_its_constructor_fails_the_run(tmp_path, run_main):
     assert status == 1
     (error,) = load_metrics(out_dir)['node_errors']
     assert error['node'] == 'wall_follow' and 'side must be one of' in error['error']
-    assert set(read_bag(out_dir / 'run')) <= {'/clock', '/tf_static'}
+    messages = read_bag(out_dir / 'run')
+    assert set(messages) <= {'/clock', '/tf_static', '/rosout'}
+    # /rosout: the node's traceback, its own process's last lines.
+    assert messages['/rosout'][-1][1].msg.startswith('ValueError: ')
 
 
 def test_rclpy_spin_once_inside_a_callback_works_as_in_the_nodes_own_process(tmp_path, capfd):

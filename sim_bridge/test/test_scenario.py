@@ -352,3 +352,56 @@ def test_an_override_of_a_node_no_scenario_runs_is_an_error(tmp_path):
     with pytest.raises(ScenarioError, match="no scenario runs a node 'wal_follow' "
                        r'\(they run wall_follow, wf\)'):
         with_node_overrides(scenarios, ['wal_follow=ana.py'])
+
+
+PRINTED = textwrap.dedent("""\
+    world: obstacles
+    nodes: [scan_around]
+    duration: 10
+    criteria:
+      - len(node_errors) == 0
+      - printed_regions: {max_error_m: 0.05, min_matched_fraction: 0.9}
+      - printed.closest.mae_m <= 0.1
+""")
+
+
+def test_printed_value_criteria_are_mappings_and_name_what_the_run_scores(tmp_path):
+    scenario = load_scenario(write(tmp_path, 'around.yaml', PRINTED))
+    assert [criterion.text for criterion in scenario.criteria] == [
+        'len(node_errors) == 0', 'printed_regions: max_error_m 0.05, min_matched_fraction 0.9',
+        'printed.closest.mae_m <= 0.1']
+    assert scenario.printed == ('regions', 'closest')
+    scored = {'scans': 10, 'lines': 10, 'missed': 0, 'matched_fraction': 1.0, 'mae_m': 0.3,
+              'worst_error_m': 2.0, 'unprinted': [],
+              'worst': {'t': 4.2, 'node': 'scan_around', 'text': 'front-left: 2.31 m',
+                        'what': 'front-left', 'printed': '2.31 m', 'printed_m': 2.31,
+                        'truth_m': [0.31, 0.31]}}
+    result = scenario.criteria[1].evaluate({'printed': {'regions': scored}})
+    assert not result.passed
+    assert result.value == result.shown == (
+        "scan_around: front-left printed 2.31 m at t=4.2 s, truth 0.31 m: 'front-left: 2.31 m' "
+        '(worst of 10 lines; 0 of 10 scans with no line)')
+    assert not scenario.criteria[1].evaluate({}).passed  # not scored: fails
+
+
+@pytest.mark.parametrize('item, message', [
+    ('printed_ahead: {max_error_m: 0.05}', "unknown criterion 'printed_ahead'; a mapping "
+     'criterion is one of printed_range_ahead, printed_regions, printed_closest'),
+    ('printed_regions: 0.05', "'printed_regions' must map settings to numbers"),
+    ('printed_regions: {max_error_m: 0.05}', "'printed_regions.min_matched_fraction' is missing"),
+    ('printed_regions: {max_error_m: 0.05, min_matched_fraction: 95}',
+     "'printed_regions.min_matched_fraction' must be a number from 0 to 1, got int 95"),
+    ('printed_regions: {max_error_m: -1, min_matched_fraction: 0.9}',
+     "'printed_regions.max_error_m' must be a number at least 0"),
+    ('printed_range_ahead: {max_error_m: 0.1, min_matched_fraction: 0.9, '
+     'max_bearing_error_deg: 5}', "'printed_range_ahead.max_bearing_error_deg': unknown setting"),
+    ('{printed_regions: {max_error_m: 0.1}, printed_closest: {max_error_m: 0.1}}',
+     'a printed-value criterion is one key'),
+])
+def test_a_wrong_printed_value_criterion_is_refused_naming_the_criterion(
+        tmp_path, item, message):
+    text = PRINTED.replace('printed_regions: {max_error_m: 0.05, min_matched_fraction: 0.9}',
+                           item)
+    with pytest.raises(ScenarioError, match='criteria\\[1\\]: ' + message.replace(
+            '{', '\\{').replace('(', '\\(')):
+        load_scenario(write(tmp_path, 'around.yaml', text))
