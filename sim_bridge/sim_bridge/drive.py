@@ -128,7 +128,8 @@ class DrivePlan:
     What to command when: the segments, each started when the previous one ended.
 
     ``distance(name, x, y)`` returns the distance (m) from the floor point (x, y) to the
-    obstacle ``name``'s surface.
+    obstacle ``name``'s surface. ``missed`` says of each segment that ended at its duration
+    before the robot came near its obstacle (the scenario's author wants to know).
     """
 
     def __init__(self, segments: Iterable[Segment],
@@ -137,6 +138,7 @@ class DrivePlan:
         self.distance = distance
         self.index = 0
         self.started_s: float | None = None
+        self.missed: list[str] = []
 
     @property
     def done(self) -> bool:
@@ -158,5 +160,9 @@ class DrivePlan:
                 self.distance(segment.of, x, y) <= segment.within_m
             if not reached and t_s - self.started_s < segment.duration_s:
                 return segment.linear, segment.angular
+            if segment.of is not None and not reached:
+                self.missed.append(
+                    f'drive[{self.index}]: ended after its {segment.duration_s:g} s with the '
+                    f'robot never within {segment.within_m:g} m of {segment.of}')
             self.index, self.started_s = self.index + 1, None
         return None

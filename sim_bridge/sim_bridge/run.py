@@ -889,14 +889,13 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
         write_params_file(bridge_params_file, {BRIDGE_NODE: node_params[BRIDGE_NODE]})
         run = SteppedRun(params_file, quiet, code, bridge_params_file=bridge_params_file,
                          remap=remap, ros_args=ros_args)
-        bag, interrupt, outputs_open = None, UserInterrupt(), False
+        bag, interrupt, outputs_open, teleop = None, UserInterrupt(), False, None
         log = NodeLog(record)
         try:
             bridge = run.start_simulator(SimBridge)
             observer = Observer(bridge.sim)
             recorder = RunRecorder(run, observer, record, log)
-            if segments:
-                Teleop(run, bridge, world_model, segments)
+            teleop = Teleop(run, bridge, world_model, segments) if segments else None
             with run.capture_output(log):
                 start_failure = run.start_nodes(zip(targets, classes), node_params)
                 if start_failure is None:
@@ -948,6 +947,8 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
                     to_terminal(f'warning: {warning}\n')
             if log.warning():
                 warnings.append(log.warning())
+            if teleop is not None:
+                warnings += teleop.plan.missed
             if bag is not None:
                 recorder.write_log()
                 bag.close()
@@ -1070,7 +1071,7 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
         with private_ros_environment(domain.domain_id):
             rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
         executor = SingleThreadedExecutor(context=context)
-        bag, outputs_open, interrupt = None, False, UserInterrupt()
+        bag, outputs_open, interrupt, teleop = None, False, UserInterrupt(), None
         log = NodeLog(record)
         try:
             bridge = SimBridge(stepped=False, context=context, use_global_arguments=False,
@@ -1081,8 +1082,7 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
             observer = Observer(bridge.sim)
             graph = LiveGraph(bridge, executor)
             recorder = RunRecorder(graph, observer, record, log)
-            if segments:
-                Teleop(graph, bridge, world_model, segments)
+            teleop = Teleop(graph, bridge, world_model, segments) if segments else None
             bag = open_outputs(out_dir, params_file, record)
             recorder.record(bag)
             outputs_open = True
@@ -1147,6 +1147,8 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
             executor.shutdown()
             if log.warning():
                 warnings.append(log.warning())
+            if teleop is not None:
+                warnings += teleop.plan.missed
             if bag is not None:
                 recorder.write_log()
                 bag.close()

@@ -63,6 +63,17 @@ def test_the_plan_holds_each_segment_for_its_duration_or_until_near_the_obstacle
     assert plan.command(8.1, 1.61, 0.0) == (0.0, -1.0)  # within 0.4 m: the turn starts
     assert plan.command(8.55, 1.61, 0.0) == (0.0, -1.0)
     assert plan.command(8.6, 1.61, 0.0) is None and plan.done
+    assert plan.missed == []
+
+
+def test_a_segment_that_never_came_near_its_obstacle_is_a_warning(tmp_path):
+    # The cylinder is off to the left: 2 s straight ahead never come within 0.4 m of it.
+    result = run_simulation('obstacles', ['scan_ahead'], duration_s=3.0, out_dir=tmp_path,
+                            quiet=True, plot=False, record=False,
+                            drive=[{'duration': 2.0, 'linear': 0.2,
+                                    'until': {'within_m': 0.4, 'of': 'cylinder'}}])
+    assert result.metrics['warnings'] == [
+        'drive[0]: ended after its 2 s with the robot never within 0.4 m of cylinder']
 
 
 def test_a_segment_ending_near_an_obstacle_the_world_lacks_is_a_run_error(tmp_path):
