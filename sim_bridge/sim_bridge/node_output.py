@@ -382,7 +382,11 @@ class OutputCapture:
         for stream in self.streams:
             os.dup2(stream.saved, stream.fd)
         if faulthandler.is_enabled():
-            faulthandler.enable()
+            try:
+                faulthandler.enable()  # on sys.stderr, as it was
+            except (AttributeError, ValueError, io.UnsupportedOperation):
+                # A stream without a file descriptor (pytest's capsys, a notebook's).
+                faulthandler.enable(sys.__stderr__)
         os.write(self._stop_write, b'.')
         self._thread.join()
         for fd in (self._stop_read, self._stop_write):
