@@ -14,6 +14,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 import difflib
 import functools
+import gc
 import inspect
 import json
 import math
@@ -861,11 +862,16 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
         if len(targets) > 1:
             raise RunError(f'{target}: {mode.reason}, so it runs as its own process; a process '
                            'run takes one node file: run it alone')
-        return run_as_process(
+        result = run_as_process(
             world_model, target, mode, node_params, duration_s=duration_s, out_dir=out_dir,
             remap=remap, ros_args=ros_args, setpoint=setpoint, printed=printed, quiet=quiet,
-            record=record,
-            plot=plot, field_checks=field_checks, segments=segments, progress=progress)
+            record=record, plot=plot, field_checks=field_checks, segments=segments,
+            progress=progress)
+        # The run's rclpy objects (its context, executor and nodes hold one another) are freed
+        # now, not by a later collection: in a process forked from this one (a multiprocessing
+        # pool's worker) that would free them without their DDS threads, and crash it.
+        gc.collect()
+        return result
     run_modes = {'mode': 'stepped', 'reason': '; '.join(mode.reason for mode in modes)}
 
     node_errors, warnings, ended_by = [], [], None
@@ -1152,6 +1158,8 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
             if bag is not None:
                 recorder.write_log()
                 bag.close()
+            for node in executor.get_nodes():
+                node.destroy_node()
             context.try_shutdown()
             domain.release()
     return write_outputs(

@@ -487,3 +487,18 @@ def test_a_process_run_measures_the_wall_distance_against_the_nodes_own_distance
         record=False, plot=False, field_checks=True)
     assert result.metrics['node_errors'] == [] and result.metrics['warnings'] == []
     assert result.metrics['wall_distance_m']['setpoint'] == 0.6
+
+
+def test_a_process_forked_after_a_process_run_can_collect_its_garbage(tmp_path):
+    # A multiprocessing pool forked later (ament_flake8's, under colcon test) crashed in its
+    # first garbage collection, freeing the run's rclpy objects without their DDS threads.
+    import gc
+    run_simulation('obstacles', [str(FIXTURES / 'spin_once_loop.py')], duration_s=1.0,
+                   out_dir=tmp_path, quiet=True, record=False, plot=False)
+    child = os.fork()
+    if child == 0:
+        gc.collect()
+        os._exit(0)
+    _, status = os.waitpid(child, 0)
+    assert os.WIFEXITED(status) and os.WEXITSTATUS(status) == 0, (
+        f'the forked process ended with status {status}')
