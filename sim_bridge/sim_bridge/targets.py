@@ -219,6 +219,8 @@ def node_command(target: str, arguments: Iterable[str] = ()) -> str:
     else:
         entry = next(iter(entry_points(group='console_scripts', name=where)), None)
         package = entry.dist.name if entry is not None and entry.dist is not None else None
+        if package:  # a ROS package's name has no '-' (REP 144); setuptools may write scan-pkg
+            package = package.replace('-', '_')
         start = f'ros2 run {package} {where}' if package else f'python3 -m {where}'
     return ' '.join([start, *arguments])
 
