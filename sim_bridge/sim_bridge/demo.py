@@ -18,14 +18,15 @@ import sys
 from typing import Sequence
 
 from sim_bridge import live
-from sim_bridge.lab_tasks import LAB_TASKS
+from sim_bridge.lab_tasks import LAB_TASKS, TASK_SCENARIOS
 from sim_bridge.paths import output_folder, repo_root
 from sim_bridge.run import run_simulation, summary_table
 from sim_bridge.run_environment import rclpy_origin
+from sim_bridge.scenario import load_scenario
 
-#: Simulated seconds per task: a few scans for the scan readers, a few loops for the drivers.
-TASK_DURATION_S = {'scan_ahead': 1.0, 'scan_around': 1.0, 'closest_obstacle': 1.0,
-                   'wanderbot': 120.0, 'wall_follow': 80.0}
+#: Simulated seconds of the tasks that drive themselves: a few loops. The scan readers are
+#: driven past the obstacles as their shipped scenario drives them, for its duration.
+TASK_DURATION_S = {'wanderbot': 120.0, 'wall_follow': 80.0}
 #: A scan reader that ends its own process on its first scan.
 SYS_EXIT_NODE = """import sys
 
@@ -66,8 +67,14 @@ def run_tasks(out_dir: Path) -> bool:
     for name, task in LAB_TASKS.items():
         print(f'\n=== Lab task {name}: ros2 run scan_pkg {task.node} in world {task.world} ===',
               flush=True)
-        result = run_simulation(task.world, [task.node], duration_s=TASK_DURATION_S[name],
-                                out_dir=out_dir / name)
+        if name in TASK_DURATION_S:
+            result = run_simulation(task.world, [task.node], duration_s=TASK_DURATION_S[name],
+                                    out_dir=out_dir / name)
+        else:  # a scan reader, driven as a person at the teleop would drive the robot
+            scenario = load_scenario(repo_root() / 'test' / 'scenarios' / TASK_SCENARIOS[name])
+            result = run_simulation(task.world, [task.node], duration_s=scenario.duration_s,
+                                    start=scenario.start, drive=scenario.drive,
+                                    out_dir=out_dir / name)
         print(summary_table(result.metrics))
         print(f'  plot: {result.out_dir / "trajectory.png"}   '
               f'recording: {result.out_dir / "run"} (rosbag2, MCAP)')
