@@ -395,6 +395,18 @@ class Teleop:
         self.publisher.publish(message)
 
 
+def close_outputs(warnings: list[str], log: NodeLog, teleop: 'Teleop | None',
+                  recorder: 'RunRecorder | None', bag: BagRecorder | None) -> None:
+    """Add the log's and the teleop's warnings to ``warnings``; write the lines to ``bag``."""
+    if log.warning():
+        warnings.append(log.warning())
+    if teleop is not None:
+        warnings += teleop.plan.missed
+    if bag is not None and recorder is not None:
+        recorder.write_log()
+        bag.close()
+
+
 def drive_plan(drive: Sequence[Any] | None, world: World) -> tuple[Segment, ...]:
     """Return the validated segments of ``drive`` (see sim_bridge.drive); RunError if bad."""
     if drive is None:
@@ -896,6 +908,7 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
         run = SteppedRun(params_file, quiet, code, bridge_params_file=bridge_params_file,
                          remap=remap, ros_args=ros_args)
         bag, interrupt, outputs_open, teleop = None, UserInterrupt(), False, None
+        recorder: RunRecorder | None = None
         log = NodeLog(record)
         try:
             bridge = run.start_simulator(SimBridge)
@@ -951,13 +964,7 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
                 for warning in run.unconnected_topics():
                     warnings.append(warning)
                     to_terminal(f'warning: {warning}\n')
-            if log.warning():
-                warnings.append(log.warning())
-            if teleop is not None:
-                warnings += teleop.plan.missed
-            if bag is not None:
-                recorder.write_log()
-                bag.close()
+            close_outputs(warnings, log, teleop, recorder, bag)
             run.close()
     return write_outputs(
         out_dir, observer, world_model, interrupt, plot=plot,
@@ -1078,6 +1085,7 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
             rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
         executor = SingleThreadedExecutor(context=context)
         bag, outputs_open, interrupt, teleop = None, False, UserInterrupt(), None
+        recorder: RunRecorder | None = None
         log = NodeLog(record)
         try:
             bridge = SimBridge(stepped=False, context=context, use_global_arguments=False,
@@ -1151,13 +1159,7 @@ def run_as_process(world_model: World, target: str, mode: Decision, node_params:
             node_errors.append({'node': BRIDGE_NODE, 'error': f'{stop} (in the simulator)'})
         finally:
             executor.shutdown()
-            if log.warning():
-                warnings.append(log.warning())
-            if teleop is not None:
-                warnings += teleop.plan.missed
-            if bag is not None:
-                recorder.write_log()
-                bag.close()
+            close_outputs(warnings, log, teleop, recorder, bag)
             for node in executor.get_nodes():
                 node.destroy_node()
             context.try_shutdown()
