@@ -44,12 +44,12 @@ setup(
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
-            'sim_bridge = sim_bridge.bridge:main',
-            'lab_run = sim_bridge.run:main',
-            'lab_grade = sim_bridge.grade:main',
-            'lab_video = sim_bridge.video:main',
-            'teleop_keyboard = sim_bridge.teleop:main',
-            'send_cmd_vel = sim_bridge.send_cmd_vel:main',
+            'sim_bridge = sim_bridge.ros.bridge:main',
+            'lab_run = sim_bridge.commands.run:main',
+            'lab_grade = sim_bridge.commands.grade:main',
+            'lab_video = sim_bridge.commands.video:main',
+            'teleop_keyboard = sim_bridge.ros.teleop:main',
+            'send_cmd_vel = sim_bridge.ros.send_cmd_vel:main',
         ],
     },
 )

@@ -19,8 +19,11 @@ import zipfile
 
 import pytest
 
-from sim_bridge import grade, gradescope
-from sim_bridge.grading import run_scenario
+from sim_bridge.commands import grade
+from sim_bridge.grading import batch
+
+from sim_bridge.grading import gradescope
+from sim_bridge.grading.runs import run_scenario
 
 WORKSPACE = Path(__file__).resolve().parents[2]
 FIXTURES = Path(__file__).resolve().parent / 'fixtures'

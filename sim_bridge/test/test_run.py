@@ -23,8 +23,10 @@ import numpy as np
 import pytest
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import get_typestore, Stores
-from sim_bridge.run import main, run_simulation, RunError, UserInterrupt
-from sim_bridge.scenario import scenario_from_dict
+from sim_bridge.commands.run import main
+from sim_bridge.runner.run import run_simulation
+from sim_bridge.common.errors import RunError, UserInterrupt
+from sim_bridge.grading.scenario import scenario_from_dict
 from sim_bridge.simulation.geometry import signed_distance
 from sim_bridge.simulation.world import World
 import yaml
@@ -619,7 +621,7 @@ def test_the_simulator_is_not_remapped(tmp_path, run_main):
 
 def test_a_students_wall_follower_is_graded_by_the_scenarios_params_remaps_and_setpoint(
         tmp_path):
-    from sim_bridge.grading import run_scenario
+    from sim_bridge.grading.runs import run_scenario
     scenario = scenario_from_dict({
         'world': 'wall_follow_box', 'nodes': ['wall_follow'], 'duration': 30,
         # The scenario's parameters for its own node: the student's node names itself
@@ -882,7 +884,7 @@ def test_a_node_file_saved_on_windows_with_a_bom_and_crlf_runs(tmp_path, run_mai
 
 
 def test_a_syntax_error_is_reported_at_the_students_line_in_the_grade_report(tmp_path):
-    from sim_bridge.grading import run_scenario
+    from sim_bridge.grading.runs import run_scenario
     path = tmp_path / 'wall_follow.py'
     path.write_text('import rclpy\n\n\ndef on_scan(self, msg)\n    pass\n')
     scenario = scenario_from_dict({'world': 'obstacles', 'nodes': [str(path)], 'duration': 1,
@@ -969,7 +971,7 @@ def test_two_runs_at_once_and_a_live_bridge_beside_them_do_not_hear_each_other(t
     # A live simulator on the same domain, with discovery on, and a listener counting what
     # reaches /cmd_vel there: the runs' commands must not.
     live = subprocess.Popen(
-        [sys.executable, '-m', 'sim_bridge.bridge', '--ros-args', '-p', 'world:=wall_follow_box',
+        [sys.executable, '-m', 'sim_bridge.ros.bridge', '--ros-args', '-p', 'world:=wall_follow_box',
          '-p', 'real_time_factor:=2.0'], env=env, stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL)
     listener = subprocess.Popen([sys.executable, str(FIXTURES / 'topic_counter.py'), '8'],

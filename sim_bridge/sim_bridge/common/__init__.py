@@ -1,0 +1,6 @@
+"""
+Below everything: paths to worlds, models, scenarios and examples, YAML loading, text
+helpers, the run's errors, the run's environment variables, what validators say of a value.
+
+Imports nothing of sim_bridge.
+"""

@@ -1,0 +1,5 @@
+"""
+Pictures of a run: its trajectory plot and its video.
+
+May import common, simulation and scoring.
+"""
