@@ -1,5 +1,7 @@
 """
-``python -m sim_bridge.grade``: the grader's command (sim_bridge.commands.grade), at the path users type.
+``python -m sim_bridge.grade``: the grader's command, at the path users type.
+
+The command itself is sim_bridge.commands.grade.
 """
 
 import sys

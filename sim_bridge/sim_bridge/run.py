@@ -1,5 +1,7 @@
 """
-``python -m sim_bridge.run``: the runner's command (sim_bridge.commands.run), at the path users type.
+``python -m sim_bridge.run``: the runner's command, at the path users type.
+
+The command itself is sim_bridge.commands.run.
 """
 
 import sys

@@ -22,6 +22,7 @@ import pytest
 from sim_bridge.commands import grade
 from sim_bridge.grading import batch
 
+from sim_bridge.commands import autograder as autograder_command
 from sim_bridge.grading import gradescope
 from sim_bridge.grading.runs import run_scenario
 
@@ -182,7 +183,7 @@ def autograder(tmp_path_factory):
     (folder / 'ahead.yaml').write_text(AHEAD)
     (folder / 'wander.yaml').write_text(WANDER)
     zip_path = folder / 'autograder.zip'
-    assert gradescope.main(['build', str(folder / 'ahead.yaml'), str(folder / 'wander.yaml'),
+    assert autograder_command.main(['build', str(folder / 'ahead.yaml'), str(folder / 'wander.yaml'),
                             '-o', str(zip_path)]) == 0
     return zip_path
 

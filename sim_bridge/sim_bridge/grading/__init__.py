@@ -1,4 +1,6 @@
 """
+The grader.
+
 The grader: scenarios and criteria, grading a run, batches and classes, isolation of student
 code, marks, HTML reports, Gradescope.
 

@@ -1,4 +1,6 @@
 """
+What a run is scored by.
+
 What a run is scored by: its trace, the metrics computed from it, the printed values judged
 against the scans.
 
