@@ -19,10 +19,9 @@ import re
 import pytest
 
 from sim_bridge.commands import grade
-from sim_bridge.grading import batch
+from sim_bridge.common.text import json_safe
 from sim_bridge.grading.batch import grade_runs
 from sim_bridge.grading.runs import GradeJob, run_scenario
-from sim_bridge.common.text import json_safe
 from sim_bridge.grading.scenario import load_scenarios, ScenarioRun
 
 HERE = Path(__file__).resolve().parent

@@ -7,11 +7,11 @@ import pytest
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import get_typestore, Stores
 
-from sim_bridge.live.lab_tasks import LAB_TASKS
-from sim_bridge.scoring.metrics import offset_path_length
 from sim_bridge.common.paths import world_names
-from sim_bridge.runner.run import run_simulation
 from sim_bridge.grading.scenario import load_scenario, load_scenarios
+from sim_bridge.live.lab_tasks import LAB_TASKS
+from sim_bridge.runner.run import run_simulation
+from sim_bridge.scoring.metrics import offset_path_length
 from sim_bridge.simulation.world import World
 
 SCENARIOS = Path(__file__).resolve().parent / 'scenarios'

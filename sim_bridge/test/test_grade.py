@@ -16,13 +16,12 @@ from types import SimpleNamespace
 import pytest
 
 from sim_bridge.commands import grade
-from sim_bridge.grading import batch
-
-from sim_bridge.common import paths
-from sim_bridge.grading.batch import BatchProgress, format_duration, format_table, summary
 from sim_bridge.commands.grade import main
-from sim_bridge.grading.runs import GradeJob, run_scenario, write_report
+from sim_bridge.common import paths
 from sim_bridge.common.text import TEXT_LIMIT_BYTES
+from sim_bridge.grading import batch
+from sim_bridge.grading.batch import BatchProgress, format_duration, format_table, summary
+from sim_bridge.grading.runs import GradeJob, run_scenario, write_report
 from sim_bridge.grading.scenario import scenario_from_dict
 
 SCENARIO = {

@@ -3,8 +3,8 @@ A class graded with one command: the demo's four submissions, each run in its ow
 
 ``ana`` hands in the project's own nodes, ``ben`` the lab's naive wall follower, ``cleo`` a
 scan reader that puts an int in a float field and no wall follower, ``dev`` a wall follower
-that does not compile and a scan reader that calls ``sys.exit`` (sim_bridge.commands.demo.CLASS). The
-class table, class.csv, every student's report and the HTML pages (every link resolving) are
+that does not compile and a scan reader that calls ``sys.exit`` (sim_bridge.commands.demo.CLASS).
+The class table, class.csv, every student's report and the HTML pages (every link resolving) are
 checked.
 """
 
@@ -20,11 +20,11 @@ import shutil
 import pytest
 
 from sim_bridge.commands import grade
-from sim_bridge.grading import batch
 from sim_bridge.commands.demo import CLASS, CLASS_SCENARIOS, make_class
+from sim_bridge.common.text import TEXT_LIMIT_BYTES
+from sim_bridge.grading import batch
 from sim_bridge.grading.class_batch import ClassBatch, CSV_NAME, INDEX_NAME, STUDENTS_DIR
 from sim_bridge.grading.html_report import linked_files
-from sim_bridge.common.text import TEXT_LIMIT_BYTES
 from sim_bridge.grading.scenario import load_scenarios
 
 WORKSPACE = Path(__file__).resolve().parents[2]

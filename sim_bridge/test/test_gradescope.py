@@ -19,11 +19,7 @@ import zipfile
 
 import pytest
 
-from sim_bridge.commands import grade
-from sim_bridge.grading import batch
-
-from sim_bridge.commands import autograder as autograder_command
-from sim_bridge.grading import gradescope
+from sim_bridge.commands import autograder as autograder_command, grade
 from sim_bridge.grading.runs import run_scenario
 
 WORKSPACE = Path(__file__).resolve().parents[2]
@@ -183,8 +179,8 @@ def autograder(tmp_path_factory):
     (folder / 'ahead.yaml').write_text(AHEAD)
     (folder / 'wander.yaml').write_text(WANDER)
     zip_path = folder / 'autograder.zip'
-    assert autograder_command.main(['build', str(folder / 'ahead.yaml'), str(folder / 'wander.yaml'),
-                            '-o', str(zip_path)]) == 0
+    assert autograder_command.main(['build', str(folder / 'ahead.yaml'),
+                                    str(folder / 'wander.yaml'), '-o', str(zip_path)]) == 0
     return zip_path
 
 

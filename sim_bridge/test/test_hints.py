@@ -1,4 +1,4 @@
-"""The hints a node error gets (sim_bridge.runner.hints): ROS-installation modules, scan geometry."""
+"""The hints a node error gets (sim_bridge.runner.hints): ROS-installation modules, scan shape."""
 
 import importlib.util
 import math

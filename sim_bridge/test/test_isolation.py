@@ -17,14 +17,13 @@ import time
 
 import pytest
 
-from sim_bridge.grading import isolate
-
 from sim_bridge.common import paths
+from sim_bridge.grading import isolate
 from sim_bridge.grading.batch import BatchProgress, grade_runs
-from sim_bridge.grading.runs import GradeJob, RESULT_NAME
 from sim_bridge.grading.isolate import (
     CappedLog, exit_reason, Limits, LOG_HEAD_BYTES, log_tail, LOG_TAIL_BYTES, LOG_TAIL_READ,
     process_exists, remove_leftover_scratch, trimmed_environment)
+from sim_bridge.grading.runs import GradeJob, RESULT_NAME
 from sim_bridge.grading.scenario import scenario_from_dict
 
 FIXTURES = Path(__file__).resolve().parent / 'fixtures'

@@ -23,8 +23,8 @@ import numpy as np
 import pytest
 from sim_bridge.commands import live as live_command
 from sim_bridge.live import live
-from sim_bridge.runner import processes
 from sim_bridge.live.lab_tasks import LAB_TASKS
+from sim_bridge.runner import processes
 from sim_bridge.simulation.geometry import signed_distance
 from sim_bridge.simulation.world import World
 
@@ -132,7 +132,8 @@ def test_bad_tasks_and_parameters_are_refused_before_anything_starts(capsys):
         live.task_specs('fly')
     with pytest.raises(ValueError, match='parameters for wanderbot'):
         live.task_specs('wall_follow', params={'wanderbot': {'speed': '1.0'}})
-    assert live_command.parse_param('wall_follow:distance=0.6') == ('wall_follow', 'distance', '0.6')
+    assert live_command.parse_param('wall_follow:distance=0.6') == (
+        'wall_follow', 'distance', '0.6')
     assert live_command.parse_param('sim_bridge:robot_pose=[0.0, 1.0, 0.0]') == \
         ('sim_bridge', 'robot_pose', '[0.0, 1.0, 0.0]')
     for text in ('distance=0.6', 'wall_follow:distance', ':x=1'):
@@ -158,7 +159,7 @@ def test_output_of_both_streams_is_prefixed_per_process_in_order():
     code = ('import sys, time\nfor i in range(3):\n'
             "    print('out', i); print('err', i, file=sys.stderr); time.sleep(0.05)")
     with processes.LiveRun([python_spec('one', code), python_spec('two', 'print("hello")')],
-                      env=live_env(), out=lines.append) as run:
+                           env=live_env(), out=lines.append) as run:
         run.start()
         deadline = time.monotonic() + TIMEOUT_S
         while run.running() and time.monotonic() < deadline:
@@ -179,8 +180,8 @@ def test_output_of_both_streams_is_prefixed_per_process_in_order():
 def test_a_process_that_ends_early_stops_the_others_and_is_named():
     lines = []
     status = processes.run_live([python_spec('sim', 'import time; time.sleep(60)'),
-                            python_spec('node', 'raise SystemExit(3)')],
-                           duration_s=TIMEOUT_S, env=live_env(), out=lines.append)
+                                 python_spec('node', 'raise SystemExit(3)')],
+                                duration_s=TIMEOUT_S, env=live_env(), out=lines.append)
     assert status == 1
     assert any(line.startswith('[ERROR] [node-2]: process has died [pid ')
                and 'exit code 3, cmd ' in line for line in lines)
@@ -198,7 +199,7 @@ def test_stopping_goes_last_started_first_and_escalates_as_launch_does():
                     "print('ready', flush=True); time.sleep(60)")
     specs = [python_spec('sim', ignores_sigint), python_spec('node', ignores_both)]
     with processes.LiveRun(specs, env=live_env(), out=lines.append, sigterm_timeout_s=0.3,
-                      sigkill_timeout_s=0.3) as run:
+                           sigkill_timeout_s=0.3) as run:
         run.start()
         deadline = time.monotonic() + TIMEOUT_S
         while sum(line.endswith('] ready') for line in lines) < 2 and \

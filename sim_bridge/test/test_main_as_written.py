@@ -1,8 +1,8 @@
 """
 A node file runs as ``python3 FILE`` would run it: stepped when its main() allows, else as written.
 
-The decision (sim_bridge.runner.node_styles) is read from the source alone; the runs of the files it
-sends to a process (their own main(), against the simulator run live, each on a ROS domain of
+The decision (sim_bridge.runner.node_styles) is read from the source alone; the runs of the files
+it sends to a process (their own main(), against the simulator run live, each on a ROS domain of
 its own) are checked for doing what their authors meant.
 """
 
@@ -16,13 +16,13 @@ import textwrap
 
 import pytest
 from rosbags.rosbag2 import Reader
+from sim_bridge.commands.run import main
+from sim_bridge.common.errors import RunError
 from sim_bridge.runner.node_styles import decide, node_class
+from sim_bridge.runner.options import gui_problem
 from sim_bridge.runner.process_run import (
     DOMAIN_BASE, DOMAIN_COUNT, DomainReservation, last_traceback, node_spec, printed_error)
-from sim_bridge.runner.options import gui_problem
-from sim_bridge.commands.run import main
 from sim_bridge.runner.run import run_simulation
-from sim_bridge.common.errors import RunError
 from sim_bridge.runner.targets import load_node_class, run_mode, TargetError
 
 FIXTURES = Path(__file__).parent / 'fixtures'

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from sim_bridge.scoring.metrics import (compute_metrics, coverage, laps_around, longest_stationary,
-                                METRIC_KINDS, offset_path_length, stop_and_turn_angles)
+                                        METRIC_KINDS, offset_path_length, stop_and_turn_angles)
 from sim_bridge.scoring.printed_values import KINDS as PRINTED_KINDS
 from sim_bridge.scoring.run_trace import CollisionEvent, ScanSnapshot, Trace
 from sim_bridge.simulation.geometry import Footprint, Shape, signed_distance

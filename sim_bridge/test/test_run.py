@@ -24,9 +24,9 @@ import pytest
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import get_typestore, Stores
 from sim_bridge.commands.run import main
-from sim_bridge.runner.run import run_simulation
 from sim_bridge.common.errors import RunError, UserInterrupt
 from sim_bridge.grading.scenario import scenario_from_dict
+from sim_bridge.runner.run import run_simulation
 from sim_bridge.simulation.geometry import signed_distance
 from sim_bridge.simulation.world import World
 import yaml
@@ -971,7 +971,7 @@ def test_two_runs_at_once_and_a_live_bridge_beside_them_do_not_hear_each_other(t
     # A live simulator on the same domain, with discovery on, and a listener counting what
     # reaches /cmd_vel there: the runs' commands must not.
     live = subprocess.Popen(
-        [sys.executable, '-m', 'sim_bridge.ros.bridge', '--ros-args', '-p', 'world:=wall_follow_box',
+        [sys.executable, '-m', 'sim_bridge.bridge', '--ros-args', '-p', 'world:=wall_follow_box',
          '-p', 'real_time_factor:=2.0'], env=env, stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL)
     listener = subprocess.Popen([sys.executable, str(FIXTURES / 'topic_counter.py'), '8'],

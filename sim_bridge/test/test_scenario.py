@@ -6,10 +6,11 @@ import textwrap
 
 import pytest
 
-from sim_bridge.grading.scenario import load_scenario, load_scenarios, parse_criterion, ScenarioError, with_node_overrides
+from sim_bridge.common.yaml_loader import FILE_LIMIT_BYTES
+from sim_bridge.grading.scenario import (
+    load_scenario, load_scenarios, parse_criterion, ScenarioError, with_node_overrides)
 from sim_bridge.runner.options import MAX_SEED
 from sim_bridge.runner.targets import target_name
-from sim_bridge.common.yaml_loader import FILE_LIMIT_BYTES
 
 METRICS = {
     'collisions': 0, 'laps': -2, 'min_clearance_m': 0.21, 'turns_deg': [104.5, 171.0, 95.25],

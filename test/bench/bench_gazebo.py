@@ -31,8 +31,8 @@ import time
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import get_typestore, Stores
 
-from sim_bridge.runner.run import run_simulation
 from sim_bridge.common.run_environment import environment_set
+from sim_bridge.runner.run import run_simulation
 from sim_bridge.simulation.simulator import Simulator
 from sim_bridge.simulation.world import World
 

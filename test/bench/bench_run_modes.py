@@ -23,14 +23,14 @@ import tempfile
 import time
 
 from scan_pkg import wanderbot
+from sim_bridge.common.run_environment import keep_dds_in_process
 from sim_bridge.grading.batch import grade_runs
 from sim_bridge.grading.runs import GradeJob
+from sim_bridge.grading.scenario import scenario_from_dict
 from sim_bridge.runner.node_styles import Decision
 from sim_bridge.runner.options import load_world, node_parameters
 from sim_bridge.runner.process_run import run_as_process
 from sim_bridge.runner.run import run_simulation
-from sim_bridge.common.run_environment import keep_dds_in_process
-from sim_bridge.grading.scenario import scenario_from_dict
 from sim_bridge.runner.targets import run_mode
 
 FIXTURES = Path(__file__).resolve().parents[2] / 'sim_bridge' / 'test' / 'fixtures'

@@ -6,8 +6,9 @@ sim_bridge.live.lab_tasks), showing the node's log lines as a student sees them 
 summary of the run, then grades the shipped scenarios (test/scenarios/), then a small class of
 four submissions (:func:`make_class`, ``--submissions``: its table shows the runs passed and
 the marks of task 1 and task 4), and prints where every plot,
-recording and report is. It ends with a short live run of ``wall_follow`` (sim_bridge.commands.live): the
-simulator and the node as two ROS 2 processes, their lines interleaved as ros2 launch prints them.
+recording and report is. It ends with a short live run of ``wall_follow``
+(sim_bridge.commands.live): the simulator and the node as two ROS 2 processes, their lines
+interleaved as ros2 launch prints them.
 """
 
 import argparse

@@ -1,8 +1,8 @@
 """
 Run a lab task live: the simulator and the task's node as two ROS 2 processes, as launch does.
 
-``python -m sim_bridge.commands.live TASK [--world W] [--robot NAME [--robot-pose X Y YAW]] [--duration S]
-[--gui] [--rtf F]`` (``./lab live``)
+``python -m sim_bridge.commands.live TASK [--world W] [--robot NAME [--robot-pose X Y YAW]]
+[--duration S] [--gui] [--rtf F]`` (``./lab live``)
 starts what ``ros2 launch sim_bridge lab.launch.py task:=TASK`` starts on a ROS 2 machine, on a
 machine that has only Python (launch and launch_ros are not on PyPI):
 
@@ -77,7 +77,8 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
                              "task's), typed as --ros-args -p types it (repeatable)")
     parser.add_argument('--record', type=Path, metavar='OUT_DIR',
                         help="keep a stepped run's outputs in OUT_DIR (recording, log lines "
-                             'with their sim time, metrics, plot): python -m sim_bridge.commands.video '
+                             'with their sim time, metrics, plot): python -m '
+                             'sim_bridge.commands.video '
                              'OUT_DIR makes its video')
     return parser.parse_args(argv)
 
@@ -121,7 +122,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             recorder.line(stream, line)
     with recorder:
         status = run_live(specs, args.duration, on_line=keep)
-    print_line(log_line('INFO', LOGGER, f'recorded in {args.record}: python -m sim_bridge.commands.video '
+    print_line(log_line('INFO', LOGGER, f'recorded in {args.record}: python -m '
+                                        'sim_bridge.commands.video '
                                         f'{args.record} --names "..." makes its video'))
     return status
 

@@ -100,7 +100,8 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
                         help='write no rosbag2 recording (a faster run)')
     parser.add_argument('--no-plot', action='store_true', help='write no trajectory.png')
     parser.add_argument('--video', type=Path, metavar='FILE.mp4',
-                        help="also write the run's video (sim_bridge.media.video): the world and the "
+                        help="also write the run's video (sim_bridge.media.video): the world and "
+                             'the '
                              "robot beside the nodes' terminal")
     parser.add_argument('--names', default='', help="the students' names, on every frame")
     parser.add_argument('--speed', type=float, default=1.0, metavar='N',

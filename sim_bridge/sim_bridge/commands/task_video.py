@@ -1,12 +1,12 @@
 """
 The handout's video of a lab task in one command: ``./lab video TASK --names "..."``.
 
-``python -m sim_bridge.commands.task_video TASK --names "Ada Lovelace 123, ..." [--speed N] [--out DIR]``
-runs the first seed of the task's shipped scenario (sim_bridge.live.lab_tasks.TASK_SCENARIOS, with
-its ``drive:`` segments where it has them, as the grader runs it), its outputs in
-``--out`` (default ``out/video/<task>``), and writes its video (sim_bridge.media.video) named as
-the handout names it, ``labscan_task1.mp4`` ... ``labscan_task4.mp4``, in the current folder
-(or ``-o FILE``).
+``python -m sim_bridge.commands.task_video TASK --names "Ada Lovelace 123, ..." [--speed N] [--out
+DIR]`` runs the first seed of the task's shipped scenario
+(sim_bridge.live.lab_tasks.TASK_SCENARIOS, with its ``drive:`` segments where it has them, as the
+grader runs it), its outputs in ``--out`` (default ``out/video/<task>``), and writes its video
+(sim_bridge.media.video) named as the handout names it, ``labscan_task1.mp4`` ...
+``labscan_task4.mp4``, in the current folder (or ``-o FILE``).
 """
 
 import argparse

@@ -51,7 +51,8 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(
         prog='python -m sim_bridge.commands.video', description=__doc__.strip().splitlines()[0])
     parser.add_argument('out_dir', type=Path, metavar='OUT_DIR',
-                        help="a run's output folder (sim_bridge.runner.run --out, ./lab live --record)")
+                        help="a run's output folder (python -m sim_bridge.run --out, "
+                             './lab live --record)')
     parser.add_argument('--names', default='', help="the students' names, shown on every frame")
     parser.add_argument('-o', '--output', type=Path, metavar='FILE.mp4',
                         help='the video file (default OUT_DIR/video.mp4)')

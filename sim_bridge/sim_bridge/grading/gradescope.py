@@ -9,12 +9,12 @@ specification: https://gradescope-autograders.readthedocs.io/en/latest/specs/). 
 
 ``python -m sim_bridge.grade SCENARIO... --submission DIR --gradescope results.json`` writes
 the results (:func:`results`): the marks as the score, a test per scenario, ordered by task.
-``python -m sim_bridge.commands.autograder build SCENARIO... -o autograder.zip`` (``./lab autograder``)
-builds the zip: the kit (the two packages, worlds, models, ``lab`` and its requirements), the
-chosen scenario files, ``setup.sh`` (``./lab setup``: a venv with ROS 2 Jazzy's wheels and the
-kit, as on a machine with only Python) and ``run_autograder``. ``AUTOGRADER_ROOT`` (default
-``/autograder``) moves the root ``run_autograder`` works in, so it can be tried on a folder laid
-out as Gradescope lays it out.
+``python -m sim_bridge.commands.autograder build SCENARIO... -o autograder.zip`` (``./lab
+autograder``) builds the zip: the kit (the two packages, worlds, models, ``lab`` and its
+requirements), the chosen scenario files, ``setup.sh`` (``./lab setup``: a venv with ROS 2 Jazzy's
+wheels and the kit, as on a machine with only Python) and ``run_autograder``. ``AUTOGRADER_ROOT``
+(default ``/autograder``) moves the root ``run_autograder`` works in, so it can be tried on a
+folder laid out as Gradescope lays it out.
 """
 
 from collections.abc import Callable

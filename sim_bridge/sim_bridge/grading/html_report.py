@@ -4,11 +4,11 @@ Static HTML pages of grading results: a page of runs, and a class index of stude
 The pages are opened from the disk in a browser: no network, no JavaScript. Every link and
 image is relative to the page's folder and names a file that exists when the page is written
 (except ``up``, the index a caller writes after its pages), so the whole output folder can be
-moved or zipped. Run entries are the dicts of ``RunReport.as_dict()`` (:mod:`sim_bridge.grading.batch`)
-with an optional ``'log'`` key (path of the run's captured output); paths in a run that are
-not absolute are relative to the ``root`` a page is given (default: the current directory).
-Names, errors and tracebacks are untrusted text: always escaped, and a text that is not valid
-UTF-8 (a lone surrogate) shows its bytes as ``\xNN``.
+moved or zipped. Run entries are the dicts of ``RunReport.as_dict()``
+(:mod:`sim_bridge.grading.batch`) with an optional ``'log'`` key (path of the run's captured
+output); paths in a run that are not absolute are relative to the ``root`` a page is given
+(default: the current directory). Names, errors and tracebacks are untrusted text: always escaped,
+and a text that is not valid UTF-8 (a lone surrogate) shows its bytes as ``\xNN``.
 """
 
 from html import escape

@@ -4,8 +4,8 @@ What a grading is made of: a job, its run judged, its report, and the batch's re
 A :class:`GradeJob` is one seed of a scenario with its output folder; :func:`run_scenario` runs
 it with the stepped runner and judges the scenario's criteria into a :class:`RunReport`, whose
 :meth:`RunReport.as_dict` is the run's entry in ``result.json`` and ``report.json`` (strict
-JSON, bounded texts: :mod:`sim_bridge.common.text`). The grader (:mod:`sim_bridge.grading.batch`), a
-class's batch (:mod:`sim_bridge.grading.class_batch`) and each run's child process
+JSON, bounded texts: :mod:`sim_bridge.common.text`). The grader (:mod:`sim_bridge.grading.batch`),
+a class's batch (:mod:`sim_bridge.grading.class_batch`) and each run's child process
 (:mod:`sim_bridge.grading.isolate`) all build on this module, which imports none of them.
 """
 
@@ -229,7 +229,8 @@ def write_report(reports: list[RunReport], path: Path, *, overrides: Iterable[st
     """
     Write the JSON report of a batch; ``names`` names its paths (see report_names).
 
-    ``marks`` (:func:`sim_bridge.grading.marks.task_marks`) add the batch's marks per task and in all.
+    ``marks`` (:func:`sim_bridge.grading.marks.task_marks`) add the batch's marks per task and in
+    all.
     """
     document = {
         'passed': all(report.passed for report in reports),

@@ -44,8 +44,8 @@ name is the file name without ``.yaml``. A seed is an integer from 0 to MAX_SEED
 
 ``marks:`` are the marks of the scenario's ``task:`` (default: a task of its own, named after
 the scenario): every scenario of a task states the same ``marks:`` and ``marking:``, and the
-task's marks are earned over all of its scenarios' runs (:mod:`sim_bridge.grading.marks`). A scenario
-without ``marks:`` is graded and reported, and counts in no total.
+task's marks are earned over all of its scenarios' runs (:mod:`sim_bridge.grading.marks`). A
+scenario without ``marks:`` is graded and reported, and counts in no total.
 
 ``setpoint: wall_distance_m`` is the distance (m) ``wall_distance_m.mae`` and ``.rms`` measure
 the robot's wall distance against. Without it, the runner falls back to the value of a
@@ -65,8 +65,8 @@ or a function of a list metric: ``min(turns_deg)``, ``max(...)``, ``len(...)``, 
 for a number. The number may be ``inf`` or ``-inf``. Nothing is evaluated as Python. A metric
 that has no value (null, e.g. no wall distance without a target) fails its criterion.
 
-What a node prints on each scan (:mod:`sim_bridge.scoring.printed_values`) is a criterion of its own,
-a mapping: ``printed_range_ahead``, ``printed_regions`` or ``printed_closest``, with
+What a node prints on each scan (:mod:`sim_bridge.scoring.printed_values`) is a criterion of its
+own, a mapping: ``printed_range_ahead``, ``printed_regions`` or ``printed_closest``, with
 ``max_error_m`` (m, the worst error of a printed value allowed) and ``min_matched_fraction``
 (the share of the scans a line must give the value for, 0 to 1); ``printed_closest`` may add
 ``max_bearing_error_deg`` (deg), checked on the lines that print a bearing. Its result is one
@@ -527,7 +527,8 @@ def scenario_from_dict(data: Any, name: str, path: Path | None = None) -> Scenar
 
     start = data.get('start')
     if start is not None and start != 'mirrored':
-        if not (isinstance(start, list) and len(start) == 3 and all(map(is_number_not_nan, start))):
+        if not (isinstance(start, list) and len(start) == 3
+                and all(map(is_number_not_nan, start))):
             raise fail('start', f"must be 'mirrored' or [x, y, yaw], got {start!r}")
         start = tuple(float(value) for value in start)
 
@@ -586,7 +587,8 @@ def scenario_from_dict(data: Any, name: str, path: Path | None = None) -> Scenar
     marking = data.get('marking', MARKINGS[0])
     if marking not in MARKINGS:
         raise fail('marking', f"must be one of {', '.join(MARKINGS)} (all: every run passes for "
-                   f'the marks; proportional: marks x runs passed / runs), got {described(marking)}')
+                   'the marks; proportional: marks x runs passed / runs), '
+                   f'got {described(marking)}')
     if 'marking' in data and marks is None:
         raise fail('marking', 'says how runs become marks, but the scenario has no marks:')
     return Scenario(name=name, path=path,

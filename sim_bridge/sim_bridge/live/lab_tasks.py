@@ -1,8 +1,8 @@
 """
 The lab's tasks: which scan_pkg node each one runs, and in which world.
 
-One table shared by ``lab.launch.py`` (live ROS 2), ``sim_bridge.live.live`` (the same two processes
-without launch) and the demo (stepped runner), so all start the same thing for a task.
+One table shared by ``lab.launch.py`` (live ROS 2), ``sim_bridge.live.live`` (the same two
+processes without launch) and the demo (stepped runner), so all start the same thing for a task.
 """
 
 from typing import NamedTuple

@@ -5,8 +5,8 @@ A node of this process listens to the live simulator over DDS, as ``ros2 bag rec
 ``/scan``, ``/odom``, ``/cmd_vel`` and ``/clock`` go into the rosbag2 recording ``run/``
 (stamped with sim time: a message's header stamp, else the last /clock), ``/odom`` (the
 simulator's ground-truth pose and velocity) and ``/collisions`` into the run's trace. Each line
-the task's node writes is kept (sim_bridge.runner.node_output: ``log.jsonl`` and ``/rosout``) with the
-sim time it arrives at, as a process run keeps its node's. When the
+the task's node writes is kept (sim_bridge.runner.node_output: ``log.jsonl`` and ``/rosout``) with
+the sim time it arrives at, as a process run keeps its node's. When the
 session ends, the trace is scored and plotted as a stepped run's (``metrics.json``,
 ``trajectory.png``; sim_bridge.runner.run.write_outputs), and ``params.yaml`` holds the simulator's
 world and robot: ``python -m sim_bridge.commands.video OUT_DIR`` then makes the session's video.

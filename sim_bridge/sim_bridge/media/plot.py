@@ -1,8 +1,8 @@
 """
 Draw a run from above: obstacles, the robot's path coloured by time, collisions, lidar scans.
 
-Rendering only; it reads a finished :class:`~sim_bridge.scoring.run_trace.Trace` and the run's world and
-writes a PNG through matplotlib's Agg canvas (no pyplot, no GUI, safe in any process).
+Rendering only; it reads a finished :class:`~sim_bridge.scoring.run_trace.Trace` and the run's
+world and writes a PNG through matplotlib's Agg canvas (no pyplot, no GUI, safe in any process).
 """
 
 import math

@@ -1,9 +1,9 @@
 """
 Render a finished run as a video: the robot in its world beside the nodes' terminal.
 
-``python -m sim_bridge.commands.video OUT_DIR --names "Ada Lovelace 123, ..." [-o labscan_task4.mp4]
-[--speed N] [--fps F]`` reads what a run left in its output folder and writes an H.264 MP4
-(yuv420p, faststart: it plays in a browser and in common players):
+``python -m sim_bridge.commands.video OUT_DIR --names "Ada Lovelace 123, ..." [-o
+labscan_task4.mp4] [--speed N] [--fps F]`` reads what a run left in its output folder and writes an
+H.264 MP4 (yuv420p, faststart: it plays in a browser and in common players):
 
 - ``params.yaml``: the simulator's world, robot model and start pose (the ``sim_bridge`` entry);
 - ``run/``: the rosbag2 recording, its ``/odom`` (the robot's pose, the simulator's ground

@@ -1,8 +1,8 @@
 """
 Decide, from a node file's source alone, whether the runner may step it or must run it as written.
 
-A stepped run (sim_bridge.runner.stepping) constructs the file's one Node subclass in the runner's own
-executor: faithful only when the file's ``main()`` (or its ``if __name__ == '__main__'`` block)
+A stepped run (sim_bridge.runner.stepping) constructs the file's one Node subclass in the runner's
+own executor: faithful only when the file's ``main()`` (or its ``if __name__ == '__main__'`` block)
 does nothing but ``rclpy.init``, construct that class, spin it, destroy it and shut down, and no
 callback sleeps (a sleep in a stepped run freezes simulated time). Anything else (a loop of
 ``spin_once``, a MultiThreadedExecutor, a node built by ``rclpy.create_node`` or ``Node('...')``,

@@ -1,11 +1,13 @@
 """
-Run a node file as its own process, as ``python3 FILE`` or ``ros2 run`` starts it, against the
-runner's live simulator (:func:`run_as_process`).
+Run a node file as its own process, as ``python3 FILE`` or ``ros2 run`` starts it.
 
-The pieces a runner needs for a file it cannot step (sim_bridge.runner.node_styles): the command line
-that runs the file's own ``main()``, and a ROS environment private to the run (a domain of its
+A process run (:func:`run_as_process`) runs it against the runner's live simulator.
+
+The pieces a runner needs for a file it cannot step (sim_bridge.runner.node_styles): the command
+line that runs the file's own ``main()``, and a ROS environment private to the run (a domain of its
 own, discovery on this machine only), so the node and the runner's live simulator see each
-other and nothing else. Starting, printing and stopping the process is sim_bridge.runner.processes'.
+other and nothing else. Starting, printing and stopping the process is
+sim_bridge.runner.processes'.
 """
 
 

@@ -6,8 +6,8 @@ rosbag2 itself is not on PyPI, so the bag is written by rosbags. The two halves 
 * the bytes are rclpy's: :meth:`BagRecorder.write` takes the CDR bytes of a message as
   ``rclpy.serialization.serialize_message`` returns them, or as a subscription created with
   ``raw=True`` delivers them, and stores them with only their alignment padding zeroed
-  (Fast CDR leaves it unwritten, see sim_bridge.runner.cdr_padding): the same run gives the same bag,
-  byte for byte. Nothing is decoded or re-serialised;
+  (Fast CDR leaves it unwritten, see sim_bridge.runner.cdr_padding): the same run gives the same
+  bag, byte for byte. Nothing is decoded or re-serialised;
 * the storage is rosbags': its ``rosbag2.Writer`` with the MCAP storage plugin writes the file,
   the index and ``metadata.yaml`` (rosbag2 metadata version 9, as Jazzy's ``ros2 bag record``).
   Each topic's connection carries the message definition and type hash of rosbags' ROS2_JAZZY

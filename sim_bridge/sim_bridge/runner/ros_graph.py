@@ -1,6 +1,8 @@
 """
-The runner's own ROS nodes (its client node, the teleop of a scenario's ``drive:``) and its checks
-of the ROS graph: parameters a node never declared, topics no node connects to.
+The runner's own ROS nodes and its checks of the ROS graph.
+
+Its nodes: its client node, the teleop of a scenario's ``drive:``. Its checks: parameters a
+node never declared, topics no node connects to.
 """
 
 import difflib
@@ -25,7 +27,6 @@ NANOSECONDS_PER_SECOND = 10 ** 9
 PARAMETER_ANSWER_S = 2.0
 # The runner's own nodes serve nothing: the service is one more entity in every wait.
 NO_TYPE_DESCRIPTION_SERVICE = Parameter('start_type_description_service', value=False)
-
 
 
 class RunGraph(Protocol):

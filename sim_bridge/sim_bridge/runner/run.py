@@ -297,7 +297,7 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
                    field_checks: bool = True, drive: Sequence[Any] | None = None,
                    progress: Callable[[float, float], None] | None = None) -> RunResult:
     """
-    Run ``targets`` (see sim_bridge.runner.targets) with the simulator in ``world`` for ``duration_s``.
+    Run ``targets`` (sim_bridge.runner.targets) with the simulator in ``world`` for duration_s.
 
     ``params`` maps node names to parameter overrides; ``start`` overrides the robot's start
     pose (x m, y m, yaw rad), or is 'mirrored' to put the world's target on the robot's left;
@@ -312,8 +312,8 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
     What the world's files hold that the simulator does not simulate (``World.ignored``) is
     logged once by the simulator at start and kept in ``metrics['ignored']``.
     ``gui`` shows the run in the pybullet window at wall-clock pace. ``field_checks``: rosidl
-    refuses a value of the wrong type in a message field (see sim_bridge.common.run_environment); off,
-    the run behaves as Jazzy's default does on a robot. ``drive`` is a list of segments
+    refuses a value of the wrong type in a message field (see sim_bridge.common.run_environment);
+    off, the run behaves as Jazzy's default does on a robot. ``drive`` is a list of segments
     (sim_bridge.ros.drive) the runner's teleop node publishes on the simulator's command topic
     while the nodes run, as a person at teleop_twist_keyboard would. Raises RunError when the
     run cannot start, before writing anything to ``out_dir``; a node that raises (while

@@ -405,7 +405,8 @@ class _Parser:
         if target is not None:
             names = [obstacle.name for obstacle in obstacles]
             if not isinstance(target, str):
-                raise self.fail(None, 'target', f'must be an obstacle name, got {with_type(target)}')
+                raise self.fail(None, 'target',
+                                f'must be an obstacle name, got {with_type(target)}')
             if target not in names:
                 raise self.fail(None, 'target', f"names no obstacle ('{target}'); obstacles: "
                                 f"{', '.join(names) or 'none'}")
