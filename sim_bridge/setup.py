@@ -25,9 +25,12 @@ setup(
         (share, ['package.xml']),
         (os.path.join(share, 'launch'), glob('launch/*.launch.py')),
         (os.path.join(share, 'params'), glob('params/*.yaml')),
-        # The worlds and models live at the workspace's top level (see README).
+        # The worlds, models, shipped scenarios and example nodes live at the workspace's top
+        # level (see README); sim_bridge.common.paths finds them in a checkout or here.
         *tree('../worlds', os.path.join(share, 'worlds')),
         *tree('../models', os.path.join(share, 'models')),
+        *tree('../scenarios', os.path.join(share, 'scenarios')),
+        *tree('../examples', os.path.join(share, 'examples')),
     ],
     install_requires=['setuptools', 'numpy', 'pybullet', 'rosbags>=0.11,<0.12', 'matplotlib',
                       'contourpy', 'PyYAML', 'trimesh', 'pycollada', 'shapely', 'pillow',

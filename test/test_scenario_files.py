@@ -14,7 +14,7 @@ from sim_bridge.runner.run import run_simulation
 from sim_bridge.scoring.metrics import offset_path_length
 from sim_bridge.simulation.world import World
 
-SCENARIOS = Path(__file__).resolve().parent / 'scenarios'
+SCENARIOS = Path(__file__).resolve().parents[1] / 'scenarios'
 WALL_FOLLOW_WORLDS = [name for name in world_names() if name.startswith('wall_follow_')]
 DIRECTIONS = {'cw': ('right', None, 'laps <= -1'), 'ccw': ('left', 'mirrored', 'laps >= 1')}
 

@@ -28,7 +28,7 @@ from sim_bridge.grading.html_report import linked_files
 from sim_bridge.grading.scenario import load_scenarios
 
 WORKSPACE = Path(__file__).resolve().parents[2]
-SCENARIOS = [WORKSPACE / 'test' / 'scenarios' / name for name in CLASS_SCENARIOS]
+SCENARIOS = [WORKSPACE / 'scenarios' / name for name in CLASS_SCENARIOS]
 EXPECTED_TABLE = [
     ['student', 'scan_ahead', 'wall_follow_box_cw', 'runs', 'task 1 (of 2)', 'task 4 (of 3)',
      'marks (of 5)'],

@@ -26,7 +26,7 @@ from sim_bridge.grading.isolate import PRELOADED
 from sim_bridge.grading.runs import GradeJob, run_scenario
 from sim_bridge.grading.scenario import load_scenarios
 
-SCENARIOS = Path(__file__).resolve().parents[1] / 'scenarios'
+SCENARIOS = Path(__file__).resolve().parents[2] / 'scenarios'
 BATCH = ('scan_ahead.yaml', 'wall_follow_box_cw.yaml', 'wall_follow_l_shape_ccw.yaml')
 OVERHEAD_SCENARIO = 'scan_ahead.yaml'
 

@@ -3,7 +3,7 @@ The README's demo: every lab task in the simulator, stepped on real rclpy, then 
 
 ``python -m sim_bridge.commands.demo`` (``./lab demo``) runs each lab task's node in its world (see
 sim_bridge.live.lab_tasks), showing the node's log lines as a student sees them in a terminal and a
-summary of the run, then grades the shipped scenarios (test/scenarios/), then a small class of
+summary of the run, then grades the shipped scenarios (scenarios/), then a small class of
 four submissions (:func:`make_class`, ``--submissions``: its table shows the runs passed and
 the marks of task 1 and task 4), and prints where every plot,
 recording and report is. It ends with a short live run of ``wall_follow``
@@ -20,7 +20,7 @@ from typing import Sequence
 
 from sim_bridge.commands import grade, live as live_command
 from sim_bridge.commands.run import summary_table
-from sim_bridge.common.paths import output_folder, repo_root
+from sim_bridge.common.paths import output_folder, repo_root, scenarios_dir
 from sim_bridge.common.run_environment import rclpy_origin
 from sim_bridge.grading.scenario import load_scenario
 from sim_bridge.live.lab_tasks import LAB_TASKS, TASK_SCENARIOS
@@ -53,11 +53,11 @@ CLASS = {
     'ana': {'scan_ahead.py': Path('scan_pkg/scan_pkg/scan_ahead.py'),
             'wall_follow.py': Path('scan_pkg/scan_pkg/wall_follow.py')},
     'ben': {'scan_ahead.py': Path('scan_pkg/scan_pkg/scan_ahead.py'),
-            'wall_follow.py': Path('test/naive_nodes/naive_wall_follow.py')},
-    'cleo': {'scan_ahead.py': Path('test/naive_nodes/int_twist.py')},
+            'wall_follow.py': Path('examples/naive_wall_follow.py')},
+    'cleo': {'scan_ahead.py': Path('examples/int_twist.py')},
     'dev': {'wall_follow.py': 'class WallFollow(Node)\n', 'scan_ahead.py': SYS_EXIT_NODE},
 }
-#: The scenarios the demo's class is graded on (in test/scenarios/).
+#: The scenarios the demo's class is graded on (in scenarios/).
 CLASS_SCENARIOS = ('scan_ahead.yaml', 'wall_follow_box_cw.yaml')
 #: The live run at the end: its task and its length in wall seconds.
 LIVE_TASK, LIVE_DURATION_S = 'wall_follow', 10.0
@@ -73,7 +73,7 @@ def run_tasks(out_dir: Path) -> bool:
             result = run_simulation(task.world, [task.node], duration_s=TASK_DURATION_S[name],
                                     out_dir=out_dir / name)
         else:  # a scan reader, driven as a person at the teleop would drive the robot
-            scenario = load_scenario(repo_root() / 'test' / 'scenarios' / TASK_SCENARIOS[name])
+            scenario = load_scenario(scenarios_dir() / TASK_SCENARIOS[name])
             result = run_simulation(task.world, [task.node], duration_s=scenario.duration_s,
                                     start=scenario.start, drive=scenario.drive,
                                     out_dir=out_dir / name)
@@ -86,12 +86,8 @@ def run_tasks(out_dir: Path) -> bool:
 
 def grade_scenarios(out_dir: Path) -> int:
     """Grade the shipped scenarios into ``out_dir``; return the grader's exit status."""
-    root = repo_root()
-    if root is None:
-        print('\n(the grading scenarios ship with the source checkout: skipped)')
-        return 0
-    print(f'\n=== Grading the scenarios in {root / "test" / "scenarios"} ===', flush=True)
-    return grade.main([str(root / 'test' / 'scenarios'), '--out', str(out_dir),
+    print(f'\n=== Grading the scenarios in {scenarios_dir()} ===', flush=True)
+    return grade.main([str(scenarios_dir()), '--out', str(out_dir),
                        '--jobs', str(os.cpu_count() or 1)])
 
 
@@ -115,7 +111,7 @@ def grade_class(out_dir: Path) -> int:
     print(f'\n=== Grading a class: {", ".join(CLASS)} on {", ".join(CLASS_SCENARIOS)} ===',
           flush=True)
     submissions = make_class(out_dir / 'submissions', root)
-    return grade.main([*(str(root / 'test' / 'scenarios' / name) for name in CLASS_SCENARIOS),
+    return grade.main([*(str(scenarios_dir() / name) for name in CLASS_SCENARIOS),
                        '--submissions', str(submissions), '--out', str(out_dir / 'graded'),
                        '--jobs', str(os.cpu_count() or 1)])
 

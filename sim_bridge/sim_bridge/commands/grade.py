@@ -1,7 +1,7 @@
 """
 Grade nodes against scenario files: run each scenario's seeds and judge its criteria.
 
-``python -m sim_bridge.grade test/scenarios/`` runs every scenario in the folder through the
+``python -m sim_bridge.grade scenarios/`` runs every scenario in the folder through the
 runner (``sim_bridge.runner.run.run_simulation``, real rclpy), each run in a child process of its
 own bounded in time and memory (:mod:`sim_bridge.grading.isolate`), shows a progress bar over the
 batch, prints a pass/fail table with what was measured per criterion, writes ``report.json``,
@@ -67,7 +67,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog='python -m sim_bridge.grade',
         description='Run scenario files in the simulator and judge their criteria.')
     parser.add_argument('scenarios', nargs='+', metavar='SCENARIO',
-                        help='a scenario file, or a folder of them (e.g. test/scenarios/)')
+                        help='a scenario file, or a folder of them (e.g. scenarios/)')
     parser.add_argument('--node-override', action='append', default=[], metavar='TARGET',
                         help='run TARGET (a console script, module or path.py[:Class]) instead '
                         "of the scenario's node of the same name (or its only node); "

@@ -14,7 +14,7 @@ from pathlib import Path
 import sys
 from typing import Sequence
 
-from sim_bridge.common.paths import repo_root
+from sim_bridge.common.paths import scenarios_dir
 from sim_bridge.grading.runs import run_scenario
 from sim_bridge.grading.scenario import load_scenario
 from sim_bridge.live.lab_tasks import HANDOUT_NUMBERS, TASK_SCENARIOS, video_name
@@ -51,15 +51,15 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run a task's scenario and write its video: 0, 1 when the run failed, 2 when no video."""
     args = parse_args(argv)
-    root = repo_root()
-    if root is None:
-        print("error: the lab tasks' scenarios ship with the source checkout (test/scenarios/)",
-              file=sys.stderr)
+    try:
+        scenarios = scenarios_dir()
+    except FileNotFoundError as error:
+        print(f'error: {error}', file=sys.stderr)
         return 2
     out_dir = args.out or Path('out') / 'video' / args.task
     output = args.output or Path(video_name(args.task))
     try:
-        scenario = load_scenario(root / 'test' / 'scenarios' / TASK_SCENARIOS[args.task])
+        scenario = load_scenario(scenarios / TASK_SCENARIOS[args.task])
         run = scenario.runs()[0]
         print(f'{args.task}: {scenario.description or scenario.name} (seed {run.seed}, '
               f'{scenario.duration_s:g} s simulated)', file=sys.stderr)

@@ -1,8 +1,8 @@
 """
-Find the workspace's worlds and models in a source checkout or a colcon install.
+Find the workspace's worlds, models, scenarios and examples in a checkout or a colcon install.
 
-A source checkout (including a pip editable install) keeps ``worlds/`` and ``models/`` at the
-repository's top level, two folders above this package. A colcon install has them in the
+A source checkout (including a pip editable install) keeps ``worlds/``, ``models/``,
+``scenarios/`` and ``examples/`` at the repository's top level, three folders above this module. A colcon install has them in the
 package's share directory. Models are looked up the way Gazebo does (see
 :func:`model_search_path`): a world's own folder, Gazebo's resource paths, the users' model
 folders, and the kit's ``models/`` last.
@@ -68,6 +68,16 @@ def worlds_dir() -> Path:
 def models_dir() -> Path:
     """Return the folder of the shipped Gazebo model folders."""
     return _data_dir('models')
+
+
+def scenarios_dir() -> Path:
+    """Return the folder of the shipped scenarios (each lab task's grading)."""
+    return _data_dir('scenarios')
+
+
+def examples_dir() -> Path:
+    """Return the folder of the example nodes (naive solutions) the demo and the videos run."""
+    return _data_dir('examples')
 
 
 def world_names() -> list[str]:

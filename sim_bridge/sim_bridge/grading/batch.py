@@ -1,7 +1,7 @@
 """
 Grade nodes against scenario files: run each scenario's seeds and judge its criteria.
 
-``python -m sim_bridge.grade test/scenarios/`` runs every scenario in the folder through the
+``python -m sim_bridge.grade scenarios/`` runs every scenario in the folder through the
 runner (``sim_bridge.runner.run.run_simulation``, real rclpy), each run in a child process of its
 own bounded in time and memory (:mod:`sim_bridge.grading.isolate`), shows a progress bar over the
 batch, prints a pass/fail table with what was measured per criterion, writes ``report.json``,

@@ -25,7 +25,7 @@ LAB_TASKS = {
 
 #: The handout's numbers of the tasks handed in as videos (``labscan_task1.mp4`` ...).
 HANDOUT_NUMBERS = {'scan_ahead': 1, 'wanderbot': 2, 'scan_around': 3, 'wall_follow': 4}
-#: The shipped scenario (in test/scenarios/) whose first run a task's video shows.
+#: The shipped scenario (in scenarios/) whose first run a task's video shows.
 TASK_SCENARIOS = {
     'scan_ahead': 'scan_ahead.yaml',
     'scan_around': 'scan_around.yaml',
