@@ -25,6 +25,7 @@ from sim_bridge.commands import live as live_command
 from sim_bridge.live import live
 from sim_bridge.live.lab_tasks import LAB_TASKS
 from sim_bridge.runner import processes
+from sim_bridge.runner.options import split_param
 from sim_bridge.simulation.geometry import signed_distance
 from sim_bridge.simulation.world import World
 
@@ -132,13 +133,13 @@ def test_bad_tasks_and_parameters_are_refused_before_anything_starts(capsys):
         live.task_specs('fly')
     with pytest.raises(ValueError, match='parameters for wanderbot'):
         live.task_specs('wall_follow', params={'wanderbot': {'speed': '1.0'}})
-    assert live_command.parse_param('wall_follow:distance=0.6') == (
+    assert split_param('wall_follow:distance=0.6') == (
         'wall_follow', 'distance', '0.6')
-    assert live_command.parse_param('sim_bridge:robot_pose=[0.0, 1.0, 0.0]') == \
+    assert split_param('sim_bridge:robot_pose=[0.0, 1.0, 0.0]') == \
         ('sim_bridge', 'robot_pose', '[0.0, 1.0, 0.0]')
     for text in ('distance=0.6', 'wall_follow:distance', ':x=1'):
         with pytest.raises(ValueError, match='NODE:NAME=VALUE'):
-            live_command.parse_param(text)
+            split_param(text)
     assert live_command.main(['wall_follow', '--world', 'no_such_world']) == 2
     assert live_command.main(['wall_follow', '--robot', 'no_such_bot']) == 2
     assert live_command.main(['wall_follow', '--param', 'distance=0.6']) == 2

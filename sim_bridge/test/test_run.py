@@ -409,7 +409,8 @@ def test_without_field_checks_the_int_goes_out_as_jazzy_sends_it(tmp_path, run_m
     assert status == 0
     commands = read_bag(tmp_path / 'run')['/cmd_vel']
     assert len(commands) == 2 * SCAN_RATE
-    # The int 0 is sent as the double whose bits are 0: 0.0 (5 would be 5e-324, DESIGN.md).
+    # The int 0 is sent as the double whose bits are 0: 0.0 (5 would be 5e-324: README, Running
+    # and grading in one process).
     assert [twist.angular.z for _, twist in commands] == [0.0] * len(commands)
     assert os.environ.get('ROS_PYTHON_CHECK_FIELDS') is None
 

@@ -34,17 +34,9 @@ from sim_bridge.common.errors import RunError
 from sim_bridge.live.lab_tasks import LAB_TASKS
 from sim_bridge.live.live import shown_command, task_specs
 from sim_bridge.live.live_record import LiveRecorder
+from sim_bridge.runner.options import split_param
 from sim_bridge.runner.processes import (
     child_environment, log_line, LOGGER, print_line, process_names, run_live)
-
-
-def parse_param(text: str) -> tuple[str, str, str]:
-    """Split ``NODE:NAME=VALUE`` into its parts; ValueError when it is not of that form."""
-    node, colon, rest = text.partition(':')
-    name, equals, value = rest.partition('=')
-    if not (colon and equals and node and name):
-        raise ValueError(f"parameter '{text}' is not NODE:NAME=VALUE")
-    return node, name, value
 
 
 def positive_float(text: str) -> float:
@@ -89,7 +81,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         params: dict[str, dict[str, str]] = {}
         for text in args.param:
-            node, name, value = parse_param(text)
+            node, name, value = split_param(text)  # typed by the child's --ros-args
             params.setdefault(node, {})[name] = value
         if args.world is not None:
             paths.find_world(args.world)

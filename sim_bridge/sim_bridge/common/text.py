@@ -11,7 +11,6 @@ what the instructor reads: measured values with units, a run's outcome in a few 
 
 import math
 import os
-from pathlib import Path
 import re
 from typing import Any, Callable
 
@@ -223,7 +222,3 @@ def count_cell(entries: list[dict[str, Any]]) -> tuple[str, str]:
     passed = outcomes.count('passed')
     return f'{passed}/{len(entries)}', '' if worst == 'passed' else worst
 
-
-def display_path(path: Path) -> str:
-    """Return a path as printable text (a file name that is not UTF-8 shows its bytes)."""
-    return printable(os.fspath(path))

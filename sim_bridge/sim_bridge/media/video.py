@@ -34,6 +34,7 @@ from matplotlib.font_manager import findfont, FontProperties
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 from sim_bridge.media.plot import _draw_world
+from sim_bridge.simulation.geometry import point_in_world
 from sim_bridge.simulation.sdf import LidarConfig
 from sim_bridge.simulation.world import World, WorldError
 import yaml
@@ -384,8 +385,7 @@ class WorldPane:
         at = max(int(np.searchsorted(footage.pose_t, footage.scan_t[index], side='right')) - 1, 0)
         x, y, yaw = footage.poses[at]
         mx, my, myaw = footage.lidar_mount
-        origin = (x + mx * math.cos(yaw) - my * math.sin(yaw),
-                  y + mx * math.sin(yaw) + my * math.cos(yaw))
+        origin = point_in_world((x, y, yaw), (mx, my))
         ranges = footage.scans[index]
         angles = yaw + myaw + footage.angle_min + footage.angle_increment * np.arange(len(ranges))
         hit = np.isfinite(ranges)

@@ -71,18 +71,27 @@ class RunResult:
         return not self.metrics['node_errors']
 
 
+def split_param(text: str) -> tuple[str, str, str]:
+    """Split ``NODE:NAME=VALUE`` into its three texts; ValueError when it is not of that form."""
+    node, colon, rest = text.partition(':')
+    name, equals, value = rest.partition('=')
+    if not (colon and equals and node and name):
+        raise ValueError(f"--param '{text}': expected NODE:NAME=VALUE, "
+                         'e.g. wall_follow:distance=0.6')
+    return node, name, value
+
+
 def parse_param(text: str) -> tuple[str, str, Any]:
     """
-    Split ``NODE:NAME=VALUE`` into node name, parameter name and typed value.
+    Split ``NODE:NAME=VALUE`` into node name, parameter name and typed value; RunError if not.
 
     VALUE is typed as ``--ros-args -p NAME:=VALUE`` types it (YAML: ``1`` is an integer,
     ``1.0`` a double, ``true`` a bool, ``[1.0, 2.0]`` a double array).
     """
-    node, colon, rest = text.partition(':')
-    name, equals, value = rest.partition('=')
-    if not (colon and equals and node and name):
-        raise RunError(f"--param '{text}': expected NODE:NAME=VALUE, "
-                       'e.g. wall_follow:distance=0.6')
+    try:
+        node, name, value = split_param(text)
+    except ValueError as error:
+        raise RunError(str(error)) from None
     return node, name, parameter_value_to_python(get_parameter_value(value))
 
 

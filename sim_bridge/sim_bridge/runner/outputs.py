@@ -7,7 +7,6 @@ in the run's output folder; the stepped and the process run open and close them 
 
 import functools
 import json
-import math
 from pathlib import Path
 import shutil
 import time
@@ -25,6 +24,7 @@ from sim_bridge.runner.record import BagRecorder, DEFAULT_TOPICS, message_type_n
 from sim_bridge.runner.ros_graph import RunGraph, Teleop, TELEOP_NODE
 from sim_bridge.scoring.metrics import compute_metrics
 from sim_bridge.scoring.run_trace import CollisionEvent, ScanSnapshot, Trace
+from sim_bridge.simulation.geometry import point_in_world
 from sim_bridge.simulation.world import World
 
 
@@ -62,8 +62,7 @@ class Observer:
         """Keep the scan (a LaserScan) with the laser's pose in the world."""
         x, y, yaw = self.sim.pose
         laser_x, laser_y, *_, laser_yaw = self.sim.lidar_config.pose
-        pose = (x + laser_x * math.cos(yaw) - laser_y * math.sin(yaw),
-                y + laser_x * math.sin(yaw) + laser_y * math.cos(yaw), yaw + laser_yaw)
+        pose = (*point_in_world((x, y, yaw), (laser_x, laser_y)), yaw + laser_yaw)
         self.trace.scans.append(ScanSnapshot(
             self.sim.time, pose, np.array(msg.ranges, dtype=np.float32), msg.angle_min,
             msg.angle_increment, msg.range_min, msg.range_max))
