@@ -480,15 +480,13 @@ def test_a_process_run_measures_the_wall_distance_against_the_nodes_own_distance
     # No setpoint given: as in a stepped run, the node's `distance` parameter, asked over ROS.
     from scan_pkg import wall_follow
     from sim_bridge.runner.node_styles import Decision
-    from sim_bridge.runner.options import load_world, node_parameters
+    from sim_bridge.runner.options import prepare_run, RunSpec
     from sim_bridge.runner.process_run import run_as_process
-    world = load_world('wall_follow_box')
-    params = node_parameters(world, {'wall_follow': {'distance': 0.6}}, seed=1, gui=False,
-                             start=None)
-    result = run_as_process(
-        world, wall_follow.__file__, Decision(False, 'the test runs it so'), params,
-        duration_s=3.0, out_dir=tmp_path, remap=(), ros_args=(), setpoint=None, quiet=True,
-        record=False, plot=False, field_checks=True)
+    spec = RunSpec('wall_follow_box', (wall_follow.__file__,), duration_s=3.0, seed=1,
+                   params={'wall_follow': {'distance': 0.6}}, out_dir=tmp_path, quiet=True,
+                   record=False, plot=False)
+    result = run_as_process(spec, prepare_run(spec), wall_follow.__file__,
+                            Decision(False, 'the test runs it so'))
     assert result.metrics['node_errors'] == [] and result.metrics['warnings'] == []
     assert result.metrics['wall_distance_m']['setpoint'] == 0.6
 

@@ -28,7 +28,7 @@ from sim_bridge.grading.batch import grade_runs
 from sim_bridge.grading.runs import GradeJob
 from sim_bridge.grading.scenario import scenario_from_dict
 from sim_bridge.runner.node_styles import Decision
-from sim_bridge.runner.options import load_world, node_parameters
+from sim_bridge.runner.options import prepare_run, RunSpec
 from sim_bridge.runner.process_run import run_as_process
 from sim_bridge.runner.run import run_simulation
 from sim_bridge.runner.targets import run_mode
@@ -52,12 +52,9 @@ def one_run(process: bool, duration_s: float) -> tuple[float, float, dict]:
     with tempfile.TemporaryDirectory() as folder:
         wall, cpu = time.perf_counter(), cpu_seconds()
         if process:
-            world = load_world(WORLD)
-            params = node_parameters(world, {}, seed=1, gui=False, start=None)
-            result = run_as_process(
-                world, target, Decision(False, 'benchmark'), params, duration_s=duration_s,
-                out_dir=Path(folder), remap=(), ros_args=(), setpoint=None, quiet=True,
-                record=True, plot=False, field_checks=True)
+            spec = RunSpec(WORLD, (target,), duration_s=duration_s, seed=1, out_dir=folder,
+                           quiet=True, plot=False)
+            result = run_as_process(spec, prepare_run(spec), target, Decision(False, 'benchmark'))
         else:
             assert run_mode(target).steppable
             result = run_simulation(WORLD, [target], duration_s=duration_s, seed=1,

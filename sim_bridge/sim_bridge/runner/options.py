@@ -7,9 +7,11 @@ that the grader's scenarios use them without the runner reading the grader.
 
 
 from dataclasses import dataclass
-from pathlib import Path
+import math
+import os
 import sys
-from typing import Any, Mapping, Sequence
+from pathlib import Path
+from typing import Any, Callable, Mapping, Sequence
 
 from rclpy.parameter import get_parameter_value, parameter_value_to_python
 from sim_bridge.common.errors import RunError
@@ -69,6 +71,89 @@ class RunResult:
     def ok(self) -> bool:
         """Return True when the run completed without a node raising."""
         return not self.metrics['node_errors']
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """
+    What a run runs, and how: the options of ``python -m sim_bridge.run``.
+
+    ``targets`` (sim_bridge.runner.targets) run with the simulator in ``world`` for
+    ``duration_s`` (s of simulated time). ``params`` maps node names to parameter overrides;
+    ``start`` overrides the robot's start pose (x m, y m, yaw rad), or is 'mirrored' to put
+    the world's target on the robot's left; ``robot`` names a robot model spawned instead of
+    the world's own (see :func:`load_world`); ``remap`` holds ROS remapping rules
+    (``FROM:=TO``, ``NODE:FROM:=TO``) for the target nodes; ``ros_args`` (``--ros-args ...``,
+    as given after ``ros2 run``'s executable) reach them unchanged; ``setpoint`` is the wall
+    distance (m) ``wall_distance_m`` is measured against, by default the value of a node's
+    ``distance`` parameter (SETPOINT_PARAMETER), if one has it; ``printed`` names the values
+    (printed_values.KINDS) whose printed lines are scored against the scans. ``gui`` shows the
+    run in the pybullet window at wall-clock pace. ``field_checks``: rosidl refuses a value of
+    the wrong type in a message field (see sim_bridge.common.run_environment); off, the run
+    behaves as Jazzy's default does on a robot. ``drive`` is a list of segments
+    (sim_bridge.ros.drive) the runner's teleop node publishes on the simulator's command topic
+    while the nodes run. ``progress(sim_s, duration_s)`` is called as simulated time passes.
+    """
+
+    world: str
+    targets: tuple[str, ...]
+    duration_s: float = 60.0
+    seed: int = 0
+    params: Params | None = None
+    out_dir: Path | str | None = None
+    start: Sequence[float] | str | None = None
+    robot: str | None = None
+    remap: tuple[str, ...] = ()
+    ros_args: tuple[str, ...] = ()
+    setpoint: float | None = None
+    printed: tuple[str, ...] = ()
+    quiet: bool = False
+    record: bool = True
+    plot: bool = True
+    gui: bool = False
+    field_checks: bool = True
+    drive: Sequence[Any] | None = None
+    progress: Callable[[float, float], None] | None = None
+
+
+@dataclass(frozen=True)
+class PreparedRun:
+    """A RunSpec checked and read: the world, the drive plan, the nodes' parameters, where."""
+
+    world: World
+    segments: tuple[Segment, ...]
+    node_params: Params
+    out_dir: Path
+    remap: tuple[str, ...]
+
+
+def prepare_run(spec: RunSpec) -> PreparedRun:
+    """Check ``spec`` and read its world, drive plan and parameters; RunError if they are bad."""
+    if not (math.isfinite(spec.duration_s) and spec.duration_s > 0):
+        raise RunError(f'duration must be a positive number of seconds, got {spec.duration_s}')
+    remap = tuple(check_remap(rule) for rule in spec.remap)
+    if spec.gui and gui_problem(os.environ):
+        raise RunError(gui_problem(os.environ))
+    world = load_world(spec.world, spec.robot, spec.start)
+    segments = drive_plan(spec.drive, world)
+    node_params = node_parameters(world, spec.params, seed=spec.seed, gui=spec.gui,
+                                  start=spec.start, robot=spec.robot)
+    out_dir = (Path(spec.out_dir) if spec.out_dir is not None
+               else default_out_dir(world, spec.targets))
+    return PreparedRun(world, segments, node_params, out_dir, remap)
+
+
+def write_params_files(folder: Path, node_params: Params) -> tuple[Path, Path]:
+    """
+    Write the nodes' params file and the bridge's own into ``folder``; return both paths.
+
+    The bridge reads its own entry alone: EVERY_NODE's parameters are the targets'.
+    """
+    params_file = folder / 'params.yaml'
+    write_params_file(params_file, node_params)
+    bridge_params_file = folder / f'{BRIDGE_NODE}.yaml'
+    write_params_file(bridge_params_file, {BRIDGE_NODE: node_params[BRIDGE_NODE]})
+    return params_file, bridge_params_file
 
 
 def split_param(text: str) -> tuple[str, str, str]:

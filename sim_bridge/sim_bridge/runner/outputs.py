@@ -15,10 +15,10 @@ from typing import Any, Sequence
 import numpy as np
 from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.serialization import serialize_message
-from sim_bridge.common.errors import RunError, UserInterrupt
+from sim_bridge.common.errors import RunError, RunStopped, UserInterrupt
 from sim_bridge.media.plot import plot_trajectory
 from sim_bridge.runner.node_output import (
-    LOG_FILE, NodeLog, rosout_message, ROSOUT_TOPIC, ROSOUT_TYPE, write_log)
+    LOG_FILE, NodeLog, rosout_message, ROSOUT_TOPIC, ROSOUT_TYPE, to_terminal, write_log)
 from sim_bridge.runner.options import BRIDGE_NODE, RunResult
 from sim_bridge.runner.record import BagRecorder, DEFAULT_TOPICS, message_type_name
 from sim_bridge.runner.ros_graph import RunGraph, Teleop, TELEOP_NODE
@@ -199,3 +199,65 @@ def write_outputs(out_dir: Path, observer: Observer, world_model: World,
         raise KeyboardInterrupt(f'run interrupted at {metrics["sim_time_s"]:.1f} s of sim time; '
                                 f'its outputs are in {out_dir}')
     return RunResult(metrics, out_dir)
+
+
+class RunOutputs:
+    """
+    The skeleton a stepped and a process run share: watch, open the outputs, run, close, write.
+
+    :meth:`watch` puts the observer, the recorder and the teleop on the run's simulator;
+    :meth:`open` starts the output folder and the recording. ``with outputs:`` around the run
+    closes the recording on the way out, and ends the run with its outputs written when the
+    user's Ctrl-C (``interrupt``) or RunStopped (once the outputs are open) cut it short;
+    :meth:`write` then writes them with the run's ``node_errors``, ``warnings`` and
+    ``ended_by``.
+    """
+
+    def __init__(self, record: bool):
+        self.record = record
+        self.log = NodeLog(record)
+        self.interrupt = UserInterrupt()
+        self.node_errors: list[dict] = []
+        self.warnings: list[str] = []
+        self.ended_by: str | None = None
+        self.observer: Observer | None = None
+        self.recorder: RunRecorder | None = None
+        self.teleop: Teleop | None = None
+        self.bag: BagRecorder | None = None
+        self.opened = False
+
+    def watch(self, graph: RunGraph, bridge: Any, world: World, segments: Sequence[Any]) -> None:
+        """Observe and record the simulator of ``bridge``; drive it by ``segments`` if any."""
+        self.observer = Observer(bridge.sim)
+        self.recorder = RunRecorder(graph, self.observer, self.record, self.log)
+        self.teleop = Teleop(graph, bridge, world, segments) if segments else None
+
+    def open(self, out_dir: Path, params_file: Path) -> None:
+        """Start the output folder and the recording (held messages first)."""
+        self.bag = open_outputs(out_dir, params_file, self.record)
+        self.recorder.record(self.bag)
+        self.opened = True
+
+    def warn(self, warning: str) -> None:
+        """Keep ``warning`` for metrics.json and show it on the terminal now."""
+        self.warnings.append(warning)
+        to_terminal(f'warning: {warning}\n')
+
+    def __enter__(self) -> 'RunOutputs':
+        return self
+
+    def __exit__(self, kind, error, traceback) -> bool:
+        close_outputs(self.warnings, self.log, self.teleop, self.recorder, self.bag)
+        if kind is not None and issubclass(kind, KeyboardInterrupt):
+            return self.interrupt.pressed  # the user's Ctrl-C: the outputs are written
+        if kind is not None and issubclass(kind, RunStopped) and self.opened:
+            self.node_errors.append({'node': BRIDGE_NODE,
+                                     'error': f'{error} (in the simulator)'})
+            return True
+        return False
+
+    def write(self, out_dir: Path, world: World, **details: Any) -> RunResult:
+        """Write the run's outputs (see :func:`write_outputs` for ``details``); its result."""
+        return write_outputs(out_dir, self.observer, world, self.interrupt,
+                             node_errors=self.node_errors, warnings=self.warnings,
+                             ended_by=self.ended_by, log_lines=self.log.entries, **details)

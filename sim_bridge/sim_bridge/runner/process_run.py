@@ -21,26 +21,23 @@ import tempfile
 import threading
 import time
 import traceback
-from typing import Any, Callable, ContextManager, Iterable, Mapping, Sequence
+from typing import Any, ContextManager, Iterable, Mapping, Sequence
 
-from sim_bridge.common.errors import RunStopped, UserInterrupt
 from sim_bridge.common.run_environment import environment_set
 from sim_bridge.common.text import json_safe
-from sim_bridge.ros.drive import Segment
 from sim_bridge.runner.hints import printed_scan_hint, ros_module_hint
-from sim_bridge.runner.node_output import NodeLog, to_terminal
+from sim_bridge.runner.node_output import to_terminal
 from sim_bridge.runner.node_styles import Decision, has_main_guard
 from sim_bridge.runner.options import (
-    BRIDGE_NODE, node_commands, Params, RunResult, SETPOINT_PARAMETER, write_params_file)
-from sim_bridge.runner.outputs import (
-    close_outputs, Observer, open_outputs, RunRecorder, write_outputs)
+    BRIDGE_NODE, node_commands, Params, PreparedRun, RunResult, RunSpec, SETPOINT_PARAMETER,
+    write_params_files)
+from sim_bridge.runner.outputs import RunOutputs
 from sim_bridge.runner.processes import (
     DISCOVERY_VARIABLE, LiveRun, prefixed, print_line, process_names, ProcessSpec)
 from sim_bridge.runner.ros_graph import (
     declared_parameters, LiveGraph, NO_TYPE_DESCRIPTION_SERVICE, PARAMETER_ANSWER_S, parameter_of,
-    parameter_warnings, Teleop, unconnected_topics)
+    parameter_warnings, unconnected_topics)
 from sim_bridge.runner.targets import module_file, split_target, StudentCode, target_name
-from sim_bridge.simulation.world import World
 
 
 #: Private domains are taken from [DOMAIN_BASE, DOMAIN_BASE + DOMAIN_COUNT): ids Fast DDS can
@@ -167,139 +164,148 @@ def printed_error(error_line: str) -> BaseException | None:
     return ModuleNotFoundError(error_line.partition(': ')[2], name=match['name'])
 
 
-def run_as_process(world_model: World, target: str, mode: Decision, node_params: Params, *,
-                   duration_s: float, out_dir: Path, remap: Sequence[str],
-                   ros_args: Sequence[str],
-                   setpoint: float | None, quiet: bool, record: bool, plot: bool,
-                   field_checks: bool, segments: Sequence[Segment] = (),
-                   printed: Sequence[str] = (),
-                   progress: Callable[[float, float], None] | None = None) -> RunResult:
+def start_live_bridge(context: Any, bridge_params_file: Path) -> tuple[Any, Any]:
+    """Return the SimBridge node run live (on its own timer) in ``context``, and its executor."""
+    from rclpy.executors import SingleThreadedExecutor
+    from sim_bridge.ros.bridge import SimBridge
+    executor = SingleThreadedExecutor(context=context)
+    bridge = SimBridge(stepped=False, context=context, use_global_arguments=False,
+                       cli_args=['--ros-args', '--params-file', str(bridge_params_file)],
+                       start_parameter_services=False, enable_rosout=False,
+                       parameter_overrides=[NO_TYPE_DESCRIPTION_SERVICE])
+    executor.add_node(bridge)
+    return bridge, executor
+
+
+def check_live_graph(bridge: Any, executor: Any, outputs: RunOutputs, node_params: Params,
+                     setpoint: float | None) -> float | None:
+    """
+    Warn of parameters and topics the node process left unused; return the setpoint (m).
+
+    Read from the ROS graph while the node's process still runs: its declared parameters, and
+    its ``distance`` parameter when the run was given no setpoint.
+    """
+    own = {(node.get_name(), node.get_namespace()) for node in executor.get_nodes()}
+    nodes = [node for node in bridge.get_node_names_and_namespaces() if node not in own]
+    declared = declared_parameters(bridge, nodes, PARAMETER_ANSWER_S)
+    if setpoint is None:
+        setpoint = parameter_of(bridge, [
+            node for node in nodes if SETPOINT_PARAMETER in (declared[node[0]] or ())],
+            SETPOINT_PARAMETER, PARAMETER_ANSWER_S)
+    declared[BRIDGE_NODE] = set(bridge.list_parameters([], 0).names)
+    for warning in (parameter_warnings(node_params, declared, dict(nodes))
+                    + unconnected_topics(bridge, nodes)):
+        outputs.warn(warning)
+    return setpoint
+
+
+def run_node_process(spec: RunSpec, prepared: PreparedRun, target: str, process: ProcessSpec,
+                     env: dict[str, str], bridge: Any, executor: Any,
+                     outputs: RunOutputs) -> float | None:
+    """
+    Run the node's ``process`` against the live ``bridge`` for the run's duration; the setpoint.
+
+    Simulated time starts when the node is in the ROS graph (bounded by NODE_START_TIMEOUT_S
+    of wall time); a node process that ends early ends the run: a node error when it failed,
+    ``ended_by`` when its own rclpy.shutdown() ended it.
+    """
+    tail: deque[str] = deque(maxlen=OUTPUT_TAIL_LINES)
+    prefix = prefixed(process_names([process])[0], '')
+
+    def out(line: str) -> None:
+        if line.startswith(prefix):  # the node's own line, not launch's about it
+            tail.append(line[len(prefix):])
+        if not spec.quiet:
+            print_line(line)
+
+    def keep(index: int, stream: str, line: str) -> None:
+        outputs.log.add(bridge.now_ns, '', stream, line)
+    with LiveRun([process], env=env, out=out, on_line=keep) as live, outputs.interrupt:
+        live.start()
+        name = live.names[0]
+        deadline = time.monotonic() + NODE_START_TIMEOUT_S
+        while (set(bridge.get_node_names()) <= {BRIDGE_NODE}
+               and time.monotonic() < deadline and not live.pump(0.05)):
+            pass
+        threading.Thread(target=executor.spin, name='live-bridge', daemon=True).start()
+        while bridge.sim.time < spec.duration_s and name not in live.returncodes:
+            live.pump(0.05)
+            if spec.progress is not None:
+                spec.progress(min(bridge.sim.time, spec.duration_s), spec.duration_s)
+        if name not in live.returncodes:  # its nodes are still in the graph
+            return check_live_graph(bridge, executor, outputs, prepared.node_params,
+                                    spec.setpoint)
+        code = live.returncodes[name]
+        ended = (f'{name} ended (exit status {code}) at {bridge.sim.time:g} s of '
+                 f'its {spec.duration_s:g} s')
+        if code:
+            outputs.node_errors.append(process_error(
+                target_name(target), ended, tail, Path(module_file(split_target(target)[0])),
+                bridge.sim.lidar_config))
+        else:  # its own rclpy.shutdown() ended it: the run ends there
+            outputs.ended_by = ended
+            outputs.warnings.append(ended)
+    return spec.setpoint
+
+
+def run_as_process(spec: RunSpec, prepared: PreparedRun, target: str,
+                   mode: Decision) -> RunResult:
     """
     Run the node file ``target`` as its own process against the simulator run live here.
 
-    The file's own ``main()`` runs (sim_bridge.runner.process_run), on a ROS domain private to the
-    run; the SimBridge node runs in this process at real time (``real_time_factor`` 1) on its
-    own timer. Simulated time starts when the node is in the ROS graph (bounded by
-    NODE_START_TIMEOUT_S of wall time) and the process is stopped (SIGINT, then SIGTERM, then
-    SIGKILL, as launch does) after ``duration_s`` of it. Outputs as a stepped run's; what the
-    node prints is the run's console output, each line kept at the sim time it arrived.
-    ``segments`` drive the robot as in a stepped run (:class:`Teleop`).
-    ``mode`` says why the file is not stepped; ``progress(sim_s, duration_s)`` is called as
-    simulated time passes. Ctrl-C and RunStopped end it as they end a stepped run: the node
-    stopped, the outputs written.
+    The file's own ``main()`` runs (:func:`node_spec`), on a ROS domain private to the run;
+    the SimBridge node runs in this process at real time (``real_time_factor`` 1) on its own
+    timer. The process is stopped (SIGINT, then SIGTERM, then SIGKILL, as launch does) after
+    ``spec.duration_s`` of simulated time. Outputs as a stepped run's; what the node prints is
+    the run's console output, each line kept at the sim time it arrived. The drive segments
+    drive the robot as in a stepped run (:class:`Teleop`). ``mode`` says why the file is not
+    stepped. Ctrl-C and RunStopped end it as they end a stepped run: the node stopped, the
+    outputs written.
     """
     import rclpy
     from rclpy.context import Context
-    from rclpy.executors import SingleThreadedExecutor
     from rclpy.signals import SignalHandlerOptions
-    from sim_bridge.ros.bridge import SimBridge
-    where, _ = split_target(target)
-    path = Path(module_file(where))
-    node_errors, warnings, ended_by = [], [], None
+    path = Path(module_file(split_target(target)[0]))
+    outputs, setpoint = RunOutputs(spec.record), spec.setpoint
     domain = DomainReservation()
     env = process_environment(os.environ, domain.domain_id)
-    env['ROS_PYTHON_CHECK_FIELDS'] = '1' if field_checks else ''
+    env['ROS_PYTHON_CHECK_FIELDS'] = '1' if spec.field_checks else ''
     to_terminal(f'{target_name(target)} runs as its own process: {mode.reason}\n')
     wall_start = time.perf_counter()
     with tempfile.TemporaryDirectory() as scratch:
-        params_file = Path(scratch) / 'params.yaml'
-        write_params_file(params_file, node_params)
-        bridge_params_file = Path(scratch) / f'{BRIDGE_NODE}.yaml'
-        write_params_file(bridge_params_file, {BRIDGE_NODE: node_params[BRIDGE_NODE]})
-        spec = node_spec(path, ['--ros-args', '--params-file', str(params_file),
-                                '-p', 'use_sim_time:=true',
-                                *(argument for rule in remap for argument in ('-r', rule)),
-                                *ros_args])
+        params_file, bridge_params_file = write_params_files(Path(scratch), prepared.node_params)
+        process = node_spec(path, ['--ros-args', '--params-file', str(params_file),
+                                   '-p', 'use_sim_time:=true',
+                                   *(argument for rule in prepared.remap
+                                     for argument in ('-r', rule)),
+                                   *spec.ros_args])
         context = Context()
         with private_ros_environment(domain.domain_id):
             rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
-        executor = SingleThreadedExecutor(context=context)
-        bag, outputs_open, interrupt, teleop = None, False, UserInterrupt(), None
-        recorder: RunRecorder | None = None
-        log = NodeLog(record)
+        executor = None
         try:
-            bridge = SimBridge(stepped=False, context=context, use_global_arguments=False,
-                               cli_args=['--ros-args', '--params-file', str(bridge_params_file)],
-                               start_parameter_services=False, enable_rosout=False,
-                               parameter_overrides=[NO_TYPE_DESCRIPTION_SERVICE])
-            executor.add_node(bridge)
-            observer = Observer(bridge.sim)
-            graph = LiveGraph(bridge, executor)
-            recorder = RunRecorder(graph, observer, record, log)
-            teleop = Teleop(graph, bridge, world_model, segments) if segments else None
-            bag = open_outputs(out_dir, params_file, record)
-            recorder.record(bag)
-            outputs_open = True
-            tail: deque[str] = deque(maxlen=OUTPUT_TAIL_LINES)
-            prefix = prefixed(process_names([spec])[0], '')
-
-            def out(line: str) -> None:
-                if line.startswith(prefix):  # the node's own line, not launch's about it
-                    tail.append(line[len(prefix):])
-                if not quiet:
-                    print_line(line)
-
-            def keep(index: int, stream: str, line: str) -> None:
-                log.add(bridge.now_ns, '', stream, line)
-            with LiveRun([spec], env=env, out=out, on_line=keep) as live, interrupt:
-                live.start()
-                name = live.names[0]
-                deadline = time.monotonic() + NODE_START_TIMEOUT_S
-                while (set(bridge.get_node_names()) <= {BRIDGE_NODE}
-                       and time.monotonic() < deadline and not live.pump(0.05)):
-                    pass
-                spinner = threading.Thread(target=executor.spin, name='live-bridge', daemon=True)
-                spinner.start()
-                while bridge.sim.time < duration_s and name not in live.returncodes:
-                    live.pump(0.05)
-                    if progress is not None:
-                        progress(min(bridge.sim.time, duration_s), duration_s)
-                if name not in live.returncodes:  # its nodes are still in the graph
-                    own = {(node.get_name(), node.get_namespace())
-                           for node in executor.get_nodes()}
-                    nodes = [node for node in bridge.get_node_names_and_namespaces()
-                             if node not in own]
-                    declared = declared_parameters(bridge, nodes, PARAMETER_ANSWER_S)
-                    if setpoint is None:
-                        setpoint = parameter_of(bridge, [
-                            node for node in nodes if SETPOINT_PARAMETER in (
-                                declared[node[0]] or ())], SETPOINT_PARAMETER, PARAMETER_ANSWER_S)
-                    declared[BRIDGE_NODE] = set(bridge.list_parameters([], 0).names)
-                    for warning in (parameter_warnings(node_params, declared, dict(nodes))
-                                    + unconnected_topics(bridge, nodes)):
-                        warnings.append(warning)
-                        to_terminal(f'warning: {warning}\n')
-                else:
-                    code = live.returncodes[name]
-                    ended = (f'{name} ended (exit status {code}) at {bridge.sim.time:g} s of '
-                             f'its {duration_s:g} s')
-                    if code:
-                        node_errors.append(process_error(target_name(target), ended, tail,
-                                                         path, bridge.sim.lidar_config))
-                    else:  # its own rclpy.shutdown() ended it: the run ends there
-                        ended_by = ended
-                        warnings.append(ended)
-        except KeyboardInterrupt:
-            if not interrupt.pressed:
-                raise
-            # Ctrl-C: the node is stopped, the outputs are written, then it goes on.
-        except RunStopped as stop:
-            if not outputs_open:
-                raise
-            node_errors.append({'node': BRIDGE_NODE, 'error': f'{stop} (in the simulator)'})
+            with outputs:
+                try:
+                    bridge, executor = start_live_bridge(context, bridge_params_file)
+                    outputs.watch(LiveGraph(bridge, executor), bridge, prepared.world,
+                                  prepared.segments)
+                    outputs.open(prepared.out_dir, params_file)
+                    setpoint = run_node_process(spec, prepared, target, process, env, bridge,
+                                                executor, outputs)
+                finally:
+                    if executor is not None:
+                        executor.shutdown()
         finally:
-            executor.shutdown()
-            close_outputs(warnings, log, teleop, recorder, bag)
-            for node in executor.get_nodes():
+            for node in executor.get_nodes() if executor is not None else ():
                 node.destroy_node()
             context.try_shutdown()
             domain.release()
-    return write_outputs(
-        out_dir, observer, world_model, interrupt, plot=plot,
-        title=f'{world_model.name}: {target_name(target)}', setpoint=setpoint,
-        printed=printed, wall_start=wall_start, node_errors=node_errors, warnings=warnings,
-        ended_by=ended_by, run_mode={'mode': 'process', 'reason': mode.reason},
-        commands=node_commands([target], remap, ros_args), log_lines=log.entries)
+    return outputs.write(
+        prepared.out_dir, prepared.world, plot=spec.plot,
+        title=f'{prepared.world.name}: {target_name(target)}', setpoint=setpoint,
+        printed=spec.printed, wall_start=wall_start,
+        run_mode={'mode': 'process', 'reason': mode.reason},
+        commands=node_commands([target], prepared.remap, spec.ros_args))
 
 
 def process_error(node: str, ended: str, output: Iterable[str], path: Path, lidar: Any) -> dict:

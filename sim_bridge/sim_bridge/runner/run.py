@@ -12,28 +12,25 @@ runs before physics advances, see sim_bridge.runner.stepping), as if each had be
 from contextlib import contextmanager
 import gc
 import inspect
-import math
-import os
 from pathlib import Path
 import resource
 import tempfile
 import time
 from typing import Any, Callable, Iterable, Iterator, Sequence
 
-from sim_bridge.common.errors import RunError, RunStopped, UserInterrupt
+from sim_bridge.common.errors import RunError, RunStopped
 from sim_bridge.common.run_environment import (
     FIELD_CHECK_HINT, is_field_check_failure, run_environment)
 from sim_bridge.common.text import json_safe
 from sim_bridge.runner.hints import ros_module_hint, scan_hint
 from sim_bridge.runner.node_output import NodeLog, OutputCapture, terminal_colours, to_terminal
 from sim_bridge.runner.options import (
-    BRIDGE_NODE, check_remap, default_out_dir, drive_plan, gui_problem, load_world, node_commands,
-    node_parameters, Params, RunResult, SETPOINT_PARAMETER, write_params_file)
-from sim_bridge.runner.outputs import (
-    close_outputs, Observer, open_outputs, RunRecorder, write_outputs)
+    BRIDGE_NODE, node_commands, Params, prepare_run, PreparedRun, RunResult, RunSpec,
+    SETPOINT_PARAMETER, write_params_files)
+from sim_bridge.runner.outputs import RunOutputs
 from sim_bridge.runner.process_run import run_as_process
 from sim_bridge.runner.ros_graph import (
-    NANOSECONDS_PER_SECOND, NO_TYPE_DESCRIPTION_SERVICE, parameter_warnings, runner_node, Teleop,
+    NANOSECONDS_PER_SECOND, NO_TYPE_DESCRIPTION_SERVICE, parameter_warnings, runner_node,
     unconnected_topics)
 from sim_bridge.runner.stepping import (
     describe, next_timer_ns, NodeEnded, NodeError, spin_until_idle, SteppedExecutor)
@@ -286,158 +283,124 @@ def import_failure(error: TargetError) -> RunError:
     return RunError(message, StudentCode.of([error.file] if error.file else []).traceback(cause))
 
 
-def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60.0,
-                   seed: int = 0, params: Params | None = None,
-                   out_dir: Path | str | None = None,
-                   start: Sequence[float] | str | None = None, robot: str | None = None,
-                   remap: Sequence[str] = (), ros_args: Sequence[str] = (),
-                   setpoint: float | None = None,
-                   printed: Sequence[str] = (), quiet: bool = False,
-                   record: bool = True, plot: bool = True, gui: bool = False,
-                   field_checks: bool = True, drive: Sequence[Any] | None = None,
-                   progress: Callable[[float, float], None] | None = None) -> RunResult:
-    """
-    Run ``targets`` (sim_bridge.runner.targets) with the simulator in ``world`` for duration_s.
+def run_simulation(world: str, targets: Sequence[str], **options: Any) -> RunResult:
+    """Run ``targets`` with the simulator in ``world``; ``options`` are RunSpec's (see there)."""
+    return run(RunSpec(world, tuple(targets), **options))
 
-    ``params`` maps node names to parameter overrides; ``start`` overrides the robot's start
-    pose (x m, y m, yaw rad), or is 'mirrored' to put the world's target on the robot's left;
-    ``robot`` names a robot model spawned instead of the world's own (see :func:`load_world`);
-    ``remap`` holds ROS remapping rules (``FROM:=TO``, ``NODE:FROM:=TO``) for the target nodes;
-    ``ros_args`` (``--ros-args ...``, as given after ``ros2 run``'s executable) reach them
-    unchanged;
-    ``setpoint`` is the wall distance (m) ``wall_distance_m`` is measured against, by default
-    the value of a node's ``distance`` parameter (SETPOINT_PARAMETER), if one has it;
-    ``printed`` names the values (printed_values.KINDS) whose printed lines are scored against
-    the scans (``metrics['printed']``).
+
+def run(spec: RunSpec) -> RunResult:
+    """
+    Run ``spec``: stepped, or as its own process when its one node file cannot be stepped.
+
     What the world's files hold that the simulator does not simulate (``World.ignored``) is
-    logged once by the simulator at start and kept in ``metrics['ignored']``.
-    ``gui`` shows the run in the pybullet window at wall-clock pace. ``field_checks``: rosidl
-    refuses a value of the wrong type in a message field (see sim_bridge.common.run_environment);
-    off, the run behaves as Jazzy's default does on a robot. ``drive`` is a list of segments
-    (sim_bridge.ros.drive) the runner's teleop node publishes on the simulator's command topic
-    while the nodes run, as a person at teleop_twist_keyboard would. Raises RunError when the
-    run cannot start, before writing anything to ``out_dir``; a node that raises (while
-    starting or during the run) ends it early, is reported in ``metrics['node_errors']`` and,
-    unless ``quiet``, with its traceback on stderr, and every output is written up to that
-    point. A node that shuts ROS down (``rclpy.shutdown()``) ends the run there, as it would
-    end its process: not a node error, but ``metrics['ended_by']`` says which node and where.
-    A parameter its node did not declare, or given for a node that is not running, is
+    logged once by the simulator at start and kept in ``metrics['ignored']``. Raises RunError
+    when the run cannot start, before writing anything to ``spec.out_dir``; a node that raises
+    (while starting or during the run) ends it early, is reported in ``metrics['node_errors']``
+    and, unless ``quiet``, with its traceback on stderr, and every output is written up to
+    that point. A node that shuts ROS down (``rclpy.shutdown()``) ends the run there, as it
+    would end its process: not a node error, but ``metrics['ended_by']`` says which node and
+    where. A parameter its node did not declare, or given for a node that is not running, is
     ignored, with a line in ``metrics['warnings']`` (one-line texts, also printed on stderr),
     as is each topic a target node uses with nothing at its other end when the run ends
     (:meth:`SteppedRun.unconnected_topics`).
     """
-    if not (math.isfinite(duration_s) and duration_s > 0):
-        raise RunError(f'duration must be a positive number of seconds, got {duration_s}')
-    remap = [check_remap(rule) for rule in remap]
-    if gui and gui_problem(os.environ):
-        raise RunError(gui_problem(os.environ))
-    world_model = load_world(world, robot, start)
-    segments = drive_plan(drive, world_model)
-    node_params = node_parameters(world_model, params, seed=seed, gui=gui, start=start,
-                                  robot=robot)
-    out_dir = Path(out_dir) if out_dir is not None else default_out_dir(world_model, targets)
-    modes = [run_mode(target) for target in targets]
-    process = [(t, mode) for t, mode in zip(targets, modes) if not mode.steppable]
-    if process:
-        target, mode = process[0]
-        if len(targets) > 1:
-            raise RunError(f'{target}: {mode.reason}, so it runs as its own process; a process '
-                           'run takes one node file: run it alone')
-        result = run_as_process(
-            world_model, target, mode, node_params, duration_s=duration_s, out_dir=out_dir,
-            remap=remap, ros_args=ros_args, setpoint=setpoint, printed=printed, quiet=quiet,
-            record=record, plot=plot, field_checks=field_checks, segments=segments,
-            progress=progress)
-        # The run's rclpy objects (its context, executor and nodes hold one another) are freed
-        # now, not by a later collection: in a process forked from this one (a multiprocessing
-        # pool's worker) that would free them without their DDS threads, and crash it.
-        gc.collect()
-        return result
-    run_modes = {'mode': 'stepped', 'reason': '; '.join(mode.reason for mode in modes)}
+    prepared = prepare_run(spec)
+    modes = [run_mode(target) for target in spec.targets]
+    process = [(t, mode) for t, mode in zip(spec.targets, modes) if not mode.steppable]
+    if not process:
+        return run_stepped(spec, prepared, '; '.join(mode.reason for mode in modes))
+    target, mode = process[0]
+    if len(spec.targets) > 1:
+        raise RunError(f'{target}: {mode.reason}, so it runs as its own process; a process '
+                       'run takes one node file: run it alone')
+    result = run_as_process(spec, prepared, target, mode)
+    # The run's rclpy objects (its context, executor and nodes hold one another) are freed
+    # now, not by a later collection: in a process forked from this one (a multiprocessing
+    # pool's worker) that would free them without their DDS threads, and crash it.
+    gc.collect()
+    return result
 
-    node_errors, warnings, ended_by = [], [], None
+
+def load_classes(targets: Sequence[str], quiet: bool) -> list[type]:
+    """Import each TARGET's Node class; RunError (its traceback shown unless quiet) if not."""
+    from rclpy.node import Node
+    try:
+        return [load_node_class(target, Node) for target in targets]
+    except TargetError as error:
+        failure = import_failure(error)
+        if not quiet and failure.traceback:
+            to_terminal(failure.traceback)  # what `python3 node.py` would print
+        raise failure from None
+
+
+def keep_node_error(error: NodeError, outputs: RunOutputs, now_ns: int, quiet: bool) -> None:
+    """
+    Report a node's error: in the run's node errors, among its lines, and on the terminal.
+
+    What the node's own process would print before dying, its own part: on the terminal and,
+    as a process run's would be, among the node's lines. A Ctrl-C while a callback ran is the
+    user's, not the node's.
+    """
+    if outputs.interrupt.pressed:
+        return
+    student_traceback = error.code.traceback(error.original)
+    outputs.node_errors.append(json_safe({'node': error.node_name, 'error': node_failure(error),
+                                          'traceback': student_traceback}))
+    for line in student_traceback.splitlines():
+        outputs.log.add(now_ns, error.node_name, 'STDERR', line)
+    if not quiet:
+        to_terminal(student_traceback)
+
+
+def run_stepped(spec: RunSpec, prepared: PreparedRun, reason: str) -> RunResult:
+    """Run ``spec``'s nodes in this process, stepped with the simulator (see :func:`run`)."""
+    outputs, setpoint = RunOutputs(spec.record), spec.setpoint
     wall_start = time.perf_counter()
-    with run_environment(field_checks), terminal_colours(), \
+    with run_environment(spec.field_checks), terminal_colours(), \
             tempfile.TemporaryDirectory() as scratch:
-        from rclpy.node import Node
         from sim_bridge.ros.bridge import SimBridge
-        try:
-            classes = [load_node_class(target, Node) for target in targets]
-        except TargetError as error:
-            failure = import_failure(error)
-            if not quiet and failure.traceback:
-                to_terminal(failure.traceback)  # what `python3 node.py` would print
-            raise failure from None
+        classes = load_classes(spec.targets, spec.quiet)
         code = StudentCode.of(inspect.getfile(node_class) for node_class in classes)
-        params_file = Path(scratch) / 'params.yaml'
-        write_params_file(params_file, node_params)
-        # The bridge reads its own entry alone: EVERY_NODE's parameters are the targets'.
-        bridge_params_file = Path(scratch) / f'{BRIDGE_NODE}.yaml'
-        write_params_file(bridge_params_file, {BRIDGE_NODE: node_params[BRIDGE_NODE]})
-        run = SteppedRun(params_file, quiet, code, bridge_params_file=bridge_params_file,
-                         remap=remap, ros_args=ros_args)
-        bag, interrupt, outputs_open, teleop = None, UserInterrupt(), False, None
-        recorder: RunRecorder | None = None
-        log = NodeLog(record)
+        params_file, bridge_params_file = write_params_files(Path(scratch), prepared.node_params)
+        run = SteppedRun(params_file, spec.quiet, code, bridge_params_file=bridge_params_file,
+                         remap=prepared.remap, ros_args=spec.ros_args)
         try:
-            bridge = run.start_simulator(SimBridge)
-            observer = Observer(bridge.sim)
-            recorder = RunRecorder(run, observer, record, log)
-            teleop = Teleop(run, bridge, world_model, segments) if segments else None
-            with run.capture_output(log):
-                start_failure = run.start_nodes(zip(targets, classes), node_params)
-                if start_failure is None:
-                    warnings += run.parameter_warnings(node_params)
-                    for warning in warnings:
-                        to_terminal(f'warning: {warning}\n')
-                if setpoint is None:
-                    setpoint = run.parameter(SETPOINT_PARAMETER)
-                bag = open_outputs(out_dir, params_file, record)
-                recorder.record(bag)
-                outputs_open = True
-                if start_failure is not None:
-                    raise start_failure
-                pacing = Pacing(duration_s, gui, progress)
-                pacing(bridge.now_ns)  # the nodes are up: simulated time starts
-                with interrupt:
-                    run.advance(round(duration_s * NANOSECONDS_PER_SECOND), pacing.step_ns,
-                                pacing)
-        except KeyboardInterrupt:
-            if not interrupt.pressed:
-                raise
-            # Ctrl-C outside the nodes' code: the outputs are written, then it goes on.
-        except NodeEnded as end:
-            ended_by = str(end)
-            warnings.append(f'{end}: the run ended at {bridge.now_ns / NANOSECONDS_PER_SECOND:g} '
-                            f's of its {duration_s:g} s')
-            to_terminal(f'warning: {warnings[-1]}\n')
-        except NodeError as error:
-            student_traceback = error.code.traceback(error.original)
-            if not interrupt.pressed:  # a Ctrl-C while a callback ran is the user's
-                node_errors.append(json_safe({'node': error.node_name,
-                                              'error': node_failure(error),
-                                              'traceback': student_traceback}))
-            if not interrupt.pressed:
-                # What the node's own process would print before dying, its own part: on
-                # the terminal and, as a process run's would be, among the node's lines.
-                for line in student_traceback.splitlines():
-                    log.add(bridge.now_ns, error.node_name, 'STDERR', line)
-                if not quiet:
-                    to_terminal(student_traceback)
-        except RunStopped as stop:
-            if not outputs_open:  # stopped while starting: there is nothing to write yet
-                raise
-            node_errors.append({'node': BRIDGE_NODE, 'error': f'{stop} (in the simulator)'})
+            with outputs:
+                try:
+                    bridge = run.start_simulator(SimBridge)
+                    outputs.watch(run, bridge, prepared.world, prepared.segments)
+                    with run.capture_output(outputs.log):
+                        start_failure = run.start_nodes(zip(spec.targets, classes),
+                                                        prepared.node_params)
+                        if start_failure is None:
+                            for warning in run.parameter_warnings(prepared.node_params):
+                                outputs.warn(warning)
+                        if setpoint is None:
+                            setpoint = run.parameter(SETPOINT_PARAMETER)
+                        outputs.open(prepared.out_dir, params_file)
+                        if start_failure is not None:
+                            raise start_failure
+                        pacing = Pacing(spec.duration_s, spec.gui, spec.progress)
+                        pacing(bridge.now_ns)  # the nodes are up: simulated time starts
+                        with outputs.interrupt:
+                            run.advance(round(spec.duration_s * NANOSECONDS_PER_SECOND),
+                                        pacing.step_ns, pacing)
+                except NodeEnded as end:
+                    outputs.ended_by = str(end)
+                    outputs.warn(f'{end}: the run ended at '
+                                 f'{bridge.now_ns / NANOSECONDS_PER_SECOND:g} s of its '
+                                 f'{spec.duration_s:g} s')
+                except NodeError as error:
+                    keep_node_error(error, outputs, bridge.now_ns, spec.quiet)
+                finally:
+                    if outputs.opened and run.context.ok():  # rclpy.shutdown() ends the graph
+                        for warning in run.unconnected_topics():
+                            outputs.warn(warning)
         finally:
-            if outputs_open and run.context.ok():  # a node's rclpy.shutdown() ends the graph
-                for warning in run.unconnected_topics():
-                    warnings.append(warning)
-                    to_terminal(f'warning: {warning}\n')
-            close_outputs(warnings, log, teleop, recorder, bag)
             run.close()
-    return write_outputs(
-        out_dir, observer, world_model, interrupt, plot=plot,
-        title=f"{world_model.name}: {', '.join(map(target_name, targets))}", setpoint=setpoint,
-        printed=printed, wall_start=wall_start, node_errors=node_errors, warnings=warnings,
-        ended_by=ended_by, run_mode=run_modes, commands=node_commands(targets, remap, ros_args),
-        log_lines=log.entries)
+    return outputs.write(
+        prepared.out_dir, prepared.world, plot=spec.plot,
+        title=f"{prepared.world.name}: {', '.join(map(target_name, spec.targets))}",
+        setpoint=setpoint, printed=spec.printed, wall_start=wall_start,
+        run_mode={'mode': 'stepped', 'reason': reason},
+        commands=node_commands(spec.targets, prepared.remap, spec.ros_args))
