@@ -6,6 +6,7 @@ from pathlib import Path
 import re
 import sys
 import threading
+import time
 
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import get_typestore, Stores
@@ -64,7 +65,16 @@ def test_a_flood_of_lines_is_capped(monkeypatch):
     assert '2 more were not kept' in log.warning()
 
 
-def test_a_capture_stamps_each_line_at_the_sync_that_saw_its_first_byte(capfd):
+def test_a_capture_stamps_each_line_at_the_sync_that_saw_its_first_byte(capfd, monkeypatch):
+    # The reader copies the rest of the node's line late, as on a busy machine: the runner's
+    # line, written after the sync that saw it, still comes after it on the terminal.
+    copy = OutputCapture._copy
+
+    def late_copy(fd: int, data: bytes) -> None:
+        if b'and the rest' in data:
+            time.sleep(0.2)
+        copy(fd, data)
+    monkeypatch.setattr(OutputCapture, '_copy', staticmethod(late_copy))
     log, now = NodeLog(record=False), [0]
     with OutputCapture(log, lambda: now[0]) as capture:
         print('whole line', end='\n')

@@ -209,8 +209,9 @@ class _Stream:
         os.dup2(write_fd, fd)
         os.close(write_fd)
         os.set_blocking(self.read_fd, False)
-        #: Bytes the reader has taken from the pipe.
+        #: Bytes the reader has taken from the pipe, and of those, copied to the terminal.
         self.taken = 0
+        self.shown = 0
         self.partial = b''
         self.partial_stamp: tuple[int, str] | None = None
         # A quiet run's line not shown yet (it may be a logger's), and whether the line
@@ -304,6 +305,9 @@ class OutputCapture:
                         self._ready.notify_all()
                 if data:
                     self._show(stream, data)
+                    with self._ready:
+                        stream.shown += len(data)
+                        self._ready.notify_all()
                 else:
                     selector.unregister(stream.read_fd)
         selector.close()
@@ -354,10 +358,12 @@ class OutputCapture:
         """
         self._flush_writers()
         with self._ready:
-            # What was written so far: taken by the reader, or still in the pipe. Bytes
-            # written after this (a node's thread) may come along, and need not be waited for.
+            # What was written so far: taken by the reader, or still in the pipe; waited for
+            # until it is on the terminal, so that a line the runner writes next comes after
+            # it. Bytes written after this (a node's thread) may come along, and need not be
+            # waited for.
             wanted = [(stream, stream.taken + stream.unread()) for stream in self.streams]
-            self._ready.wait_for(lambda: all(stream.taken >= count for stream, count in wanted),
+            self._ready.wait_for(lambda: all(stream.shown >= count for stream, count in wanted),
                                  timeout=SYNC_TIMEOUT_S)
             chunks, self._chunks = self._chunks, []
         if chunks:
