@@ -21,7 +21,8 @@ from sim_bridge.grading import html_report
 from sim_bridge.grading.marks import format_marks, task_marks, TaskMarks, total
 from sim_bridge.grading.runs import (
     GradeJob, PAGE_NAME, REPORT_NAME, reuse_notes, RunReport, write_outputs, write_report)
-from sim_bridge.grading.scenario import Scenario, target_name
+from sim_bridge.grading.scenario import Scenario
+from sim_bridge.runner.targets import target_name
 
 CSV_NAME = 'class.csv'
 INDEX_NAME = 'index.html'

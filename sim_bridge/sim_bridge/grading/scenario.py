@@ -77,7 +77,6 @@ scenario's criteria name (``printed.<kind>.worst_error_m`` and the rest are metr
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 import math
-import operator
 import os
 from pathlib import Path
 import re
@@ -85,11 +84,13 @@ from typing import Any, Callable
 
 from sim_bridge.common.values import described, is_number_not_nan
 from sim_bridge.common.yaml_loader import load_yaml, read_text
+from sim_bridge.grading.criteria import (
+    Criterion, CriterionResult, format_value, parse_criterion, parse_printed_criterion,
+    PrintedCriterion)
 from sim_bridge.ros.drive import DriveError, parse_drive, Segment
 from sim_bridge.runner.options import EVERY_NODE, is_seed, MAX_SEED, remap_problem
 from sim_bridge.runner.targets import split_target, target_name
-from sim_bridge.scoring.metrics import METRIC_KINDS
-from sim_bridge.scoring.printed_values import judge_printed, KINDS as PRINTED_KINDS
+from sim_bridge.scoring.printed_values import KINDS as PRINTED_KINDS
 import yaml
 
 SCENARIO_SUFFIX = '.yaml'
@@ -107,190 +108,14 @@ MARKINGS = ('all', 'proportional')
 #: What a scenario's ``setpoint:`` can set, and the unit of each.
 SETPOINTS = {'wall_distance_m': 'm'}
 _REQUIRED = ('world', 'nodes', 'duration', 'criteria')
-#: A printed-value criterion's key: ``printed_<kind>`` for each kind of printed_values.KINDS.
-PRINTED_PREFIX = 'printed_'
-#: A printed-value criterion's settings, and whether each is required.
-PRINTED_SETTINGS = {'max_error_m': True, 'min_matched_fraction': True,
-                    'max_bearing_error_deg': False}
-_OPERATORS: dict[str, Callable[[Any, Any], bool]] = {
-    '<=': operator.le, '>=': operator.ge, '==': operator.eq, '!=': operator.ne,
-    '<': operator.lt, '>': operator.gt}
-_FUNCTIONS = ('min', 'max', 'len', 'all', 'any', 'abs')
-_NAME = r'[A-Za-z_][A-Za-z0-9_]*'
-_CRITERION = re.compile(
-    rf'^\s*(?:(?P<function>{_NAME})\s*\(\s*(?P<inner>{_NAME}(?:\.{_NAME})*)\s*\)'
-    rf'|(?P<plain>{_NAME}(?:\.{_NAME})*))'
-    r'\s*(?P<op><=|>=|==|!=|<|>)\s*'
-    r'(?P<number>[-+]?(?:inf|(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?))\s*$')
 
 
 class ScenarioError(ValueError):
     """A scenario file that cannot be used; the message names the file and the field."""
 
 
-def format_value(value: Any) -> str:
-    """Return a short text for a measured value: 4 significant digits for floats."""
-    if value is None:
-        return 'null'
-    if isinstance(value, bool) or not isinstance(value, float):
-        return str(value)
-    return f'{value:.4g}'
-
-
-@dataclass(frozen=True)
-class CriterionResult:
-    """One criterion judged on one run's metrics: ``value`` is what was measured (JSON-able)."""
-
-    criterion: str
-    passed: bool
-    value: Any
-    shown: str
-
-    def as_dict(self) -> dict[str, Any]:
-        """Return the result for the JSON report."""
-        return {'criterion': self.criterion, 'passed': self.passed, 'value': self.value,
-                'shown': self.shown}
-
-
-@dataclass(frozen=True)
-class Criterion:
-    """A parsed pass criterion ``function(path) op threshold`` (``function`` may be None)."""
-
-    text: str
-    path: tuple[str, ...]
-    op: str
-    threshold: float
-    function: str | None = None
-
-    def evaluate(self, metrics: Mapping[str, Any]) -> CriterionResult:
-        """Judge the criterion on a run's metrics."""
-        value = metrics
-        for key in self.path:
-            value = value.get(key) if isinstance(value, Mapping) else None
-        compare = _OPERATORS[self.op]
-
-        def holds(number: Any) -> bool:
-            return isinstance(number, (int, float)) and compare(number, self.threshold)
-
-        if self.function in ('all', 'any'):
-            values = list(value or [])
-            passed = (all if self.function == 'all' else any)(holds(item) for item in values)
-            shown = (f'{len(values)} values, min {format_value(min(values))}, max '
-                     f'{format_value(max(values))}' if values else 'no values')
-            return CriterionResult(self.text, passed, values, shown)
-        if self.function in ('min', 'max'):
-            value = (min if self.function == 'min' else max)(value) if value else None
-        elif self.function == 'len':
-            value = len(value) if value is not None else None
-        elif self.function == 'abs' and value is not None:
-            value = abs(value)
-        return CriterionResult(self.text, holds(value), value, format_value(value))
-
-
-@dataclass(frozen=True)
-class PrintedCriterion:
-    """
-    A criterion on what the nodes print: ``kind`` of printed_values.KINDS within tolerances.
-
-    ``max_error_m`` (m) bounds the worst printed value's error, ``min_matched_fraction`` the
-    share of scans a line gave the value for; ``max_bearing_error_deg`` (deg) the closest
-    obstacle's printed bearing, when it is printed.
-    """
-
-    text: str
-    kind: str
-    max_error_m: float
-    min_matched_fraction: float
-    max_bearing_error_deg: float | None = None
-
-    def evaluate(self, metrics: Mapping[str, Any]) -> CriterionResult:
-        """Judge the criterion on a run's metrics; the measured value is the one-line why."""
-        scored = (metrics.get('printed') or {}).get(self.kind)
-        passed, why = judge_printed(self.kind, scored, max_error_m=self.max_error_m,
-                                    min_matched_fraction=self.min_matched_fraction,
-                                    max_bearing_error_deg=self.max_bearing_error_deg)
-        return CriterionResult(self.text, passed, why, why)
-
-
-def parse_printed_criterion(item: Mapping[Any, Any]) -> PrintedCriterion:
-    """
-    Parse ``{printed_<kind>: {max_error_m: .., min_matched_fraction: ..}}``.
-
-    ValueError says what is wrong: the key, a setting unknown or missing, a value out of range.
-    """
-    names = ', '.join(PRINTED_PREFIX + kind for kind in PRINTED_KINDS)
-    if len(item) != 1:
-        raise ValueError(f'a printed-value criterion is one key ({names}), got {len(item)}')
-    key, settings = next(iter(item.items()))
-    kind = str(key)[len(PRINTED_PREFIX):] if str(key).startswith(PRINTED_PREFIX) else None
-    if kind not in PRINTED_KINDS:
-        raise ValueError(f"unknown criterion '{key}'; a mapping criterion is one of {names}")
-    if not isinstance(settings, Mapping):
-        raise ValueError(f"'{key}' must map settings to numbers, e.g. {{max_error_m: 0.05, "
-                         f'min_matched_fraction: 0.95}}, got {described(settings)}')
-    allowed = [name for name in PRINTED_SETTINGS
-               if kind == 'closest' or name != 'max_bearing_error_deg']
-    for name, value in settings.items():
-        if name not in allowed:
-            raise ValueError(f"'{key}.{name}': unknown setting; expected {', '.join(allowed)}")
-        limit = 1.0 if name == 'min_matched_fraction' else math.inf
-        if not is_number_not_nan(value) or not 0.0 <= value <= limit:
-            wanted = 'from 0 to 1' if limit == 1.0 else 'at least 0'
-            raise ValueError(f"'{key}.{name}' must be a number {wanted}, got {described(value)}")
-    for name in allowed:
-        if PRINTED_SETTINGS[name] and name not in settings:
-            raise ValueError(f"'{key}.{name}' is missing")
-    shown = [f'{name} {settings[name]:g}' for name in allowed if name in settings]
-    text = f'{key}: ' + ', '.join(shown)
-    return PrintedCriterion(text, kind, **{name: float(value)
-                                           for name, value in settings.items()})
-
-
-def parse_criterion(text: str) -> Criterion:
-    """
-    Parse ``<value> <op> <number>`` (see the module docstring); ValueError says what is wrong.
-
-    The metric must be one ``compute_metrics`` produces, of a kind the function fits.
-    """
-    if not isinstance(text, str):
-        raise ValueError(f'must be a text like "collisions == 0" (or a mapping like '
-                         f'printed_range_ahead: {{...}}), got {text!r}')
-    match = _CRITERION.match(text)
-    if match is None:
-        raise ValueError(f"cannot read '{text}': expected '<metric> <op> <number>' with <op> "
-                         f"one of {' '.join(_OPERATORS)}, e.g. 'laps <= -1' or "
-                         "'min(turns_deg) > 90'")
-    function = match['function']
-    dotted = match['inner'] or match['plain']
-    if function is not None and function not in _FUNCTIONS:
-        raise ValueError(f"'{text}': unknown function '{function}'; use one of "
-                         f"{', '.join(_FUNCTIONS)}")
-    kind = _metric_kind(dotted)
-    if kind is None:
-        raise ValueError(f"'{text}': unknown metric '{dotted}'; metrics are "
-                         f"{', '.join(_metric_names())}")
-    needed = 'number' if function in (None, 'abs') else 'list'
-    if kind != needed:
-        hint = (f'use min({dotted}), max(...), len(...), all(...) or any(...)'
-                if kind == 'list' else f'{function}() needs a list metric')
-        raise ValueError(f"'{text}': '{dotted}' is a {kind}; {hint}")
-    return Criterion(text.strip(), tuple(dotted.split('.')), match['op'],
-                     float(match['number']), function)
-
-
-def _metric_kind(dotted: str) -> str | None:
-    kind: Any = METRIC_KINDS
-    for key in dotted.split('.'):
-        if not isinstance(kind, dict) or key not in kind:
-            return None
-        kind = kind[key]
-    return kind if isinstance(kind, str) else 'group of metrics'
-
-
-def _metric_names() -> list[str]:
-    return [f'{key}.{sub}' if isinstance(kind, dict) else key
-            for key, kind in METRIC_KINDS.items()
-            for sub in (kind if isinstance(kind, dict) else [None])]
+#: Makes the error of one field of a scenario: fail(FIELD or None, PROBLEM).
+Fail = Callable[[str | None, str], ScenarioError]
 
 
 @dataclass(frozen=True)
@@ -484,7 +309,25 @@ def scenario_from_dict(data: Any, name: str, path: Path | None = None) -> Scenar
             raise fail(key, 'missing')
     if 'seed' in data and 'seeds' in data:
         raise fail('seeds', "give either 'seed' or 'seeds', not both")
+    world, nodes = _world_and_nodes(data, fail)
+    params = _params(data, fail)
+    setpoint = _setpoint(data, fail)
+    description, task, marks, marking = _grading(data, fail)
+    return Scenario(name=name, path=path,
+                    world=_resolve(world, base, SCENARIO_SUFFIX),
+                    nodes=tuple(_resolve(node, base, '.py') for node in nodes),
+                    duration_s=_duration(data, fail), criteria=_criteria(data, fail),
+                    seeds=_seeds(data, fail),
+                    params={str(node): dict(values) for node, values in params.items()},
+                    start=_start(data, fail), description=description,
+                    robot=_robot(data, fail), remap=_remap(data, fail),
+                    setpoint={str(metric): float(value) for metric, value in setpoint.items()},
+                    drive=_drive(data, fail), task=str(task).strip() if task is not None else None,
+                    marks=float(marks) if marks is not None else None, marking=marking)
 
+
+def _world_and_nodes(data: Mapping[Any, Any], fail: Fail) -> tuple[str, list[str]]:
+    """Return the scenario's world and its list of TARGETs."""
     world = data['world']
     if not isinstance(world, str) or not world:
         raise fail('world', f'must be a world name or path, got {described(world)}')
@@ -496,12 +339,20 @@ def scenario_from_dict(data: Any, name: str, path: Path | None = None) -> Scenar
     for index, node in enumerate(nodes):
         if not isinstance(node, str) or not node:
             raise fail(f'nodes[{index}]', f'must be a TARGET text, got {described(node)}')
+    return world, nodes
 
+
+def _duration(data: Mapping[Any, Any], fail: Fail) -> float:
+    """Return the run length (s of simulated time)."""
     duration = data['duration']
     if not is_number_not_nan(duration) or not 0 < duration <= MAX_DURATION_S:
         raise fail('duration', f'must be a positive number of seconds, at most '
                    f'{MAX_DURATION_S:g} (a day), got {duration!r}')
+    return float(duration)
 
+
+def _seeds(data: Mapping[Any, Any], fail: Fail) -> tuple[int, ...]:
+    """Return the runs' seeds (``seed:`` or ``seeds:``, default 0)."""
     seeds = data.get('seeds', [data.get('seed', 0)])
     if not isinstance(seeds, list) or not seeds:
         raise fail('seeds', f'must be a non-empty list of integers, got {described(seeds)}')
@@ -512,7 +363,11 @@ def scenario_from_dict(data: Any, name: str, path: Path | None = None) -> Scenar
                        f'integer parameter is int64), got {seed!r}')
     if len(set(seeds)) != len(seeds):
         raise fail('seeds', f'has repeated seeds: {seeds}')
+    return tuple(seeds)
 
+
+def _params(data: Mapping[Any, Any], fail: Fail) -> Mapping[Any, Any]:
+    """Return the parameters per node name."""
     params = data.get('params') or {}
     if not isinstance(params, Mapping):
         raise fail('params', f'must map node names to parameters, got {described(params)}')
@@ -524,14 +379,22 @@ def scenario_from_dict(data: Any, name: str, path: Path | None = None) -> Scenar
             if not _is_parameter_value(value):
                 raise fail(f'params.{node}.{parameter}', 'must be a bool, number, text or a '
                            f'list of one of them, got {described(value)}')
+    return params
 
+
+def _start(data: Mapping[Any, Any], fail: Fail) -> Any:
+    """Return the robot's start: None, 'mirrored' or (x m, y m, yaw rad)."""
     start = data.get('start')
     if start is not None and start != 'mirrored':
         if not (isinstance(start, list) and len(start) == 3
                 and all(map(is_number_not_nan, start))):
             raise fail('start', f"must be 'mirrored' or [x, y, yaw], got {start!r}")
         start = tuple(float(value) for value in start)
+    return start
 
+
+def _criteria(data: Mapping[Any, Any], fail: Fail) -> tuple[Any, ...]:
+    """Return the scenario's criteria, each parsed."""
     criteria = data['criteria']
     if not isinstance(criteria, list) or not criteria:
         raise fail('criteria', f'must be a non-empty list of criteria, got {described(criteria)}')
@@ -542,10 +405,19 @@ def scenario_from_dict(data: Any, name: str, path: Path | None = None) -> Scenar
                           else parse_criterion(text))
         except ValueError as error:
             raise fail(f'criteria[{index}]', str(error)) from None
+    return tuple(parsed)
 
+
+def _robot(data: Mapping[Any, Any], fail: Fail) -> str | None:
+    """Return the robot model spawned instead of the world's, or None."""
     robot = data.get('robot')
     if robot is not None and not (isinstance(robot, str) and robot):
         raise fail('robot', f'must be a robot model name, got {described(robot)}')
+    return robot
+
+
+def _remap(data: Mapping[Any, Any], fail: Fail) -> tuple[str, ...]:
+    """Return the ROS remapping rules for the target nodes."""
     remap = data.get('remap') or []
     if isinstance(remap, str):
         remap = [remap]
@@ -555,6 +427,11 @@ def scenario_from_dict(data: Any, name: str, path: Path | None = None) -> Scenar
         problem = remap_problem(rule)
         if problem is not None:
             raise fail(f'remap[{index}]', problem)
+    return tuple(remap)
+
+
+def _setpoint(data: Mapping[Any, Any], fail: Fail) -> Mapping[Any, Any]:
+    """Return the setpoints per metric (in their units)."""
     setpoint = data.get('setpoint') or {}
     if not isinstance(setpoint, Mapping):
         raise fail('setpoint', f'must map metrics to values, e.g. wall_distance_m: 0.5, got '
@@ -565,14 +442,22 @@ def scenario_from_dict(data: Any, name: str, path: Path | None = None) -> Scenar
         if not is_number_not_nan(value) or not math.isfinite(value):
             raise fail(f'setpoint.{metric}', f'must be a number ({SETPOINTS[metric]}), got '
                        f'{described(value)}')
+    return setpoint
 
+
+def _drive(data: Mapping[Any, Any], fail: Fail) -> tuple[Segment, ...]:
+    """Return the teleop's drive segments (empty: no driving)."""
     drive = ()
     if data.get('drive') is not None:
         try:
             drive = parse_drive(data['drive'])
         except DriveError as error:
             raise fail(None, str(error)) from None
+    return drive
 
+
+def _grading(data: Mapping[Any, Any], fail: Fail) -> tuple[str, Any, Any, str]:
+    """Return the description, task, marks and marking."""
     description = data.get('description', '')
     if not isinstance(description, str):
         raise fail('description', f'must be text, got {described(description)}')
@@ -591,15 +476,7 @@ def scenario_from_dict(data: Any, name: str, path: Path | None = None) -> Scenar
                    f'got {described(marking)}')
     if 'marking' in data and marks is None:
         raise fail('marking', 'says how runs become marks, but the scenario has no marks:')
-    return Scenario(name=name, path=path,
-                    world=_resolve(world, base, SCENARIO_SUFFIX),
-                    nodes=tuple(_resolve(node, base, '.py') for node in nodes),
-                    duration_s=float(duration), criteria=tuple(parsed), seeds=tuple(seeds),
-                    params={str(node): dict(values) for node, values in params.items()},
-                    start=start, description=description, robot=robot, remap=tuple(remap),
-                    setpoint={str(metric): float(value) for metric, value in setpoint.items()},
-                    drive=drive, task=str(task).strip() if task is not None else None,
-                    marks=float(marks) if marks is not None else None, marking=marking)
+    return description, task, marks, marking
 
 
 def load_scenarios(paths: list[str | os.PathLike]) -> list[Scenario]:
