@@ -7,8 +7,9 @@ import textwrap
 import pytest
 
 from sim_bridge.common.yaml_loader import FILE_LIMIT_BYTES
+from sim_bridge.grading.criteria import parse_criterion
 from sim_bridge.grading.scenario import (
-    load_scenario, load_scenarios, parse_criterion, ScenarioError, with_node_overrides)
+    load_scenario, load_scenarios, ScenarioError, with_node_overrides)
 from sim_bridge.runner.options import MAX_SEED
 from sim_bridge.runner.targets import target_name
 

@@ -22,7 +22,7 @@ import time
 
 from sim_bridge.common.run_environment import keep_dds_in_process
 from sim_bridge.grading.batch import grade_runs
-from sim_bridge.grading.isolate import PRELOADED
+from sim_bridge.grading.isolated_child import PRELOADED
 from sim_bridge.grading.runs import GradeJob, run_scenario
 from sim_bridge.grading.scenario import load_scenarios
 

@@ -29,7 +29,7 @@ from sim_bridge.common.paths import output_folder
 from sim_bridge.common.text import PathNames, printable
 from sim_bridge.grading import class_batch as grade_class, gradescope, html_report, marks
 from sim_bridge.grading.batch import BatchProgress, format_table, grade_runs, summary
-from sim_bridge.grading.isolate import (
+from sim_bridge.grading.limits import (
     BUDGET_BASE_S, BUDGET_PER_SIM_S, DEFAULT_MEMORY_BYTES, DEFAULT_STALL_S, Limits)
 from sim_bridge.grading.runs import (
     GradeJob, PAGE_NAME, REPORT_NAME, reuse_notes, RunReport, write_outputs, write_report)

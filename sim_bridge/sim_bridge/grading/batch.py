@@ -30,7 +30,8 @@ from typing import Any, TextIO
 from sim_bridge.common.text import (
     first_line, format_measured, one_line, PathNames, printable, reason)
 from sim_bridge.grading import marks
-from sim_bridge.grading.isolate import Child, Job, Limits
+from sim_bridge.grading.isolate import Child
+from sim_bridge.grading.limits import Job, Limits
 from sim_bridge.grading.runs import GradeJob, RESULT_NAME, RunReport
 from sim_bridge.grading.scenario import ScenarioRun
 from sim_bridge.runner.targets import split_target

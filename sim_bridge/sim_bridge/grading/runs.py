@@ -21,8 +21,9 @@ from typing import Any
 
 from sim_bridge.common.errors import RunError
 from sim_bridge.common.text import cap_text, json_safe, outcome, PathNames, printable
+from sim_bridge.grading.criteria import CriterionResult
 from sim_bridge.grading.marks import as_dict as marks_as_dict, TaskMarks
-from sim_bridge.grading.scenario import CriterionResult, ScenarioRun
+from sim_bridge.grading.scenario import ScenarioRun
 from sim_bridge.runner.run import run_simulation
 
 #: Each run's captured output (stdout and stderr of its process), in its folder.
