@@ -120,6 +120,22 @@ def limits_from(args: argparse.Namespace) -> Limits:
     return Limits(args.timeout, args.stall_timeout, round(args.memory_limit * 2 ** 30))
 
 
+def check_options(args: argparse.Namespace) -> None:
+    """Raise ValueError, saying why, when the command line's options do not go together."""
+    if args.jobs < 1:
+        raise ValueError('--jobs must be at least 1')
+    if args.submission is not None and args.submissions is not None:
+        raise ValueError('--submission grades one student and --submissions a class: '
+                         'give one of them')
+    if args.gradescope is not None and args.submissions is not None:
+        raise ValueError("--gradescope writes one submission's results: grade it with "
+                         '--submission DIR, not --submissions')
+    if args.submission is not None and not args.submission.is_dir():
+        raise ValueError(f'--submission {args.submission}: not a folder')
+    if args.video and args.no_record:
+        raise ValueError('--video is made from the recordings: drop --no-record')
+
+
 def main(argv: list[str] | None = None) -> int:
     """Grade the scenarios named on the command line; return 0 when every run passed."""
     args = build_parser().parse_args(argv)
@@ -134,18 +150,7 @@ def main(argv: list[str] | None = None) -> int:
                   file=sys.stderr)
             return 2
     try:
-        if args.jobs < 1:
-            raise ValueError('--jobs must be at least 1')
-        if args.submission is not None and args.submissions is not None:
-            raise ValueError('--submission grades one student and --submissions a class: '
-                             'give one of them')
-        if args.gradescope is not None and args.submissions is not None:
-            raise ValueError("--gradescope writes one submission's results: grade it with "
-                             '--submission DIR, not --submissions')
-        if args.submission is not None and not args.submission.is_dir():
-            raise ValueError(f'--submission {args.submission}: not a folder')
-        if args.video and args.no_record:
-            raise ValueError('--video is made from the recordings: drop --no-record')
+        check_options(args)
         limits = limits_from(args)
         scenarios = load_scenarios(args.scenarios)
         scenarios = with_node_overrides(scenarios, args.node_override)

@@ -2,10 +2,10 @@
 Find the workspace's worlds, models, scenarios and examples in a checkout or a colcon install.
 
 A source checkout (including a pip editable install) keeps ``worlds/``, ``models/``,
-``scenarios/`` and ``examples/`` at the repository's top level, three folders above this module. A colcon install has them in the
-package's share directory. Models are looked up the way Gazebo does (see
-:func:`model_search_path`): a world's own folder, Gazebo's resource paths, the users' model
-folders, and the kit's ``models/`` last.
+``scenarios/`` and ``examples/`` at the repository's top level, three folders above this
+module. A colcon install has them in the package's share directory. Models are looked up the
+way Gazebo does (see :func:`model_search_path`): a world's own folder, Gazebo's resource
+paths, the users' model folders, and the kit's ``models/`` last.
 """
 
 import os

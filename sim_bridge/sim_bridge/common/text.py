@@ -221,4 +221,3 @@ def count_cell(entries: list[dict[str, Any]]) -> tuple[str, str]:
     worst = max(outcomes, key=OUTCOMES.index)
     passed = outcomes.count('passed')
     return f'{passed}/{len(entries)}', '' if worst == 'passed' else worst
-

@@ -199,5 +199,3 @@ def _metric_names() -> list[str]:
     return [f'{key}.{sub}' if isinstance(kind, dict) else key
             for key, kind in METRIC_KINDS.items()
             for sub in (kind if isinstance(kind, dict) else [None])]
-
-

@@ -9,8 +9,8 @@ that the grader's scenarios use them without the runner reading the grader.
 from dataclasses import dataclass
 import math
 import os
-import sys
 from pathlib import Path
+import sys
 from typing import Any, Callable, Mapping, Sequence
 
 from rclpy.parameter import get_parameter_value, parameter_value_to_python

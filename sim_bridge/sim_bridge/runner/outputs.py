@@ -206,7 +206,7 @@ class RunOutputs:
     The skeleton a stepped and a process run share: watch, open the outputs, run, close, write.
 
     :meth:`watch` puts the observer, the recorder and the teleop on the run's simulator;
-    :meth:`open` starts the output folder and the recording. ``with outputs:`` around the run
+    :meth:`start` starts the output folder and the recording. ``with outputs:`` around the run
     closes the recording on the way out, and ends the run with its outputs written when the
     user's Ctrl-C (``interrupt``) or RunStopped (once the outputs are open) cut it short;
     :meth:`write` then writes them with the run's ``node_errors``, ``warnings`` and
@@ -232,7 +232,7 @@ class RunOutputs:
         self.recorder = RunRecorder(graph, self.observer, self.record, self.log)
         self.teleop = Teleop(graph, bridge, world, segments) if segments else None
 
-    def open(self, out_dir: Path, params_file: Path) -> None:
+    def start(self, out_dir: Path, params_file: Path) -> None:
         """Start the output folder and the recording (held messages first)."""
         self.bag = open_outputs(out_dir, params_file, self.record)
         self.recorder.record(self.bag)

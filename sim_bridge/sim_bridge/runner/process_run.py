@@ -289,7 +289,7 @@ def run_as_process(spec: RunSpec, prepared: PreparedRun, target: str,
                     bridge, executor = start_live_bridge(context, bridge_params_file)
                     outputs.watch(LiveGraph(bridge, executor), bridge, prepared.world,
                                   prepared.segments)
-                    outputs.open(prepared.out_dir, params_file)
+                    outputs.start(prepared.out_dir, params_file)
                     setpoint = run_node_process(spec, prepared, target, process, env, bridge,
                                                 executor, outputs)
                 finally:

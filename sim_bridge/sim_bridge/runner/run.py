@@ -377,7 +377,7 @@ def run_stepped(spec: RunSpec, prepared: PreparedRun, reason: str) -> RunResult:
                                 outputs.warn(warning)
                         if setpoint is None:
                             setpoint = run.parameter(SETPOINT_PARAMETER)
-                        outputs.open(prepared.out_dir, params_file)
+                        outputs.start(prepared.out_dir, params_file)
                         if start_failure is not None:
                             raise start_failure
                         pacing = Pacing(spec.duration_s, spec.gui, spec.progress)

@@ -36,7 +36,7 @@ import bisect
 from dataclasses import dataclass
 import math
 import re
-from typing import Any, Iterable, Mapping, Sequence
+from typing import Any, Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 from scan_pkg.laser import (
@@ -313,6 +313,34 @@ def _bearing_error(printed: float, truth: float) -> float:
     return abs(normalize_angle(printed - truth))
 
 
+def _lines_per_scan(kind: str, lines: Iterable[Mapping[str, Any]], times: Sequence[float],
+                    ignored: set[str], lateness_s: float, truth_of: Callable[[int], Any],
+                    cap: float) -> dict[int, list[tuple[list[Comparison], float | None]]]:
+    """
+    Return, per scan index, the comparisons (and printed bearing) of the lines about it.
+
+    A line is about the scan it matches best among those from ``lateness_s`` (s) before its
+    time ``t`` (s) to its time; of equal matches, the latest scan.
+    """
+    per_scan: dict[int, list[tuple[list[Comparison], float | None]]] = {}
+    for line in lines:
+        if line.get('node') in ignored or line.get('level') in IGNORED_LEVELS:
+            continue
+        values, bearing = _READERS[kind](str(line.get('text', '')))
+        if not values:
+            continue
+        time = float(line['t'])
+        last = bisect.bisect_right(times, time + TIME_SLACK_S) - 1
+        first = min(bisect.bisect_left(times, time - lateness_s - TIME_SLACK_S), last)
+        candidates = [(_compare_line(kind, values, truth_of(index), cap, line), index)
+                      for index in range(last, first - 1, -1)]
+        candidates = [(found, index) for found, index in candidates if found]
+        if candidates:
+            found, index = min(candidates, key=lambda item: max(c.error for c in item[0]))
+            per_scan.setdefault(index, []).append((found, bearing))
+    return per_scan
+
+
 def score_printed(kind: str, scans: Sequence[Any], lines: Iterable[Mapping[str, Any]], *,
                   cap: float = LAB_MAX_RANGE, ignore_nodes: Iterable[str] = (),
                   lateness_s: float = 0.0) -> dict[str, Any]:
@@ -344,23 +372,7 @@ def score_printed(kind: str, scans: Sequence[Any], lines: Iterable[Mapping[str, 
             truths[index] = _TRUTHS[kind](scan_of(scans[index]), cap)
         return truths[index]
 
-    per_scan: dict[int, list[tuple[list[Comparison], float | None]]] = {}
-    for line in lines:
-        if line.get('node') in ignored or line.get('level') in IGNORED_LEVELS:
-            continue
-        values, bearing = _READERS[kind](str(line.get('text', '')))
-        if not values:
-            continue
-        time = float(line['t'])
-        last = bisect.bisect_right(times, time + TIME_SLACK_S) - 1
-        first = min(bisect.bisect_left(times, time - lateness_s - TIME_SLACK_S), last)
-        candidates = [(_compare_line(kind, values, truth_of(index), cap, line), index)
-                      for index in range(last, first - 1, -1)]
-        candidates = [(found, index) for found, index in candidates if found]
-        if candidates:
-            # The best match; of equal ones, the latest scan.
-            found, index = min(candidates, key=lambda item: max(c.error for c in item[0]))
-            per_scan.setdefault(index, []).append((found, bearing))
+    per_scan = _lines_per_scan(kind, lines, times, ignored, lateness_s, truth_of, cap)
     comparisons: list[Comparison] = []
     bearing_errors: list[tuple[float, Comparison, float]] = []
     matched_lines = counted = missed = 0
