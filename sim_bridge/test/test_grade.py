@@ -21,6 +21,7 @@ from sim_bridge.common import paths
 from sim_bridge.common.text import TEXT_LIMIT_BYTES
 from sim_bridge.grading import batch
 from sim_bridge.grading.batch import BatchProgress, format_duration, format_table, summary
+from sim_bridge.grading.grader_state import ResultSigner
 from sim_bridge.grading.runs import GradeJob, run_scenario, write_report
 from sim_bridge.grading.scenario import scenario_from_dict
 
@@ -32,6 +33,8 @@ SCENARIO = {
 
 
 CALLS = []
+#: A signer of saved results with a key of the tests'.
+SIGNER = ResultSigner(bytes(32))
 
 
 def fake_simulate(world, targets, **options):
@@ -407,8 +410,8 @@ def test_a_scenario_with_inf_or_nan_is_saved_and_reported(tmp_path, params, star
     job = GradeJob(scenario.runs()[0], tmp_path / 'run')
     job.out_dir.mkdir()
     report = run_scenario(job.run, job.out_dir, simulate=fake_simulate)
-    batch.save_result(report, 'digest')
-    assert batch.finished_report(job, 'digest').passed
+    batch.save_result(report, 'digest', SIGNER)
+    assert batch.finished_report(job, 'digest', SIGNER).passed
     write_report([report], tmp_path / 'report.json')
     entry = json.loads((tmp_path / 'report.json').read_text())['runs'][0]
     assert [entry['params'], entry['start']] == shown
@@ -435,7 +438,7 @@ def test_a_result_file_of_the_wrong_shape_is_run_again_naming_the_file(
     job.out_dir.mkdir()
     (job.out_dir / batch.RESULT_NAME).write_text(saved)
     notes = []
-    assert batch.finished_report(job, 'digest', notes.append) is None
+    assert batch.finished_report(job, 'digest', SIGNER, notes.append) is None
     [note] = notes
     assert note.startswith(f'running box_ccw/seed_1 again: {job.out_dir / batch.RESULT_NAME} ')
     assert says in note

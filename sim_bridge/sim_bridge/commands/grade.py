@@ -20,15 +20,18 @@ import argparse
 from collections.abc import Callable, Iterable
 import os
 from pathlib import Path
+import resource
 import signal
 import sys
 import sysconfig
-from typing import Any
+import tempfile
+from typing import Any, IO
 
-from sim_bridge.common.paths import output_folder
+from sim_bridge.common.paths import output_folder, repo_root
 from sim_bridge.common.text import PathNames, printable
 from sim_bridge.grading import class_batch as grade_class, gradescope, html_report, marks
 from sim_bridge.grading.batch import BatchProgress, format_table, grade_runs, summary
+from sim_bridge.grading.grader_state import lock_out, OutInUse
 from sim_bridge.grading.limits import (
     BUDGET_BASE_S, BUDGET_PER_SIM_S, DEFAULT_MEMORY_BYTES, DEFAULT_STALL_S, Limits)
 from sim_bridge.grading.runs import (
@@ -38,6 +41,10 @@ from sim_bridge.media.video import render_video, VIDEO_NAME, VideoError
 
 
 DEFAULT_OUT = Path('out') / 'grade'
+#: The kit's folder: the source checkout, or the folder its package is installed in.
+KIT_ROOT = repo_root() or Path(__file__).resolve().parents[1]
+#: The largest address space setrlimit takes (bytes) where the hard limit is unlimited.
+MAX_ADDRESS_SPACE_BYTES = 2 ** 63 - 1
 
 
 def report_names(out: Path, submissions: Path | None = None,
@@ -46,15 +53,17 @@ def report_names(out: Path, submissions: Path | None = None,
     Return how reports name the grader's paths: relative to ``out`` and ``submissions``.
 
     The paths in the folders of the ``scenarios`` files and the current folder are relative
-    to them too, the home folder's start with ``~`` and the Python installation's with
-    ``<python>``: a report handed to a student carries none of the instructor's absolute
-    paths.
+    to them too, the home folder's start with ``~``, the Python installation's with
+    ``<python>``, the kit's with ``<kit>`` and the temporary folder's (the runs' scratch
+    folders) with ``<tmp>``: a report handed to a student carries none of the instructor's
+    absolute paths.
     """
     folders: dict[str | os.PathLike, str] = {out: ''}
     if submissions is not None:
         folders[submissions] = ''
     folders.update({path.parent: '' for path in scenarios})
-    folders.update({os.getcwd(): '', os.path.expanduser('~'): '~'})
+    folders.update({os.getcwd(): '', os.path.expanduser('~'): '~',
+                    tempfile.gettempdir(): '<tmp>', KIT_ROOT: '<kit>'})
     for key in ('purelib', 'platlib', 'stdlib', 'platstdlib'):
         folders.setdefault(sysconfig.get_path(key), '<python>')
     folders.setdefault(sys.prefix, '<python>')
@@ -117,7 +126,13 @@ def limits_from(args: argparse.Namespace) -> Limits:
         value = getattr(args, name)
         if value is not None and not 0 < value < float('inf'):
             raise ValueError(f"--{name.replace('_', '-')} must be a positive number, got {value}")
-    return Limits(args.timeout, args.stall_timeout, round(args.memory_limit * 2 ** 30))
+    memory_bytes = round(args.memory_limit * 2 ** 30)
+    _, hard = resource.getrlimit(resource.RLIMIT_AS)
+    highest = MAX_ADDRESS_SPACE_BYTES if hard == resource.RLIM_INFINITY else hard
+    if memory_bytes > highest:
+        raise ValueError(f'--memory-limit {args.memory_limit:g} GiB is more than this machine '
+                         f'can set as a limit ({highest / 2 ** 30:g} GiB)')
+    return Limits(args.timeout, args.stall_timeout, memory_bytes)
 
 
 def check_options(args: argparse.Namespace) -> None:
@@ -154,22 +169,14 @@ def main(argv: list[str] | None = None) -> int:
         limits = limits_from(args)
         scenarios = load_scenarios(args.scenarios)
         scenarios = with_node_overrides(scenarios, args.node_override)
+        out_lock = locked_out(args.out)  # held until the grader ends
         batch = (grade_class.ClassBatch(scenarios, args.submissions, args.out)
                  if args.submissions is not None else None)
     except (ValueError, OSError) as error:
         print(f'error: {error}', file=sys.stderr)
         failed_gradescope(args, str(error))
         return 2
-    missing: list[RunReport] = []
-    if batch is not None:
-        jobs = batch.jobs
-    elif args.submission is not None:
-        jobs, missing = grade_class.submission_runs(
-            scenarios, args.submission.resolve(), args.out,
-            args.submission.resolve().name or 'submission')
-    else:
-        jobs = [GradeJob(run, args.out / run.name)
-                for scenario in scenarios for run in scenario.runs()]
+    jobs, missing = batch_jobs(args, scenarios, batch)
     progress = BatchProgress(len(jobs), sum(job.run.scenario.duration_s for job in jobs),
                              enabled=not args.quiet)
     names = report_names(args.out, args.submissions or args.submission,
@@ -198,7 +205,8 @@ def main(argv: list[str] | None = None) -> int:
         if args.video:
             write_videos(jobs, args.names, progress.note)
         # Still interruptible: the reports are written again from the runs' saved results.
-        return write_reports(args, batch, reports, names, scenarios)
+        status = write_reports(args, batch, reports, names, scenarios)
+        return max(status, 1) if progress.faults else status
     except KeyboardInterrupt:
         failed_gradescope(args, f'the grading was stopped after {progress.done} of '
                           f'{len(jobs)} runs')
@@ -214,6 +222,29 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         for signum, handler in previous.items():
             signal.signal(signum, handler)
+        out_lock.close()
+
+
+def locked_out(out: Path) -> IO[bytes]:
+    """Return ``out``'s lock, taken (see lock_out); ValueError says in one line why it is not."""
+    try:
+        return lock_out(out)
+    except OutInUse as error:
+        raise ValueError(str(error)) from None
+    except OSError as error:
+        raise ValueError(f'--out {out}: cannot write: {error.strerror or error}') from None
+
+
+def batch_jobs(args: argparse.Namespace, scenarios: list[Scenario],
+               batch: grade_class.ClassBatch | None) -> tuple[list[GradeJob], list[RunReport]]:
+    """Return the runs to grade, and the failed runs of a submission's missing files."""
+    if batch is not None:
+        return batch.jobs, []
+    if args.submission is not None:
+        return grade_class.submission_runs(scenarios, args.submission.resolve(), args.out,
+                                           args.submission.resolve().name or 'submission')
+    return [GradeJob(run, args.out / run.name)
+            for scenario in scenarios for run in scenario.runs()], []
 
 
 def failed_gradescope(args: argparse.Namespace, why: str) -> None:

@@ -30,6 +30,7 @@ from typing import Any, TextIO
 from sim_bridge.common.text import (
     first_line, format_measured, one_line, PathNames, printable, reason)
 from sim_bridge.grading import marks
+from sim_bridge.grading.grader_state import ResultSigner
 from sim_bridge.grading.isolate import Child
 from sim_bridge.grading.limits import Job, Limits
 from sim_bridge.grading.runs import GradeJob, RESULT_NAME, RunReport
@@ -65,6 +66,8 @@ class BatchProgress:
         self.done_sim_s = 0.0
         self.resumed_sim_s = 0.0
         self.running: dict[str, float] = {}
+        #: What the grader could not do (an output not written): each said in one line.
+        self.faults: list[str] = []
         self.clock = clock
         self.wall_start = clock()
 
@@ -110,6 +113,11 @@ class BatchProgress:
         """Print a line above the bar (also when the progress is not shown: a warning)."""
         self._write(('\r\033[K' if self.live else '') + printable(line) + '\n')
         self._draw()
+
+    def fault(self, line: str) -> None:
+        """Print a line saying what the grader could not do; the batch then fails."""
+        self.faults.append(line)
+        self.note(f'error: {line}')
 
     def time_left_s(self) -> float | None:
         """Return the estimated wall seconds left (None before any pace is known)."""
@@ -177,18 +185,20 @@ def fingerprint(job: GradeJob, options: dict[str, Any], limits: Limits) -> str:
         digest.update(str(error).encode())
     node_files = [Path(split_target(node)[0]) for node in scenario.nodes]
     for path in (Path(scenario.path or ''), *world_files, *node_files):
-        if path.is_file():
-            digest.update(path.read_bytes())
+        if path.is_file():  # read in chunks: a file's size costs time, never memory
+            with open(path, 'rb') as file:
+                digest.update(hashlib.file_digest(file, 'sha256').digest())
     return digest.hexdigest()
 
 
-def finished_report(job: GradeJob, digest: str,
+def finished_report(job: GradeJob, digest: str, signer: ResultSigner,
                     note: Callable[[str], None] = print) -> 'RunReport | None':
     """
     Return the report of ``job`` from an earlier invocation, if it ran with ``digest``.
 
-    A result file that is there but is not one the grader wrote is named with ``note`` and
-    its run is run again.
+    Only a result signed by ``signer`` (the grader's key) is reused; one that is there but is
+    not one the grader wrote, or was changed since, is named with ``note`` and its run is run
+    again.
     """
     path = job.out_dir / RESULT_NAME
     try:
@@ -199,6 +209,7 @@ def finished_report(job: GradeJob, digest: str,
         note(f'running {job.name} again: {printable(str(path))} does not read as JSON '
              f'({first_line(str(error))})')
         return None
+    signature = saved.pop('signature', None) if isinstance(saved, dict) else None
     if isinstance(saved, dict) and saved.get('fingerprint') != digest:
         return None  # a result of other inputs: the run is due again
     try:
@@ -209,17 +220,44 @@ def finished_report(job: GradeJob, digest: str,
         note(f'running {job.name} again: {printable(str(path))} is not a run result '
              f'({error})')
         return None
+    if not signer.signs(job.out_dir, saved, signature):
+        note(f'running {job.name} again: {printable(str(path))} was changed since the grader '
+             'wrote it (its signature does not match)')
+        raise ResultRefused
     report.reused = True
     return report
 
 
-def save_result(report: 'RunReport', digest: str, names: PathNames | None = None) -> None:
-    """Write a finished run's report to its folder, whole or not at all (a Ctrl-C)."""
+class ResultRefused(Exception):
+    """A saved result does not match its signature: its run is run again, and reported so."""
+
+
+def save_result(report: 'RunReport', digest: str, signer: ResultSigner,
+                names: PathNames | None = None) -> None:
+    """Write a finished run's report to its folder, signed, whole or not at all (a Ctrl-C)."""
     path = report.out_dir / RESULT_NAME
     partial = path.with_suffix('.partial')
-    partial.write_text(json.dumps({'fingerprint': digest, 'report': report.as_dict(names)},
-                                  indent=2, allow_nan=False) + '\n', encoding='utf-8')
+    saved = json.loads(json.dumps({'fingerprint': digest, 'report': report.as_dict(names)},
+                                  allow_nan=False))  # signed as it will read back
+    saved['signature'] = signer.signature(report.out_dir, saved)
+    partial.write_text(json.dumps(saved, indent=2) + '\n', encoding='utf-8')
     partial.replace(path)
+
+
+def resumed(jobs: list[GradeJob], digests: list[str], signer: ResultSigner,
+            progress: BatchProgress) -> tuple[dict[int, RunReport], set[int]]:
+    """Return the reports of ``jobs`` finished earlier, and the jobs whose result was refused."""
+    reports, refused = {}, set()
+    for index, job in enumerate(jobs):
+        try:
+            report = finished_report(job, digests[index], signer, progress.note)
+        except ResultRefused:
+            refused.add(index)
+            continue
+        if report is not None:
+            reports[index] = report
+            progress.resume(report)
+    return reports, refused
 
 
 def grade_runs(jobs: list[GradeJob], *, workers: int = 1, limits: Limits = Limits(),
@@ -237,16 +275,10 @@ def grade_runs(jobs: list[GradeJob], *, workers: int = 1, limits: Limits = Limit
     running children and propagates; finished runs keep their results.
     """
     progress = progress or BatchProgress(len(jobs), enabled=False)
-    reports: dict[int, RunReport] = {}
+    signer = ResultSigner.of_grader(progress.note)
     digests = [fingerprint(job, options, limits) for job in jobs]
-    pending = []
-    for index, job in enumerate(jobs):
-        report = finished_report(job, digests[index], progress.note) if resume else None
-        if report is None:
-            pending.append(index)
-        else:
-            reports[index] = report
-            progress.resume(report)
+    reports, refused = (resumed(jobs, digests, signer, progress) if resume else ({}, set()))
+    pending = [index for index in range(len(jobs)) if index not in reports]
     # The longest runs first: the workers then finish at about the same time.
     pending.sort(key=lambda index: -jobs[index].run.scenario.duration_s)
     running: dict[int, Child] = {}
@@ -254,12 +286,12 @@ def grade_runs(jobs: list[GradeJob], *, workers: int = 1, limits: Limits = Limit
         while pending or running:
             while pending and len(running) < workers:
                 index = pending.pop(0)
-                job = jobs[index]
-                shutil.rmtree(job.out_dir, ignore_errors=True)
-                # The child works in a scratch folder: every path it gets is absolute.
-                run = ScenarioRun(job.run.scenario.absolute(), job.run.seed)
-                running[index] = Child(Job(run, job.out_dir.resolve(), limits, options))
-                progress.start(job.name)
+                started = start_child(jobs[index], limits, options, progress)
+                if isinstance(started, Child):
+                    running[index] = started
+                else:  # it could not start: the batch goes on without it
+                    reports[index] = started
+                    progress.finish(jobs[index].name, started)
             select.select(list(running.values()), [], [], POLL_S)
             for index, child in list(running.items()):
                 result = child.poll()
@@ -274,16 +306,41 @@ def grade_runs(jobs: list[GradeJob], *, workers: int = 1, limits: Limits = Limit
                     reports[index] = RunReport(job.run, job.out_dir, [], None,
                                                f'the run sent no usable report: {error}',
                                                time.monotonic() - child.started)
+                if child.log_failure is not None:
+                    progress.fault(f'cannot write {printable(str(child.log_path))}: '
+                                   f'{child.log_failure}')
+                reports[index].refused_saved = index in refused
                 try:
-                    save_result(reports[index], digests[index], names)
+                    save_result(reports[index], digests[index], signer, names)
                 except OSError as error:  # the run's report is still in the batch's
-                    progress.note(f'cannot save {printable(str(job.out_dir / RESULT_NAME))}: '
-                                  f'{error.strerror or error}')
+                    progress.fault(f'cannot save {printable(str(job.out_dir / RESULT_NAME))}: '
+                                   f'{error.strerror or error}')
                 progress.finish(job.name, reports[index])
     finally:
         for child in running.values():
             child.kill()
     return [reports[index] for index in range(len(jobs))]
+
+
+def start_child(job: GradeJob, limits: Limits, options: dict[str, Any],
+                progress: BatchProgress) -> 'Child | RunReport':
+    """
+    Start ``job``'s run in a child process; return it, or the report of why it cannot start.
+
+    A run whose folder cannot be written (a full or read-only disk) fails alone, and the
+    progress names it as a fault of the grader.
+    """
+    shutil.rmtree(job.out_dir, ignore_errors=True)
+    # The child works in a scratch folder: every path it gets is absolute.
+    run = ScenarioRun(job.run.scenario.absolute(), job.run.seed)
+    try:
+        child = Child(Job(run, job.out_dir.resolve(), limits, options))
+    except OSError as error:
+        why = f'cannot write {printable(str(job.out_dir))}: {error.strerror or error}'
+        progress.fault(f'{job.name} not run: {why}')
+        return RunReport(job.run, job.out_dir, [], None, f'the run could not start: {why}', 0.0)
+    progress.start(job.name)
+    return child
 
 
 def format_table(reports: Iterable[RunReport], *, failures_only: bool = False) -> str:

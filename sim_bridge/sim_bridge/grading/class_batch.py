@@ -18,6 +18,7 @@ from pathlib import Path
 
 from sim_bridge.common.text import count_cell, one_line, OUTCOME_LEGEND, PathNames, printable
 from sim_bridge.grading import html_report
+from sim_bridge.grading.isolate import format_bytes
 from sim_bridge.grading.marks import format_marks, task_marks, TaskMarks, total
 from sim_bridge.grading.runs import (
     GradeJob, PAGE_NAME, REPORT_NAME, reuse_notes, RunReport, write_outputs, write_report)
@@ -29,6 +30,8 @@ INDEX_NAME = 'index.html'
 #: The folder of ``--out`` holding a folder per student: no student's name can collide with
 #: the class's own outputs.
 STUDENTS_DIR = 'students'
+#: The largest node file a submission may hold (bytes): a lab's node is a few KiB of Python.
+NODE_FILE_LIMIT_BYTES = 2 ** 20
 
 
 class ClassBatch:
@@ -178,20 +181,36 @@ def submission_runs(scenarios: list[Scenario], source: Path, out: Path,
     jobs, missing = [], []
     for scenario in scenarios:
         files = {target_name(node): source / f'{target_name(node)}.py' for node in scenario.nodes}
-        absent = [path.name for path in files.values() if not path.is_file()]
+        why_not = unusable(list(files.values()), name)
         graded = scenario
         for node, path in files.items():
             # An existing file is taken as a file whatever its path holds (targets).
             graded = graded.with_node_override(f'{node}={os.path.abspath(path)}')
         for run in graded.runs():
             job = GradeJob(run, out / run.name, f'{name}/{run.name}')
-            if absent:
-                missing.append(RunReport(run, job.out_dir, [], None,
-                                         f"not submitted: no {', '.join(absent)} in {name}/",
-                                         0.0))
+            if why_not:
+                missing.append(RunReport(run, job.out_dir, [], None, why_not, 0.0))
             else:
                 jobs.append(job)
     return jobs, missing
+
+
+def unusable(files: list[Path], name: str) -> str | None:
+    """
+    Return why a submission's node ``files`` cannot be run, in one line, or None.
+
+    Sizes are checked before anything is read: a file over NODE_FILE_LIMIT_BYTES (a sparse
+    file of gigabytes) is never read by the grader.
+    """
+    absent = [path.name for path in files if not path.is_file()]
+    if absent:
+        return f"not submitted: no {', '.join(absent)} in {name}/"
+    for path in files:
+        size = path.stat().st_size
+        if size > NODE_FILE_LIMIT_BYTES:
+            return (f'node file too big: {path.name} is {format_bytes(size)}, over the '
+                    f'{format_bytes(NODE_FILE_LIMIT_BYTES)} a node file may be')
+    return None
 
 
 def write_csv(path: Path, rows: list[list[str]]) -> None:

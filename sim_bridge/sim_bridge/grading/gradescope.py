@@ -21,18 +21,24 @@ from collections.abc import Callable
 import json
 import os
 from pathlib import Path
+import re
 import stat
 from typing import Any
 import zipfile
 
 from sim_bridge.common.paths import WORLD_FILE_SUFFIXES, world_names
 from sim_bridge.common.text import cap_text, PathNames, printable, reason
+from sim_bridge.grading.isolate import trimmed_environment
 from sim_bridge.grading.marks import format_marks, summary as marks_summary, task_marks, total
 from sim_bridge.grading.runs import RunReport
 from sim_bridge.grading.scenario import load_scenarios, Scenario, ScenarioError
 
 #: The most bytes of one test's output in results.json (the reason, the table, tracebacks).
 OUTPUT_LIMIT_BYTES = 8 * 1024
+#: The shortest value of the grader's environment taken for a secret (characters), and what
+#: stands for a secret in results.json.
+SECRET_MIN_CHARS = 8
+HIDDEN = '<hidden>'
 #: The failed runs whose reasons a test's output lists before its table.
 REASONS_SHOWN = 3
 #: What the zip carries of the kit, relative to the workspace's top.
@@ -91,6 +97,33 @@ exit 0
 """
 
 
+class StudentNames(PathNames):
+    """
+    What a student may read of the grader's texts: ``names``' paths, and no grader secret.
+
+    Each value of the grader's environment that a run is not given (a token, a key: see
+    :func:`sim_bridge.grading.isolate.trimmed_environment`) and that is SECRET_MIN_CHARS or
+    longer is replaced by HIDDEN wherever it appears, a run's own output included (a node can
+    read its process's first environment in ``/proc/self/environ``).
+    """
+
+    def __init__(self, names: PathNames, environ: dict[str, str] | None = None) -> None:
+        super().__init__(names.folders)
+        environ = os.environ if environ is None else environ
+        given = trimmed_environment(Path('.'), environ)
+        hidden = sorted({value for name, value in environ.items()
+                         if name not in given and len(value) >= SECRET_MIN_CHARS
+                         and os.path.abspath(value) not in names.folders},
+                        key=len, reverse=True)
+        self.secrets = re.compile('|'.join(map(re.escape, hidden))) if hidden else None
+
+    def __call__(self, text: str) -> str:
+        """Return ``text`` without the grader's secrets, its folders named (see PathNames)."""
+        if self.secrets is not None:
+            text = self.secrets.sub(HIDDEN, text)
+        return super().__call__(text)
+
+
 def results(reports: list[RunReport], scenarios: list[Scenario],
             table: Callable[[list[RunReport]], str], names: PathNames | None = None,
             notes: list[str] = ()) -> dict[str, Any]:
@@ -103,7 +136,7 @@ def results(reports: list[RunReport], scenarios: list[Scenario],
     runs failed, how the task is marked and the runs' ``table`` (grade's pass/fail table),
     without the grader's paths (``names``), cut to OUTPUT_LIMIT_BYTES.
     """
-    names = names or PathNames({})
+    names = StudentNames(names or PathNames({}))
     entries = [report.as_dict(names) for report in reports]
     tasks = task_marks(scenarios, entries)
     tests = []
@@ -148,6 +181,7 @@ def tracebacks(reports: list[RunReport], names: PathNames) -> list[str]:
 
 def failed_results(why: str) -> dict[str, Any]:
     """Return the results of a submission that could not be graded: 0, and why."""
+    why = StudentNames(PathNames({}))(why)
     return {'score': 0.0, 'output': f'The submission could not be graded: {printable(why)}',
             'output_format': 'text', 'tests': []}
 

@@ -25,10 +25,16 @@ SIGABRT (faulthandler writes every thread's Python stack to the log), then is ki
 that dies without a result (``os._exit``, a segfault, the kernel's OOM killer) fails with its
 exit status or signal and the end of its log.
 
+A run stopped by a signal (SIGSTOP, SIGTSTP: its own, or anyone's) is not stalled: only its
+wall-clock budget ends it, and then its supervisor is continued and told to end it. A run that
+still has not ended a while after that is killed (SIGKILL): the batch never waits on it.
+
 Nothing outlives the grader: the supervisor gets SIGTERM when the fork server dies, which it
 does when the grader dies, however (SIGKILL included); the run is killed with its supervisor.
-The scratch folders are named after the grader's process id, and a grader removes those of
-graders no longer running when it starts a run.
+Each scratch folder holds a lock file that its grader holds (``fcntl.flock``) as long as it uses
+the folder; a grader that starts a run removes the scratch folders whose lock it can take: those
+of graders that have ended, whatever their process ids now name (a reused pid, another pid
+namespace on a shared machine).
 """
 
 import fcntl
@@ -38,21 +44,22 @@ import multiprocessing.context
 import multiprocessing.forkserver
 import os
 from pathlib import Path
-import re
 import select
 import shutil
 import signal
 import tempfile
 import time
-from typing import Any
+from typing import Any, IO
 
-from sim_bridge.grading.isolated_child import fork_server, process_exists, run_child
+from sim_bridge.grading.isolated_child import fork_server, process_stats, run_child
 from sim_bridge.grading.limits import Job
 from sim_bridge.grading.runs import LOG_NAME
 
-#: Wall seconds a stopped run gets to write its outputs, and a SIGABRT for its stack dump.
+#: Wall seconds a stopped run gets to write its outputs, a SIGABRT for its stack dump, and its
+#: supervisor to end it before it is killed.
 GRACE_S = 10.0
 ABORT_GRACE_S = 2.0
+END_GRACE_S = 5.0
 #: A run's log.txt keeps at most this many bytes of the beginning of its output (rclpy's and
 #: the nodes' start-up lines, the first of a flood of warnings) and of its end (the traceback,
 #: the stacks of a stopped run, the last lines before a crash); a line between them says how
@@ -75,9 +82,15 @@ KEPT_VARIABLES = ('PATH', 'LANG', 'LANGUAGE', 'TZ', 'PYTHONPATH', 'PYTHONHASHSEE
                   'GZ_SIM_RESOURCE_PATH', 'IGN_GAZEBO_RESOURCE_PATH', 'GAZEBO_MODEL_PATH',
                   'GAZEBO_RESOURCE_PATH')
 KEPT_PREFIXES = ('LC_', 'ROS_', 'RMW_', 'RCUTILS_', 'FASTRTPS_', 'FASTDDS_', 'OPENBLAS_')
-#: Scratch folders are ``lab-grade-<grader's pid>-<random>`` in the temporary folder.
+#: Scratch folders are ``lab-grade-<grader's pid>-<random>`` in the temporary folder, each
+#: with the lock file its grader holds while it uses it.
 SCRATCH_PREFIX = 'lab-grade-'
-SCRATCH_NAME = re.compile(re.escape(SCRATCH_PREFIX) + r'(\d+)-[a-z0-9_]+')
+SCRATCH_LOCK = '.grader.lock'
+#: Wall seconds after which a scratch folder without a lock file (its grader ended while
+#: making it) is a leftover; a younger one is being made.
+UNLOCKED_SCRATCH_AGE_S = 3600.0
+#: Process states (/proc/<pid>/stat) of a process stopped by a signal or a tracer.
+STOPPED_STATES = (b'T', b't')
 
 
 def trimmed_environment(scratch: Path, environ: dict[str, str] | None = None) -> dict[str, str]:
@@ -191,8 +204,13 @@ class Child:
         job.out_dir.mkdir(parents=True, exist_ok=True)
         self.log_path = job.out_dir / LOG_NAME
         self.log = CappedLog(self.log_path)
+        #: Why the log could not be written (a full disk), or None.
+        self.log_failure: str | None = None
+        self.halted = False
+        self.ended_at: float | None = None
         remove_leftover_scratch()
         self.scratch = Path(tempfile.mkdtemp(prefix=f'{SCRATCH_PREFIX}{os.getpid()}-'))
+        self.scratch_lock = hold_scratch(self.scratch)
         context = fork_server()
         self.pipe, writer = context.Pipe(duplex=False)
         # A pipe, not a file, takes the child's output: the grader writes what fits the cap
@@ -246,7 +264,11 @@ class Child:
             if not data:
                 self.unregister(self.output)
                 return
-            self.log.write(data)
+            if self.log_failure is None:
+                try:
+                    self.log.write(data)
+                except OSError as error:  # a full disk: the run goes on, its log is cut
+                    self.log_failure = error.strerror or str(error)
 
     def unregister(self, connection: multiprocessing.connection.Connection) -> None:
         """Stop watching a closed pipe (select would find it readable for ever)."""
@@ -269,16 +291,30 @@ class Child:
         return report
 
     def enforce_limits(self, now: float) -> None:
-        """Ask a child over a limit to stop; abort, then end, a run that does not."""
+        """Ask a child over a limit to stop; abort, end, then kill a run that does not."""
+        stall_s = self.job.limits.stall_limit_s(self.sim_s is not None)
         if self.stop_reason is None:
             if now - self.started > self.budget_s:
-                self.stop(signal.SIGUSR2, f'wall-clock budget of {self.budget_s:g} s used up')
-            elif now - self.progressed > self.job.limits.stall_limit_s(self.sim_s is not None):
-                self.stop(signal.SIGUSR1, 'no reply for '
-                          f'{self.job.limits.stall_limit_s(self.sim_s is not None):g} s')
+                reason = f'wall-clock budget of {self.budget_s:g} s used up'
+                if stopped_group(self.process.pid):
+                    # Stopped, it can write nothing: its supervisor ends it now.
+                    self.stop_reason = f'{reason}; the run was stopped (SIGSTOP) and never ' \
+                        'went on'
+                    self.stop_sent_at = now - GRACE_S - ABORT_GRACE_S
+                    self.aborted = self.halted = True
+                else:
+                    self.stop(signal.SIGUSR2, reason)
+            elif now - self.progressed > stall_s:
+                if stopped_group(self.process.pid):  # not stalled: its budget decides
+                    self.progressed = now
+                else:
+                    self.stop(signal.SIGUSR1, f'no reply for {stall_s:g} s')
         elif not self.aborted and now - self.stop_sent_at > GRACE_S:
             self.aborted = True
             self.signal(signal.SIGABRT)
+        elif now - self.stop_sent_at > GRACE_S + ABORT_GRACE_S + END_GRACE_S:
+            self.signal(signal.SIGKILL)  # the supervisor does not end it: nothing waits on it
+            self.kill_supervisor()
         elif now - self.stop_sent_at > GRACE_S + ABORT_GRACE_S:
             self.end()
 
@@ -299,16 +335,30 @@ class Child:
                     pass
 
     def end(self) -> None:
-        """Have the supervisor kill the run and everything it started (see :func:`run_child`)."""
+        """
+        Have the supervisor kill the run and everything it started (see :func:`run_child`).
+
+        The supervisor is continued first: a run may have stopped its whole process group.
+        """
+        for signum in (signal.SIGCONT, signal.SIGTERM):
+            try:
+                os.kill(self.process.pid, signum)
+            except ProcessLookupError:
+                pass
+
+    def kill_supervisor(self) -> None:
+        """Kill the supervisor (its run dies with it: its parent-death signal is SIGKILL)."""
         try:
-            os.kill(self.process.pid, signal.SIGTERM)
+            os.kill(self.process.pid, signal.SIGKILL)
         except ProcessLookupError:
             pass
 
     def failure(self) -> dict[str, Any]:
         """Return the report of a child that ended without a result."""
         reason = exit_reason(self.process.exitcode)
-        if self.stop_reason is not None:
+        if self.halted and self.stop_reason is not None:
+            reason = f'{self.stop_reason} ({reason})'
+        elif self.stop_reason is not None:
             reason = f'{self.stop_reason}; the run did not stop when asked ({reason})'
         self.finish_log()
         return {'error': reason, 'traceback': log_tail(self.log_path), 'metrics': None,
@@ -326,7 +376,11 @@ class Child:
         if not self.log.file.closed:
             # Bounded: a process that escaped the supervisor may still hold the pipe.
             self.read_output(chunks=2 + LOG_TAIL_BYTES // OUTPUT_CHUNK_BYTES)
-            self.log.close()
+            try:
+                self.log.close()
+            except OSError as error:
+                self.log_failure = self.log_failure or error.strerror or str(error)
+                self.log.file.close()
 
     def close(self) -> None:
         """Kill what is left of the process group, close the pipes, remove the scratch folder."""
@@ -337,16 +391,50 @@ class Child:
         self.output.close()
         self.events.close()
         shutil.rmtree(self.scratch, ignore_errors=True)
+        self.scratch_lock.close()
+
+
+def hold_scratch(folder: Path) -> IO[bytes]:
+    """Take the lock of a scratch folder made by this grader; return it (keep it open)."""
+    lock = open(folder / SCRATCH_LOCK, 'wb')
+    fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    return lock
 
 
 def remove_leftover_scratch(folder: str | None = None) -> None:
-    """Remove the scratch folders that graders no longer running left in ``folder``."""
+    """
+    Remove the scratch folders in ``folder`` that no grader uses: those whose lock is free.
+
+    A folder without its lock file is removed once older than UNLOCKED_SCRATCH_AGE_S.
+    """
     folder = folder or tempfile.gettempdir()
     try:
         names = os.listdir(folder)
     except OSError:
         return
     for name in names:
-        match = SCRATCH_NAME.fullmatch(name)
-        if match and not process_exists(int(match.group(1))):
-            shutil.rmtree(os.path.join(folder, name), ignore_errors=True)
+        path = os.path.join(folder, name)
+        if not name.startswith(SCRATCH_PREFIX) or os.path.islink(path):
+            continue
+        try:
+            lock = open(os.path.join(path, SCRATCH_LOCK), 'rb')
+        except FileNotFoundError:
+            try:
+                if time.time() - os.lstat(path).st_mtime > UNLOCKED_SCRATCH_AGE_S:
+                    shutil.rmtree(path, ignore_errors=True)
+            except OSError:
+                pass
+            continue
+        except OSError:
+            continue
+        with lock:
+            try:
+                fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError:  # a live grader holds it
+                continue
+            shutil.rmtree(path, ignore_errors=True)
+
+
+def stopped_group(group: int) -> bool:
+    """Tell whether a process of process group ``group`` is stopped (by a signal or tracer)."""
+    return any(stat.pgrp == group and stat.state in STOPPED_STATES for stat in process_stats())

@@ -22,7 +22,7 @@ import sysconfig
 import threading
 import time
 import traceback
-from typing import Any
+from typing import Any, Iterator, NamedTuple
 
 from sim_bridge.common.errors import RunStopped
 from sim_bridge.grading.limits import Job
@@ -148,22 +148,33 @@ def wait_for(pid: int) -> int:
             return os.waitstatus_to_exitcode(status)
 
 
-def children() -> list[int]:
-    """Return the process ids of the processes whose parent is this one (read from /proc)."""
-    parent = os.getpid()
-    found = []
+class ProcessStat(NamedTuple):
+    """What /proc/<pid>/stat says of a process: its id, state, parent and process group."""
+
+    pid: int
+    state: bytes
+    ppid: int
+    pgrp: int
+
+
+def process_stats() -> Iterator[ProcessStat]:
+    """Yield the state, parent and process group of every process (read from /proc)."""
     for entry in os.listdir('/proc'):
         if not entry.isdigit():
             continue
         try:
             with open(f'/proc/{entry}/stat', 'rb') as stat:
-                # pid (command) state ppid ...: the command may hold spaces and parentheses.
-                ppid = int(stat.read().rpartition(b')')[2].split()[1])
-        except (OSError, IndexError, ValueError):  # it ended meanwhile
+                # pid (command) state ppid pgrp ...: the command may hold spaces and parentheses.
+                state, ppid, pgrp = stat.read().rpartition(b')')[2].split()[:3]
+            yield ProcessStat(int(entry), state, int(ppid), int(pgrp))
+        except (OSError, ValueError):  # it ended meanwhile
             continue
-        if ppid == parent:
-            found.append(int(entry))
-    return found
+
+
+def children() -> list[int]:
+    """Return the process ids of the processes whose parent is this one."""
+    parent = os.getpid()
+    return [stat.pid for stat in process_stats() if stat.ppid == parent]
 
 
 def end_descendants() -> None:

@@ -50,6 +50,8 @@ class RunReport:
     traceback: str | None = None
     #: True when the run was finished by an earlier invocation and its result read back.
     reused: bool = False
+    #: True when an earlier invocation's result was there but changed since (run again).
+    refused_saved: bool = False
 
     @property
     def passed(self) -> bool:
@@ -213,6 +215,13 @@ def reuse_notes(reports: list[RunReport], out: Path) -> list[str]:
     if reused:
         notes.append(f'{reused} of {len(reports)} runs reused from an earlier invocation into '
                      'this folder (their inputs did not change; --fresh runs them again)')
+    refused = [report.run.name for report in reports if report.refused_saved]
+    if refused:
+        shown = ', '.join(printable(name) for name in refused[:3])
+        notes.append(f'1 saved result was run again: it was changed since the grader wrote it '
+                     f'({shown})' if len(refused) == 1 else
+                     f'{len(refused)} saved results were run again: they were changed since '
+                     f"the grader wrote them ({shown}{', ...' if len(refused) > 3 else ''})")
     ours = {os.path.abspath(report.out_dir) for report in reports}
     others = sorted(os.path.relpath(path.parent, out) for path in out.rglob(RESULT_NAME)
                     if os.path.abspath(path.parent) not in ours)

@@ -1,0 +1,214 @@
+"""
+The grader's own process survives any submission and any fault of the machine (issue 24, §4).
+
+A huge node file, a full disk, a read-only ``--out``, a second grader on the same ``--out`` and
+absurd limits each fail in one clear line, with a non-zero exit, and every output that can be
+written is written. Each grader here is a real ``python -m sim_bridge.grade`` (or its ``main``)
+grading real runs of a small node.
+"""
+
+import contextlib
+import errno
+import json
+import os
+from pathlib import Path
+import resource
+import shutil
+import subprocess
+import sys
+import time
+
+import pytest
+
+from sim_bridge.commands import grade
+from sim_bridge.grading import isolate
+from sim_bridge.grading.class_batch import CSV_NAME
+
+FIXTURES = Path(__file__).resolve().parent / 'fixtures'
+MOVER = FIXTURES / 'function_node.py'
+HELPER_STARTER = FIXTURES / 'helper_process_node.py'
+#: Wall seconds a test waits for a grader (it starts rclpy and pybullet in its runs).
+WAIT_S = 180.0
+QUICK = ('--no-record', '--no-plot', '--quiet')
+
+
+def scenario_file(folder: Path, node: str = 'scan_ahead', duration: float = 1.0,
+                  name: str = 'quick', extra: str = '') -> Path:
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / f'{name}.yaml'
+    path.write_text(f'world: obstacles\nnodes: [{node}]\nduration: {duration}\nseed: 1\n'
+                    f'criteria: [len(node_errors) == 0]\n{extra}')
+    return path
+
+
+def class_folder(folder: Path, **students: Path | None) -> Path:
+    """Make a class: each student's scan_ahead.py a copy of a file, or a 3 GB sparse file."""
+    for student, source in students.items():
+        (folder / student).mkdir(parents=True)
+        node = folder / student / 'scan_ahead.py'
+        if source is None:
+            with open(node, 'wb') as file:
+                file.truncate(3 * 2 ** 30)  # sparse: costs no disk
+        else:
+            shutil.copy(source, node)
+    return folder
+
+
+def run_grader(*args: str, env: dict | None = None, memory_bytes: int | None = None,
+               timeout: float = WAIT_S) -> subprocess.CompletedProcess:
+    """Run ``python -m sim_bridge.grade ARGS`` to its end, its address space bounded if asked."""
+    def bound() -> None:
+        if memory_bytes is not None:
+            resource.setrlimit(resource.RLIMIT_AS, (memory_bytes, memory_bytes))
+
+    return subprocess.run([sys.executable, '-m', 'sim_bridge.grade', *args], env=env,
+                          capture_output=True, text=True, timeout=timeout, preexec_fn=bound)
+
+
+def said(stderr: str) -> list[str]:
+    """Return the grader's lines on stderr (pybullet's banner left out)."""
+    return [line for line in stderr.splitlines() if not line.startswith('pybullet build time')]
+
+
+def assert_one_line_errors(stderr: str) -> None:
+    assert 'Traceback' not in stderr, stderr
+    assert 'MemoryError' not in stderr, stderr
+
+
+def test_a_huge_node_file_fails_its_student_in_one_line_and_the_class_is_graded(tmp_path):
+    scenario = scenario_file(tmp_path / 'scenarios')
+    submissions = class_folder(tmp_path / 'class', ana=None, bob=MOVER)
+    out = tmp_path / 'out'
+    # A grader bounded to 4 GiB of address space: reading the 3 GB file whole would fail.
+    done = run_grader(str(scenario), '--submissions', str(submissions), '--out', str(out),
+                      *QUICK, memory_bytes=4 * 2 ** 30)
+    assert_one_line_errors(done.stderr)
+    assert done.returncode == 0, done.stderr  # a student's failure, not the grader's
+    rows = (out / CSV_NAME).read_text().splitlines()
+    assert rows[1:] == ['ana,0/1 error,0/1 error', 'bob,1/1,1/1'], rows
+    [run] = json.loads((out / 'students' / 'ana' / 'report.json').read_text())['runs']
+    assert run['error'] == ('node file too big: scan_ahead.py is 3.0 GiB, over the 1.0 MiB a '
+                            'node file may be')
+
+
+def test_absurd_limits_are_refused_in_one_line_before_any_run(tmp_path, monkeypatch, capsys):
+    monkeypatch.setattr(grade, 'grade_runs', lambda *args, **options: pytest.fail('ran'))
+    status = grade.main([str(scenario_file(tmp_path)), '--out', str(tmp_path / 'out'),
+                         '--memory-limit', '1e12', *QUICK])
+    [line] = capsys.readouterr().err.splitlines()
+    assert status == 2
+    assert line.startswith('error: --memory-limit 1e+12 GiB is more than this machine can '
+                           'set as a limit'), line
+
+
+def started(log: Path) -> bool:
+    return log.is_file() and 'helper pid' in log.read_text(errors='replace')
+
+
+def wait_until(condition, timeout_s: float = WAIT_S) -> bool:
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if condition():
+            return True
+        time.sleep(0.1)
+    return False
+
+
+@contextlib.contextmanager
+def hanging_grader(tmp_path: Path, out: Path):
+    """A grader whose one run hangs (until it is killed) on ``out``, once its run started."""
+    scenario = scenario_file(tmp_path / 'hang', str(HELPER_STARTER), 5.0, 'hang',
+                             'params: {helper_starter: {how: hang}}\n')
+    (tmp_path / 'tmp').mkdir(exist_ok=True)
+    with open(tmp_path / 'first.txt', 'w') as stderr:
+        first = subprocess.Popen(
+            [sys.executable, '-m', 'sim_bridge.grade', str(scenario), '--out', str(out),
+             '--stall-timeout', '600', *QUICK],
+            env={**os.environ, 'TMPDIR': str(tmp_path / 'tmp')},
+            stdout=subprocess.DEVNULL, stderr=stderr)
+    try:
+        assert wait_until(lambda: started(out / 'hang' / 'seed_1' / isolate.LOG_NAME)), (
+            (tmp_path / 'first.txt').read_text())
+        yield first
+    finally:
+        first.kill()
+        first.wait()
+
+
+def test_a_second_grader_on_the_same_out_is_refused_naming_the_first(tmp_path):
+    out = tmp_path / 'out'
+    with hanging_grader(tmp_path, out) as first:
+        second = run_grader(str(scenario_file(tmp_path / 'scenarios')), '--out', str(out),
+                            '--timeout', '5', *QUICK)
+        assert second.returncode == 2, second.stderr
+        assert said(second.stderr) == [f'error: --out {out} is in use by another grader (pid '
+                                       f'{first.pid}): wait for it to finish, or give another '
+                                       '--out']
+        assert first.poll() is None
+        assert started(out / 'hang' / 'seed_1' / isolate.LOG_NAME)  # its run's log is intact
+
+
+@pytest.fixture
+def small_disk(tmp_path):
+    """Mount a 1 MiB tmpfs (root only); yield its folder."""
+    folder = tmp_path / 'disk'
+    folder.mkdir()
+    mounted = subprocess.run(['mount', '-t', 'tmpfs', '-o', 'size=1m', 'tmpfs', str(folder)],
+                             capture_output=True)
+    if mounted.returncode != 0:
+        pytest.skip('cannot mount a tmpfs here (needs root)')
+    try:
+        yield folder
+    finally:
+        subprocess.run(['umount', '-l', str(folder)], check=True)
+
+
+def test_a_read_only_out_is_one_line_and_gradescope_still_gets_its_results(tmp_path,
+                                                                           small_disk):
+    subprocess.run(['mount', '-o', 'remount,ro', str(small_disk)], check=True)
+    results = tmp_path / 'results.json'
+    done = run_grader(str(scenario_file(tmp_path / 'scenarios')), '--out',
+                      str(small_disk / 'out'), '--submission',
+                      str(class_folder(tmp_path / 'class', ana=MOVER) / 'ana'),
+                      '--gradescope', str(results), *QUICK)
+    assert done.returncode == 2
+    assert said(done.stderr) == [f'error: --out {small_disk / "out"}: cannot write: Read-only '
+                                 'file system']
+    assert 'Read-only file system' in results.read_text()
+
+
+def test_a_full_disk_fails_the_runs_in_one_line_each_and_no_traceback(tmp_path, small_disk):
+    with open(small_disk / 'filler', 'wb') as filler:
+        with pytest.raises(OSError) as full:
+            filler.write(b'x' * 2 ** 21)
+            filler.flush()
+    assert full.value.errno == errno.ENOSPC
+    results = tmp_path / 'results.json'
+    done = run_grader(str(scenario_file(tmp_path / 'scenarios')), '--out',
+                      str(small_disk / 'out'), '--submissions',
+                      str(class_folder(tmp_path / 'class', ana=MOVER, bob=MOVER)), *QUICK)
+    assert_one_line_errors(done.stderr)
+    assert done.returncode == 1, done.stderr
+    assert 'No space left on device' in done.stderr
+    del results
+
+
+def test_a_disk_that_fills_during_the_runs_costs_those_runs_only(tmp_path, monkeypatch,
+                                                                 capfd):
+    written = []
+
+    def full_disk_log(self, data):  # the first run's log fills the disk
+        written.append(data)
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(isolate.CappedLog, 'write', full_disk_log)
+    out = tmp_path / 'out'
+    status = grade.main([str(scenario_file(tmp_path / 'scenarios')), '--submissions',
+                         str(class_folder(tmp_path / 'class', ana=MOVER, bob=MOVER)),
+                         '--out', str(out), *QUICK])
+    captured = capfd.readouterr()
+    assert_one_line_errors(captured.err)
+    assert written and status == 1
+    rows = (out / CSV_NAME).read_text().splitlines()
+    assert len(rows) == 3
+    assert 'No space left on device' in captured.err
