@@ -105,8 +105,9 @@ class PathNames:
     Replace the grader's absolute folders in texts by names a report's reader knows.
 
     ``folders`` maps a folder to what stands for it (``''`` for a path relative to it,
-    ``'~'``); the longest folder wins. ``relative('/out/ana/x')`` with ``{'/out': ''}`` gives
-    ``'ana/x'``; the folder itself gives ``'.'``.
+    ``'~'``); the longest folder wins, and only where its name ends (not ``/out2`` for
+    ``/out``). ``relative('/out/ana/x')`` with ``{'/out': ''}`` gives ``'ana/x'``; the folder
+    itself gives ``'.'``.
     """
 
     def __init__(self, folders: dict[str | os.PathLike, str]) -> None:
@@ -117,7 +118,7 @@ class PathNames:
                 self.folders.setdefault(folder, name)
         ordered = sorted(self.folders, key=len, reverse=True)
         self.pattern = re.compile(
-            f"(?:{'|'.join(map(re.escape, ordered))})(?P<slash>/+|(?=[\\s'\",:;)\\]]|$))"
+            f"(?:{'|'.join(map(re.escape, ordered))})(?P<slash>/+|(?![\\w.@%+~-]))"
         ) if ordered else None
 
     def __call__(self, text: str) -> str:
