@@ -27,7 +27,7 @@ import pytest
 
 from sim_bridge.commands import grade
 from sim_bridge.common.paths import repo_root
-from sim_bridge.grading import isolate
+from sim_bridge.grading import grader_state, isolate
 from sim_bridge.grading.batch import BatchProgress, grade_runs
 from sim_bridge.grading.class_batch import CSV_NAME
 from sim_bridge.grading.runs import GradeJob, RESULT_NAME, reuse_notes
@@ -371,3 +371,39 @@ def test_gradescopes_output_holds_no_secret_and_no_instructor_path(tmp_path):
                  Path(tempfile.gettempdir()) / isolate.SCRATCH_PREFIX):
         assert str(path) not in text, path
     assert 'RuntimeError' in text  # the student's own error is shown
+
+
+def test_a_videos_world_and_length_come_from_the_graders_records_not_the_runs_folder(
+        tmp_path):
+    import imageio_ffmpeg
+    scenario = scenario_file(tmp_path / 'scenarios', str(MOVER), 2.0, 'filmed')
+    out = tmp_path / 'out'
+    assert grade.main([str(scenario), '--out', str(out), '--no-plot', '--quiet',
+                       '--video']) == 0
+    # What a run could write in its folder: a far longer run, in a world of its choosing.
+    folder = out / 'filmed' / 'seed_1'
+    metrics = json.loads((folder / 'metrics.json').read_text())
+    (folder / 'metrics.json').write_text(json.dumps({**metrics, 'sim_time_s': 30.0}))
+    params = folder / 'params.yaml'
+    params.write_text(params.read_text().replace('obstacles', str(tmp_path / 'bomb.world')))
+    (folder / 'video.mp4').unlink()
+    assert grade.main([str(scenario), '--out', str(out), '--no-plot', '--quiet',
+                       '--video']) == 0
+    frames = imageio_ffmpeg.count_frames_and_secs(str(folder / 'video.mp4'))[0]
+    assert frames == 20  # 2 s of the scenario at 10 frames a second
+
+
+def test_the_signing_key_is_the_graders_alone_and_binds_a_result_to_its_folder(tmp_path):
+    state = grader_state.state_folder({'XDG_STATE_HOME': str(tmp_path / 'state')})
+    key = grader_state.signing_key(state)
+    assert (state.stat().st_mode & 0o777, (state / grader_state.KEY_NAME).stat().st_mode & 0o777
+            ) == (0o700, 0o600)
+    assert grader_state.signing_key(state) == key  # kept for the next invocation
+    (state / grader_state.KEY_NAME).chmod(0o644)  # readable by others: no longer a secret
+    assert grader_state.signing_key(state) != key
+    signer = grader_state.ResultSigner(key)
+    saved = {'fingerprint': 'f', 'report': {'passed': True}}
+    signature = signer.signature(tmp_path / 'ana', saved)
+    assert signer.signs(tmp_path / 'ana', saved, signature)
+    assert not signer.signs(tmp_path / 'bob', saved, signature)  # copied to another's folder
+    assert not grader_state.ResultSigner(bytes(32)).signs(tmp_path / 'ana', saved, signature)

@@ -38,6 +38,7 @@ from sim_bridge.grading.runs import (
     GradeJob, PAGE_NAME, REPORT_NAME, reuse_notes, RunReport, write_outputs, write_report)
 from sim_bridge.grading.scenario import load_scenarios, Scenario, with_node_overrides
 from sim_bridge.media.video import render_video, VIDEO_NAME, VideoError
+from sim_bridge.simulation.world import World, WorldError
 
 
 DEFAULT_OUT = Path('out') / 'grade'
@@ -197,13 +198,13 @@ def main(argv: list[str] | None = None) -> int:
         reports = grade_runs(jobs, workers=args.jobs, limits=limits, progress=progress,
                              resume=not args.fresh, names=names, quiet=False,
                              record=not args.no_record, plot=not args.no_plot)
+        if args.video:
+            write_videos(jobs, reports, args.names, progress.note)
         if missing:  # one submission's runs in the scenarios' order (a class's: its batch's)
             order = {scenario.name: index for index, scenario in enumerate(scenarios)}
             reports = sorted(reports + missing, key=lambda report: (
                 order[report.run.scenario.name],
                 report.run.scenario.seeds.index(report.run.seed)))
-        if args.video:
-            write_videos(jobs, args.names, progress.note)
         # Still interruptible: the reports are written again from the runs' saved results.
         status = write_reports(args, batch, reports, names, scenarios)
         return max(status, 1) if progress.faults else status
@@ -259,23 +260,40 @@ def failed_gradescope(args: argparse.Namespace, why: str) -> None:
               f'{error.strerror or error}', file=sys.stderr)
 
 
-def write_videos(jobs: list[GradeJob], names: str | None, note: Callable[[str], None]) -> None:
+def write_videos(jobs: list[GradeJob], reports: list[RunReport], names: str | None,
+                 note: Callable[[str], None]) -> None:
     """
     Write the video of each run that left its outputs (``video.mp4`` in its folder).
 
     Rendered here, after the runs, not in their children: it is the grader's code, bounded by
-    nothing a student's run is. A video already newer than its run's metrics is kept; one that
-    cannot be made is a note, not a failed run. ``names``: the banner's text (default: the
-    student's name, the first part of a class batch's job label).
+    nothing a student's run is. The world is the scenario's and the length what the run's
+    report (``reports``, one per job) says it simulated, at most the scenario's duration:
+    nothing a run could have written in its folder decides what the grader loads or how many
+    frames it draws. A video already newer than its run's metrics is kept; one that cannot be
+    made is a note, not a failed run. ``names``: the banner's text (default: the student's
+    name, the first part of a class batch's job label).
     """
-    for job in jobs:
+    worlds: dict[tuple[str, str | None], World | WorldError | OSError] = {}
+    for job, report in zip(jobs, reports):
         metrics, video = job.out_dir / 'metrics.json', job.out_dir / VIDEO_NAME
         if not metrics.is_file() or (video.is_file()
                                      and video.stat().st_mtime >= metrics.stat().st_mtime):
             continue
+        scenario = job.run.scenario
+        key = (scenario.world, scenario.robot)
+        if key not in worlds:
+            try:
+                worlds[key] = World.load(scenario.world, robot=scenario.robot)
+            except (WorldError, OSError) as error:
+                worlds[key] = error
         banner = names if names is not None else job.label.partition('/')[0] if job.label else ''
         try:
-            render_video(job.out_dir, video, banner)
+            if not isinstance(worlds[key], World):
+                raise VideoError(f'world: {worlds[key]}')
+            if report.sim_time_s <= 0:
+                raise VideoError('the run simulated nothing')
+            render_video(job.out_dir, video, banner, world=worlds[key],
+                         duration_s=min(report.sim_time_s, scenario.duration_s))
         except (VideoError, OSError) as error:
             note(f'no video of {job.name}: {error}')
 

@@ -55,13 +55,13 @@ class BatchProgress:
     each run ends. Runs resumed from an earlier invocation count as done but not for the pace.
     """
 
-    def __init__(self, total: int, total_sim_s: float = 0.0, stream: TextIO = sys.stderr,
+    def __init__(self, total: int, total_sim_s: float = 0.0, stream: TextIO | None = None,
                  enabled: bool = True, clock: Callable[[], float] = time.monotonic) -> None:
         self.total = total
         self.total_sim_s = total_sim_s
-        self.stream = stream
+        self.stream = stream if stream is not None else sys.stderr  # the one of the moment
         self.enabled = enabled
-        self.live = enabled and stream.isatty()
+        self.live = enabled and self.stream.isatty()
         self.done = 0
         self.done_sim_s = 0.0
         self.resumed_sim_s = 0.0

@@ -202,23 +202,31 @@ def read_recording(bag: Path) -> tuple[tuple, tuple]:
             (np.array(scan_t), scans, tuple(map(float, geometry))))
 
 
-def load_footage(out_dir: str | os.PathLike) -> Footage:
-    """Read what the video of the run in ``out_dir`` shows; VideoError when it cannot."""
+def load_footage(out_dir: str | os.PathLike, world: World | None = None,
+                 duration_s: float | None = None) -> Footage:
+    """
+    Read what the video of the run in ``out_dir`` shows; VideoError when it cannot.
+
+    ``world`` and ``duration_s`` (s), when given, are the run's from records no run could
+    write (the grader's scenario and report), instead of its ``params.yaml`` and
+    ``metrics.json``: the world a video loads and the frames it draws are then the grader's.
+    """
     out_dir = Path(out_dir)
     metrics = _json(out_dir / 'metrics.json')
-    sim = simulator_parameters(out_dir)
-    pose = sim.get('robot_pose')
-    try:
-        world = World.load(sim['world'], robot=sim.get('robot'), robot_pose=pose)
-    except (FileNotFoundError, WorldError) as error:
-        raise VideoError(f"{out_dir / 'params.yaml'}: world: {error}") from None
+    if world is None:
+        sim = simulator_parameters(out_dir)
+        try:
+            world = World.load(sim['world'], robot=sim.get('robot'),
+                               robot_pose=sim.get('robot_pose'))
+        except (FileNotFoundError, WorldError) as error:
+            raise VideoError(f"{out_dir / 'params.yaml'}: world: {error}") from None
     bag = out_dir / 'run'
     if not bag.is_dir():
         raise VideoError(f'{bag}: no recording (was the run made with --no-record?)')
     (pose_t, poses), (scan_t, scans, geometry) = read_recording(bag)
     lidar = world.robot.lidar or LidarConfig()
     mount = (lidar.pose[0], lidar.pose[1], lidar.pose[5])
-    duration = metrics.get('sim_time_s')
+    duration = metrics.get('sim_time_s') if duration_s is None else duration_s
     if not isinstance(duration, (int, float)) or not duration > 0:
         duration = float(max(pose_t[-1], scan_t[-1] if len(scan_t) else 0.0))
     collisions = [(event['time'], event['x'], event['y'])
@@ -537,17 +545,19 @@ def encode(frames: Iterator[np.ndarray], path: Path, fps: float) -> int:
 
 
 def render_video(out_dir: str | os.PathLike, path: str | os.PathLike, names: str = '', *,
-                 speed: float = 1.0, fps: float = DEFAULT_FPS) -> VideoInfo:
+                 speed: float = 1.0, fps: float = DEFAULT_FPS, world: World | None = None,
+                 duration_s: float | None = None) -> VideoInfo:
     """
     Write the video of the run in ``out_dir`` to ``path`` and return what was written.
 
     ``speed``: simulated seconds per second of video (1: real time); ``fps``: frames per
-    second of video. VideoError when the run's outputs lack what the video shows; OSError when
-    ``path`` cannot be written.
+    second of video; ``world`` and ``duration_s`` (s): the trusted run's (see
+    :func:`load_footage`). VideoError when the run's outputs lack what the video shows;
+    OSError when ``path`` cannot be written.
     """
     if not (math.isfinite(speed) and speed > 0 and math.isfinite(fps) and fps > 0):
         raise VideoError(f'speed and fps must be positive numbers, got {speed} and {fps}')
-    footage = load_footage(out_dir)
+    footage = load_footage(out_dir, world, duration_s)
     renderer = FrameRenderer(footage, names, speed)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
