@@ -125,7 +125,7 @@ def wait_until(condition, timeout_s: float = WAIT_S) -> bool:
 
 @contextlib.contextmanager
 def hanging_grader(tmp_path: Path, out: Path):
-    """A grader whose one run hangs (until it is killed) on ``out``, once its run started."""
+    """Start a grader on ``out`` whose one run hangs; yield it once its run started."""
     scenario = scenario_file(tmp_path / 'hang', str(HELPER_STARTER), 5.0, 'hang',
                              'params: {helper_starter: {how: hang}}\n')
     (tmp_path / 'tmp').mkdir(exist_ok=True)

@@ -62,8 +62,8 @@ def lock_out(out: Path) -> IO[bytes]:
 def state_folder(environ: dict[str, str] | None = None) -> Path:
     """Return the grader's private state folder (not made): ``$XDG_STATE_HOME/sim_bridge``."""
     environ = os.environ if environ is None else environ
-    base = environ.get('XDG_STATE_HOME') or os.path.join(os.path.expanduser('~'), '.local',
-                                                          'state')
+    home_state = os.path.join(os.path.expanduser('~'), '.local', 'state')
+    base = environ.get('XDG_STATE_HOME') or home_state
     return Path(base) / 'sim_bridge'
 
 
