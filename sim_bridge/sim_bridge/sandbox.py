@@ -82,6 +82,8 @@ ADDRESS_SPACE_SLACK_BYTES = 2 ** 30
 #: prctl(2)'s PR_SET_NO_NEW_PRIVS: no setuid binary gives a run its privileges back.
 PR_SET_NO_NEW_PRIVS = 38
 
+#: The Python that runs LAUNCHER (any Python 3 a run's uid can execute).
+LAUNCHER_PYTHON = sys.executable
 #: Run by ``python -I -S`` as a run's first process, with a JSON spec and the command: sets the
 #: rlimits, hands the run's folders to its uid and drops to it, copies the student's files into
 #: the scratch tmpfs, and executes the command there.
@@ -369,19 +371,18 @@ def lease_folder() -> Path:
 
 def uid_processes(uid: int) -> list[int]:
     """
-    Return the pids of the processes whose real uid is ``uid`` (read from /proc/PID/status).
+    Return the pids of the live processes whose real uid is ``uid`` (from /proc/PID/status).
 
     Not /proc/PID's owner: a process that made itself non-dumpable shows as root's there.
+    Zombies are dead (their parent has yet to reap them): not counted.
     """
     found = []
     for entry in os.listdir('/proc'):
         if entry.isdigit():
-            try:
-                with open(f'/proc/{entry}/status', 'rb') as status:
-                    line = next(line for line in status if line.startswith(b'Uid:'))
-            except (OSError, StopIteration):  # it ended meanwhile
-                continue
-            if int(line.split()[1]) == uid:
+            fields = dict(line.split(':', 1) for line in read_lines(Path(f'/proc/{entry}/status'))
+                          if ':' in line)
+            if (fields.get('Uid', '').split()[:1] == [str(uid)]
+                    and fields.get('State', '').split()[:1] not in (['Z'], ['X'])):
                 found.append(int(entry))
     return found
 
@@ -390,16 +391,25 @@ def kill_uid(uid: int, timeout_s: float = END_TIMEOUT_S) -> None:
     """
     Kill every process of ``uid`` (a run's dedicated uid); wait (wall s) until none is left.
 
-    ``kill(-1, SIGKILL)`` sent as that uid reaches all of them at once, a fork bomb too;
-    RuntimeError if some are still there after ``timeout_s``.
+    ``kill(-1, SIGKILL)`` sent as that uid, from a fork of this process (the uid may not
+    reach any program), ends all of them at once, a fork bomb too; RuntimeError if some are
+    still there after ``timeout_s``.
     """
-    killer = [sys.executable, '-I', '-S', '-c', 'import os; os.kill(-1, 9)']
     deadline = time.monotonic() + timeout_s
     while uid_processes(uid):
         if time.monotonic() > deadline:
             raise RuntimeError(f'processes of uid {uid} still alive {timeout_s:g} s after '
                                'they were killed')
-        subprocess.run(killer, user=uid, group=uid, extra_groups=[], check=False)
+        killer = os.fork()
+        if killer == 0:
+            try:
+                os.setgroups([])
+                os.setgid(uid)
+                os.setuid(uid)
+                os.kill(-1, signal.SIGKILL)
+            finally:
+                os._exit(0)
+        os.waitpid(killer, 0)
 
 
 class RunCgroup:
@@ -639,7 +649,7 @@ class Sandbox:
                 'uid': self.uid, 'gid': self.uid, 'scratch': str(self.scratch),
                 'own': [str(self.scratch), '/tmp', '/dev/shm'] if root_in_bwrap else [],
                 'copy_from': FILES_MOUNT if self.mode.bwrap else None}
-        return [sys.executable, '-I', '-S', '-c', LAUNCHER, json.dumps(spec), *argv]
+        return [LAUNCHER_PYTHON, '-I', '-S', '-c', LAUNCHER, json.dumps(spec), *argv]
 
     def bwrap_arguments(self, info_fd: int) -> list[str]:
         """Return bwrap's options for this run (the command follows them)."""
