@@ -25,8 +25,6 @@ process; a cgroup and a dedicated uid are swept until empty), and removes the sc
 """
 
 from dataclasses import dataclass, fields
-import errno
-import fcntl
 import functools
 import importlib.util
 import json
@@ -39,17 +37,12 @@ import subprocess
 import sys
 import tempfile
 import threading
-import time
-from typing import Callable, Iterator, Mapping, Sequence
+from typing import Iterator, Mapping, Sequence
 
-#: Dedicated uids (and gids of the same number) for runs of a grader running as root.
-UID_BASE = 60100
-UID_COUNT = 900
-#: Root-only folder of the uid leases' lock files (machine-wide), else in the temp folder.
-LEASE_FOLDERS = (Path('/run/lab-sandbox'), Path(tempfile.gettempdir()) / 'lab-sandbox-uids')
-#: A grader's scratch parent is ``<temp>/lab-sandbox-XXXX`` beside its lock file ``.lock``.
-SCRATCH_PREFIX = 'lab-sandbox-'
-LOCK_SUFFIX = '.lock'
+from sim_bridge.sandbox_host import (
+    END_TIMEOUT_S, grader_folder, kill_uid, read_lines, RunCgroup, SCRATCH_PREFIX, uid_processes,
+    UidLease)
+
 #: Where a bwrap run's process finds the host copy of the student's files, read-only; the
 #: launcher copies them into the run's size-limited scratch tmpfs.
 FILES_MOUNT = '/run/lab-files'
@@ -68,12 +61,6 @@ NAMESPACES = ('--unshare-ipc', '--unshare-pid', '--unshare-net', '--unshare-uts'
 #: The only capabilities root keeps in its sandbox, for the launcher to hand the run's
 #: folders to the run's uid and drop to it (a setuid clears them all).
 LAUNCHER_CAPS = ('CAP_SETUID', 'CAP_SETGID', 'CAP_CHOWN')
-#: Where the kernel's control groups are mounted.
-CGROUP_ROOT = Path('/sys/fs/cgroup')
-#: Wall seconds close() waits for the processes of a run to be gone before it gives up.
-END_TIMEOUT_S = 10.0
-#: Wall seconds between two looks at whether a run's processes are gone.
-END_POLL_S = 0.01
 #: Seconds of CPU past ``cpu_s`` before the kernel's SIGKILL (SIGXCPU comes at ``cpu_s``).
 CPU_HARD_GRACE_S = 1
 #: Address space (bytes) a process gets beyond ``memory_bytes``: reserved, not used (an rclpy
@@ -87,7 +74,7 @@ LAUNCHER_PYTHON = sys.executable
 #: Run by ``python -I -S`` as a run's first process, with a JSON spec and the command: sets the
 #: rlimits, hands the run's folders to its uid and drops to it, copies the student's files into
 #: the scratch tmpfs, and executes the command there.
-LAUNCHER = '''
+LAUNCHER = """
 import ctypes, json, os, resource, shutil, sys
 spec = json.loads(sys.argv[1])
 for name, soft, hard in spec["rlimits"]:
@@ -103,7 +90,7 @@ if spec["copy_from"]:
     shutil.copytree(spec["copy_from"], spec["scratch"], symlinks=True, dirs_exist_ok=True)
 os.chdir(spec["scratch"])
 os.execvp(sys.argv[2], sys.argv[2:])
-''' % PR_SET_NO_NEW_PRIVS
+""" % PR_SET_NO_NEW_PRIVS
 
 
 @dataclass(frozen=True)
@@ -111,8 +98,9 @@ class SandboxLimits:
     """
     What a whole run (its process tree) may use.
 
-    ``memory_bytes`` (bytes): memory of the whole tree where a cgroup holds it; each process's
-    address space is limited to it plus ADDRESS_SPACE_SLACK_BYTES in any case; ``pids``: processes and threads; ``cpu_s`` (s of CPU) per process;
+    ``memory_bytes`` (bytes): memory of the whole tree where a cgroup holds it (each process's
+    address space is limited to it plus ADDRESS_SPACE_SLACK_BYTES in any case); ``pids``:
+    processes and threads; ``cpu_s`` (s of CPU) per process;
     ``file_bytes`` (bytes): size of any file written; ``scratch_bytes`` (bytes): the scratch
     folder's size, and /tmp's and /dev/shm's each, in a bwrap run; ``wall_s`` (s): wall time
     from the first process's start, after which everything of the run is killed.
@@ -271,267 +259,6 @@ def clean_environment(scratch: Path, extra: Mapping[str, str] = {}) -> dict[str,
     return env
 
 
-def lock_exclusive(path: Path) -> int | None:
-    """Return an fd holding ``path``'s flock (created 0600), or None when another holds it."""
-    fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o600)
-    try:
-        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except OSError:
-        os.close(fd)
-        return None
-    return fd
-
-
-def remove_leftover_scratch(folder: Path) -> list[Path]:
-    """
-    Remove the scratch parents in ``folder`` whose grader has ended; return them.
-
-    A parent ``lab-sandbox-XXXX`` goes only when its lock file ``lab-sandbox-XXXX.lock`` can
-    be locked: a live grader holds it (:func:`grader_folder`), whatever its pid namespace.
-    """
-    removed = []
-    for lock in sorted(folder.glob(f'{SCRATCH_PREFIX}*{LOCK_SUFFIX}')):
-        fd = lock_exclusive(lock)
-        if fd is None:
-            continue
-        try:
-            parent = lock.with_suffix('')
-            shutil.rmtree(parent, ignore_errors=True)
-            lock.unlink(missing_ok=True)
-            removed.append(parent)
-        finally:
-            os.close(fd)
-    return removed
-
-
-@functools.lru_cache(maxsize=None)
-def grader_folder() -> Path:
-    """
-    Return this grader's scratch parent, created once, with its lock held until it exits.
-
-    Made after removing the parents of graders that have ended. The lock file is made and
-    locked before its folder exists; a lock another cleaner took and unlinked meanwhile is
-    made anew. The parent is 0711: a run's uid reaches its own scratch, lists nothing.
-    """
-    temp = Path(tempfile.gettempdir())
-    remove_leftover_scratch(temp)
-    while True:
-        fd, lock_path = tempfile.mkstemp(prefix=SCRATCH_PREFIX, suffix=LOCK_SUFFIX, dir=temp)
-        fcntl.flock(fd, fcntl.LOCK_EX)
-        if os.fstat(fd).st_nlink:
-            break
-        os.close(fd)
-    os.set_inheritable(fd, False)
-    folder = Path(lock_path).with_suffix('')
-    folder.mkdir(mode=0o711)
-    folder.chmod(0o711)
-    return folder
-
-
-class UidLease:
-    """
-    A dedicated uid (and gid) no other run on this machine uses, until :meth:`release`.
-
-    Each uid has a lock file in a root-only folder (LEASE_FOLDERS); a grader that dies frees
-    its leases with its process. What a dead grader's run of the uid left running is killed
-    before the uid is handed out again.
-    """
-
-    def __init__(self) -> None:
-        folder = lease_folder()
-        start = os.getpid() % UID_COUNT
-        for offset in range(UID_COUNT):
-            uid = UID_BASE + (start + offset) % UID_COUNT
-            fd = lock_exclusive(folder / f'uid-{uid}.lock')
-            if fd is not None:
-                self.uid, self.fd = uid, fd
-                kill_uid(uid)
-                return
-        raise RuntimeError(f'every sandbox uid from {UID_BASE} to {UID_BASE + UID_COUNT - 1} '
-                           'is in use by a run on this machine')
-
-    def release(self) -> None:
-        """Hand the uid back."""
-        os.close(self.fd)
-
-
-def lease_folder() -> Path:
-    """Return the root-only folder of the uid leases (made 0700 if missing; refused if not)."""
-    for folder in LEASE_FOLDERS:
-        try:
-            folder.mkdir(mode=0o700, exist_ok=True)
-        except OSError:
-            continue
-        status = folder.lstat()
-        if folder.is_dir() and status.st_uid == 0 and not status.st_mode & 0o077:
-            return folder
-    raise RuntimeError('no root-only folder for the sandbox uid locks: '
-                       + ', '.join(map(str, LEASE_FOLDERS)))
-
-
-def uid_processes(uid: int) -> list[int]:
-    """
-    Return the pids of the live processes whose real uid is ``uid`` (from /proc/PID/status).
-
-    Not /proc/PID's owner: a process that made itself non-dumpable shows as root's there.
-    Zombies are dead (their parent has yet to reap them): not counted.
-    """
-    found = []
-    for entry in os.listdir('/proc'):
-        if entry.isdigit():
-            fields = dict(line.split(':', 1) for line in read_lines(Path(f'/proc/{entry}/status'))
-                          if ':' in line)
-            if (fields.get('Uid', '').split()[:1] == [str(uid)]
-                    and fields.get('State', '').split()[:1] not in (['Z'], ['X'])):
-                found.append(int(entry))
-    return found
-
-
-def kill_uid(uid: int, timeout_s: float = END_TIMEOUT_S) -> None:
-    """
-    Kill every process of ``uid`` (a run's dedicated uid); wait (wall s) until none is left.
-
-    ``kill(-1, SIGKILL)`` sent as that uid, from a fork of this process (the uid may not
-    reach any program), ends all of them at once, a fork bomb too; RuntimeError if some are
-    still there after ``timeout_s``.
-    """
-    deadline = time.monotonic() + timeout_s
-    while uid_processes(uid):
-        if time.monotonic() > deadline:
-            raise RuntimeError(f'processes of uid {uid} still alive {timeout_s:g} s after '
-                               'they were killed')
-        killer = os.fork()
-        if killer == 0:
-            try:
-                os.setgroups([])
-                os.setgid(uid)
-                os.setuid(uid)
-                os.kill(-1, signal.SIGKILL)
-            finally:
-                os._exit(0)
-        os.waitpid(killer, 0)
-
-
-class RunCgroup:
-    """
-    Control groups holding a run's whole process tree: memory and pids limits, kill, peak.
-
-    cgroup v2 where ``/sys/fs/cgroup`` is unified with the memory and pids controllers (a
-    ``lab-sandbox`` group at its top, runs below); else v1's memory and pids hierarchies,
-    below this grader's own groups. Root only: OSError when neither can be made.
-    """
-
-    def __init__(self, name: str, limits: SandboxLimits) -> None:
-        self.folders: list[Path] = []
-        try:
-            if {'memory', 'pids'} <= set(read_words(CGROUP_ROOT / 'cgroup.controllers')):
-                self.kind = 'cgroup v2'
-                self.make_v2(name, limits)
-            else:
-                self.kind = 'cgroup v1'
-                self.make_v1(name, limits)
-        except OSError:
-            self.remove()
-            raise
-
-    def make_v2(self, name: str, limits: SandboxLimits) -> None:
-        """Make the run's v2 group, with the controllers enabled on the way down."""
-        parent = CGROUP_ROOT / 'lab-sandbox'
-        parent.mkdir(exist_ok=True)
-        for folder in (CGROUP_ROOT, parent):
-            (folder / 'cgroup.subtree_control').write_text('+memory +pids')
-        self.make(parent / name, {'memory.max': limits.memory_bytes, 'pids.max': limits.pids,
-                                  'memory.swap.max': 0})
-
-    def make_v1(self, name: str, limits: SandboxLimits) -> None:
-        """Make the run's groups in v1's memory and pids hierarchies."""
-        memory, pids = v1_folder('memory'), v1_folder('pids')
-        if memory is None or pids is None:
-            raise OSError(errno.ENOENT, 'no cgroup v2 with memory and pids controllers, nor '
-                                        'cgroup v1 memory and pids hierarchies')
-        self.make(memory / name, {'memory.limit_in_bytes': limits.memory_bytes,
-                                  'memory.memsw.limit_in_bytes': limits.memory_bytes})
-        self.make(pids / name, {'pids.max': limits.pids})
-
-    def make(self, folder: Path, values: Mapping[str, int]) -> None:
-        """Make one group and write its limits (swap's only where the kernel has them)."""
-        folder.mkdir()
-        self.folders.append(folder)
-        for file, value in values.items():
-            try:
-                (folder / file).write_text(str(value))
-            except FileNotFoundError:
-                if 'swap' not in file:
-                    raise
-
-    def join(self) -> None:
-        """Put this process in the run's groups (a Popen preexec_fn, run as root)."""
-        for folder in self.folders:
-            (folder / 'cgroup.procs').write_text(str(os.getpid()))
-
-    def pids(self) -> set[int]:
-        """Return the pids of the processes in the run's groups."""
-        return {int(word) for folder in self.folders
-                for word in read_words(folder / 'cgroup.procs')}
-
-    def kill(self) -> None:
-        """SIGKILL every process in the groups, until none is left (END_TIMEOUT_S at most)."""
-        deadline = time.monotonic() + END_TIMEOUT_S
-        while pids := self.pids():
-            if time.monotonic() > deadline:
-                raise RuntimeError(f'processes {sorted(pids)} of a run still alive '
-                                   f'{END_TIMEOUT_S:g} s after they were killed')
-            for pid in pids:
-                try:
-                    os.kill(pid, signal.SIGKILL)
-                except ProcessLookupError:
-                    pass
-            time.sleep(END_POLL_S)
-
-    def peak_bytes(self) -> int | None:
-        """Return the run's peak memory (bytes), as its memory group counted it."""
-        for file in ('memory.peak', 'memory.max_usage_in_bytes'):
-            words = read_words(self.folders[0] / file)
-            if words:
-                return int(words[0])
-        return None
-
-    def remove(self) -> None:
-        """Remove the groups (empty once the run's processes are gone)."""
-        for folder in reversed(self.folders):
-            try:
-                folder.rmdir()
-            except OSError:
-                pass
-        self.folders = []
-
-
-def read_words(path: Path) -> list[str]:
-    """Return the whitespace-separated words of a small file, or [] when it is missing."""
-    try:
-        return path.read_text().split()
-    except OSError:
-        return []
-
-
-def v1_folder(controller: str) -> Path | None:
-    """Return this process's group folder in the v1 hierarchy of ``controller``, if mounted."""
-    base = CGROUP_ROOT / controller
-    for line in read_lines(Path('/proc/self/cgroup')):
-        _, names, path = line.split(':', 2)
-        if controller in names.split(',') and (base / 'cgroup.procs').exists():
-            return base / path.lstrip('/')
-    return None
-
-
-def read_lines(path: Path) -> list[str]:
-    """Return the lines of a small text file, or [] when it cannot be read."""
-    try:
-        return path.read_text().splitlines()
-    except OSError:
-        return []
-
-
 def copy_student_files(files: Mapping[str, Path], scratch: Path, limit_bytes: int) -> None:
     """
     Copy the student's ``files`` (name in the scratch -> path) into ``scratch``.
@@ -611,7 +338,8 @@ class Sandbox:
             for path in [folder, *(os.path.join(folder, name) for name in files)]:
                 os.lchown(path, self.uid, self.uid)
         try:
-            self.cgroup = RunCgroup(f'{SCRATCH_PREFIX}{self.uid}', self.limits)
+            self.cgroup = RunCgroup(f'{SCRATCH_PREFIX}{self.uid}', self.limits.memory_bytes,
+                                    self.limits.pids)
         except OSError as error:
             return f'{per_process} (no cgroup: {error})'
         return (f'{self.cgroup.kind}: memory {self.limits.memory_bytes // 2 ** 20} MiB and '
@@ -741,7 +469,7 @@ class Sandbox:
             kill_uid(self.uid)
 
     def alive(self) -> set[int]:
-        """Return the pids of the run's processes still alive (its uid's and cgroup's)."""
+        """List the pids of the run's live processes: its uid's, its cgroup's."""
         alive = set(self.cgroup.pids()) if self.cgroup else set()
         alive.update(uid_processes(self.uid) if self.uid is not None else ())
         alive.update(process.pid for process in self.processes if process.poll() is None)

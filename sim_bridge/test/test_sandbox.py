@@ -20,8 +20,9 @@ import pytest
 
 from sim_bridge import sandbox as sandbox_module
 from sim_bridge.sandbox import (
-    clean_environment, grader_folder, IsolationMode, isolation_mode, lock_exclusive, python_roots,
-    remove_leftover_scratch, Sandbox, SandboxLimits, uid_processes)
+    clean_environment, isolation_mode, IsolationMode, python_roots, Sandbox, SandboxLimits)
+from sim_bridge.sandbox_host import (
+    grader_folder, lock_exclusive, remove_leftover_scratch, uid_processes)
 
 HOSTILE = Path(__file__).resolve().parent / 'fixtures' / 'hostile'
 #: Wall seconds a hostile script may take (it starts Python, some rclpy).
