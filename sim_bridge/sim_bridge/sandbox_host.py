@@ -37,9 +37,23 @@ END_TIMEOUT_S = 10.0
 END_POLL_S = 0.01
 
 
-def lock_exclusive(path: Path) -> int | None:
-    """Return an fd holding ``path``'s flock (created 0600), or None when another holds it."""
-    fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o600)
+def lock_exclusive(path: Path, create: bool = True) -> int | None:
+    """
+    Return an fd holding ``path``'s flock, or None when another holds it.
+
+    ``create``: make the file (0600) if missing; else a missing file, a symlink or a file of
+    another user is not locked (None).
+    """
+    flags = os.O_RDWR | os.O_CLOEXEC | os.O_NOFOLLOW | (os.O_CREAT if create else 0)
+    try:
+        fd = os.open(path, flags, 0o600)
+    except OSError:
+        if create:
+            raise
+        return None
+    if not create and os.fstat(fd).st_uid != os.geteuid():
+        os.close(fd)
+        return None
     try:
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
     except OSError:
@@ -52,12 +66,13 @@ def remove_leftover_scratch(folder: Path) -> list[Path]:
     """
     Remove the scratch parents in ``folder`` whose grader has ended; return them.
 
-    A parent ``lab-sandbox-XXXX`` goes only when its lock file ``lab-sandbox-XXXX.lock`` can
-    be locked: a live grader holds it (:func:`grader_folder`), whatever its pid namespace.
+    A parent ``lab-sandbox-XXXX`` goes only when its lock file ``lab-sandbox-XXXX.lock`` (this
+    user's) can be locked: a live grader holds it (:func:`grader_folder`), whatever its pid
+    namespace.
     """
     removed = []
     for lock in sorted(folder.glob(f'{SCRATCH_PREFIX}*{LOCK_SUFFIX}')):
-        fd = lock_exclusive(lock)
+        fd = lock_exclusive(lock, create=False)
         if fd is None:
             continue
         try:
