@@ -357,6 +357,10 @@ class Sandbox:
                     f'the run can read world-readable files and use the network; {memory}')
         return f'NOT sandboxed: {self.mode.why}'
 
+    def environment(self, extra: Mapping[str, str] = {}) -> dict[str, str]:
+        """Return the run's clean environment (:func:`clean_environment` in its scratch)."""
+        return clean_environment(self.scratch, extra)
+
     @property
     def sandboxed(self) -> bool:
         """Tell whether runs are fully isolated (namespaces), not partly or not at all."""

@@ -97,7 +97,9 @@ def test_a_run_reads_nothing_of_the_instructor_other_students_or_the_grader(
     with Sandbox({'answer.py': HOSTILE / 'sleeper.py'}) as other, \
             Sandbox(hostile('snoop')) as box:
         files = [instructor / 'secret.txt', other.scratch / 'answer.py', scenario]
-        status, output = run(box, 'snoop', os.getpid(), *files)
+        kit = [Path(sandbox_module.__file__).with_name('__init__.py'),
+               Path(sys.prefix) / 'lib' / 'sitecustomize.py']
+        status, output = run(box, 'snoop', os.getpid(), *files, '--write', *kit)
     assert status == 0, output
     found = json.loads(output.splitlines()[-1])
     # Root's home is there only as the way to a Python installed in it (pyenv's).
