@@ -205,7 +205,12 @@ def python_roots() -> list[str]:
 
 
 def hidden_package_folders(roots: Sequence[str]) -> list[str]:
-    """Return the folders of HIDDEN_PACKAGES that a run would see under ``roots`` or /usr."""
+    """
+    Return the folders of HIDDEN_PACKAGES that a run would see under ``roots`` or /usr.
+
+    A kit installed as a package (not editable: in site-packages, or /usr/local) has its
+    reference nodes there; a run gets an empty read-only folder in their place.
+    """
     folders = []
     for name in HIDDEN_PACKAGES:
         spec = importlib.util.find_spec(name)
@@ -401,7 +406,7 @@ class Sandbox:
             arguments += ['--perms', '0755', '--dir', folder]
         for path in [*roots, *self.readable]:
             arguments += ['--ro-bind', path, path]
-        for folder in hidden_package_folders(roots):
+        for folder in hidden_package_folders([*roots, *self.readable]):
             arguments += ['--tmpfs', folder, '--remount-ro', folder]
         return arguments + ['--ro-bind', str(self.scratch), FILES_MOUNT, '--size', size,
                             '--tmpfs', str(self.scratch), '--info-fd', str(info_fd)]

@@ -111,6 +111,16 @@ def test_a_run_reads_nothing_of_the_instructor_other_students_or_the_grader(
     assert found['scan_pkg.wall_follow'] in ('ModuleNotFoundError', 'ImportError')
 
 
+@needs_namespaces
+def test_the_reference_nodes_stay_hidden_in_a_folder_the_run_may_read():
+    package = Path(sandbox_module.__file__).resolve().parents[2] / 'scan_pkg' / 'scan_pkg'
+    with Sandbox(hostile('snoop'), readable=[package.parent]) as box:
+        status, output = run(box, 'snoop', os.getpid(), package / 'wall_follow.py', '--write')
+    found = json.loads(output.splitlines()[-1])
+    assert found['scan_pkg.wall_follow'] == 'ModuleNotFoundError', found
+    assert found[str(package / 'wall_follow.py')] == 'FileNotFoundError', found
+
+
 def test_the_environment_is_clean_and_keeps_dds_in_the_run(tmp_path, monkeypatch):
     monkeypatch.setenv('LAB_SECRET', 'token-of-the-grader')
     monkeypatch.setenv('ROS_LOCALHOST_ONLY', '1')
