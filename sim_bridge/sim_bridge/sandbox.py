@@ -66,6 +66,8 @@ CPU_HARD_GRACE_S = 1
 #: Address space (bytes) a process gets beyond ``memory_bytes``: reserved, not used (an rclpy
 #: node with Fast DDS reserves ~600 MiB of thread stacks and arenas for ~70 MiB used).
 ADDRESS_SPACE_SLACK_BYTES = 2 ** 30
+#: Above any limit a machine can honour (and below the kernel's RLIM_INFINITY).
+LARGEST_LIMIT = 1e15
 #: prctl(2)'s PR_SET_NO_NEW_PRIVS: no setuid binary gives a run its privileges back.
 PR_SET_NO_NEW_PRIVS = 38
 
@@ -114,11 +116,15 @@ class SandboxLimits:
     wall_s: float = 1800.0
 
     def __post_init__(self) -> None:
-        """Refuse a limit that is not a positive number, in one line."""
+        """Refuse, in one line, a limit that is not a positive number the kernel can hold."""
         for limit in fields(self):
             value = getattr(self, limit.name)
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or value <= 0:
-                raise ValueError(f'sandbox limit {limit.name} must be a positive number, '
+            whole = limit.type in (int, 'int')  # bytes and pids: whole numbers
+            kind = (int,) if whole else (int, float)
+            if (isinstance(value, bool) or not isinstance(value, kind)
+                    or not 0 < value < LARGEST_LIMIT):
+                raise ValueError(f'sandbox limit {limit.name} must be a positive '
+                                 f'{"whole " if whole else ""}number below {LARGEST_LIMIT:.0e}, '
                                  f'not {value!r}')
 
     def rlimits(self, uid_counted: bool) -> list[tuple[str, int, int]]:

@@ -280,8 +280,12 @@ def test_without_isolation_the_sandbox_says_so(monkeypatch):
 
 
 def test_bad_limits_and_file_names_are_refused_in_one_line():
-    with pytest.raises(ValueError, match='memory_bytes must be a positive number'):
+    with pytest.raises(ValueError, match='memory_bytes must be a positive whole number'):
         SandboxLimits(memory_bytes=0)
+    with pytest.raises(ValueError, match=r'memory_bytes .* not 1e\+18'):
+        SandboxLimits(memory_bytes=1e18)
+    with pytest.raises(ValueError, match='wall_s must be a positive number below 1e\\+15'):
+        SandboxLimits(wall_s=-1)
     with pytest.raises(ValueError, match='must be a relative path'):
         Sandbox({'../escape.py': HOSTILE / 'sleeper.py'})
     with pytest.raises(ValueError, match='over the scratch limit'):
