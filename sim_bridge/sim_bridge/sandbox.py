@@ -245,7 +245,8 @@ def clean_environment(scratch: Path, extra: Mapping[str, str] = {}) -> dict[str,
     Return a run's whole environment: what Python and ROS 2 need, nothing of the grader's.
 
     HOME and TMPDIR are ``scratch``; library and Python paths keep only the folders a run
-    sees (:func:`python_roots` and the system's); ROS 2 discovery is OFF (a run's DDS stays in
+    sees (:func:`python_roots` and the system's), and Python's starts with the folder of the
+    kit's package (where a run sees that package alone); ROS 2 discovery is OFF (a run's DDS stays in
     its processes) and ROS_LOCALHOST_ONLY unset. ``extra`` is added last (it may override).
     """
     roots = [*python_roots(), *SYSTEM_PATHS]
@@ -260,6 +261,8 @@ def clean_environment(scratch: Path, extra: Mapping[str, str] = {}) -> dict[str,
     for name in ('PYTHONPATH', 'LD_LIBRARY_PATH', 'AMENT_PREFIX_PATH'):
         kept = [path for path in os.environ.get(name, '').split(os.pathsep)
                 if path and is_within(os.path.realpath(path), roots)]
+        if name == 'PYTHONPATH':  # the kit's package, however it is installed (colcon's too)
+            kept.insert(0, str(KIT_PACKAGE.parent))
         if kept:
             env[name] = os.pathsep.join(kept)
     for name in ('ROS_DISTRO', 'ROS_VERSION', 'ROS_PYTHON_VERSION', 'RMW_IMPLEMENTATION',
