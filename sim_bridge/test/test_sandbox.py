@@ -22,7 +22,7 @@ from sim_bridge import sandbox as sandbox_module
 from sim_bridge.sandbox import (
     clean_environment, isolation_mode, IsolationMode, python_roots, Sandbox, SandboxLimits)
 from sim_bridge.sandbox_host import (
-    grader_folder, lock_exclusive, remove_leftover_scratch, uid_processes)
+    grader_folder, lease_folder, lock_exclusive, remove_leftover_scratch, uid_processes)
 
 HOSTILE = Path(__file__).resolve().parent / 'fixtures' / 'hostile'
 #: Wall seconds a hostile script may take (it starts Python, some rclpy).
@@ -109,6 +109,21 @@ def test_a_run_reads_nothing_of_the_instructor_other_students_or_the_grader(
     assert home == f'GOT {json.dumps(on_the_way)}' or not home.startswith('GOT'), home
     assert not [target for target, result in found.items() if result.startswith('GOT')], found
     assert found['scan_pkg.wall_follow'] in ('ModuleNotFoundError', 'ImportError')
+
+
+def test_a_run_cannot_touch_another_runs_files_or_the_uid_leases(python):
+    with Sandbox({'answer.py': HOSTILE / 'sleeper.py'}) as other, \
+            Sandbox(hostile('snoop')) as box:
+        answer = other.scratch / 'answer.py'
+        leases = [lease_folder() / f'uid-{uid}.lock' for uid in (box.uid, other.uid) if uid]
+        status, output = run(box, 'snoop', os.getpid(), answer, *leases,
+                             '--write', answer, *leases, python=python)
+        assert answer.read_text() == (HOSTILE / 'sleeper.py').read_text()
+    found = json.loads(output.splitlines()[-1])
+    found.pop('home')  # see the test above
+    assert not [target for target, result in found.items() if result.startswith('GOT')], found
+    if python != sys.executable:
+        assert box.isolation.startswith(f'PARTLY sandboxed: uid {box.uid} only'), box.isolation
 
 
 @needs_namespaces
