@@ -10,6 +10,7 @@ namespaces (the 'uid' mode, as in a Docker container that refuses them).
 import json
 import os
 from pathlib import Path
+import shutil
 import signal
 import socket
 import subprocess
@@ -134,6 +135,42 @@ def test_the_reference_nodes_stay_hidden_in_a_folder_the_run_may_read():
     found = json.loads(output.splitlines()[-1])
     assert found['scan_pkg.wall_follow'] == 'ModuleNotFoundError', found
     assert found[str(package / 'wall_follow.py')] == 'FileNotFoundError', found
+
+
+#: Run as an ordinary user by the test below: a sandbox in a user namespace, three attacks.
+AS_USER = """
+import json, os, subprocess, sys, tempfile
+from pathlib import Path
+from sim_bridge.sandbox import Sandbox, SandboxLimits
+hostile, grader = Path(sys.argv[1]), sys.argv[2]
+for name, args in (('fork_bomb', []), ('network', ['1']), ('signals', [grader, '1'])):
+    with Sandbox({name + '.py': hostile / (name + '.py')}, SandboxLimits(pids=24)) as box, \\
+            tempfile.TemporaryFile() as output:
+        box.popen([sys.executable, name + '.py', *args], box.environment(),
+                  stdout=output).wait(60)
+        output.seek(0)
+        print(json.dumps([box.isolation, output.read().decode()]))
+"""
+
+
+@needs_root
+def test_as_an_ordinary_user_a_run_gets_a_user_namespace():
+    setpriv, python = shutil.which('setpriv'), '/usr/bin/python3'
+    project = Path(sandbox_module.__file__).resolve().parents[1]
+    if not (setpriv and reachable_by_others(python) and reachable_by_others(project)):
+        pytest.skip('needs setpriv, and a Python and the kit that user nobody reaches')
+    done = subprocess.run(
+        [setpriv, '--reuid=65534', '--regid=65534', '--clear-groups', python, '-c', AS_USER,
+         str(HOSTILE), str(os.getpid())], capture_output=True, text=True, timeout=RUN_TIMEOUT_S,
+        env={'PATH': '/usr/bin:/bin', 'PYTHONPATH': str(project)}, cwd='/')
+    results = [json.loads(line) for line in done.stdout.splitlines()]
+    assert len(results) == 3, done.stderr
+    if not results[0][0].startswith('bubblewrap: user namespace of uid 65534'):
+        pytest.skip(f'no user namespaces for nobody here: {results[0][0]}')
+    bomb, network, signals = (output.split() for _, output in results)
+    assert bomb[:2] == ['refused', 'BlockingIOError'] and int(bomb[-1]) < 24
+    assert network == ['tcp', 'ConnectionRefusedError', 'udp', 'OSError']
+    assert signals[:2] == ['ProcessLookupError', 'ProcessLookupError']
 
 
 def test_the_environment_is_clean_and_keeps_dds_in_the_run(tmp_path, monkeypatch):
