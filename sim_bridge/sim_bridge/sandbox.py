@@ -246,8 +246,9 @@ def clean_environment(scratch: Path, extra: Mapping[str, str] = {}) -> dict[str,
 
     HOME and TMPDIR are ``scratch``; library and Python paths keep only the folders a run
     sees (:func:`python_roots` and the system's), and Python's starts with the folder of the
-    kit's package (where a run sees that package alone); ROS 2 discovery is OFF (a run's DDS stays in
-    its processes) and ROS_LOCALHOST_ONLY unset. ``extra`` is added last (it may override).
+    kit's package (where a run sees that package alone); ROS 2 discovery is OFF (a run's DDS
+    stays in its processes) and ROS_LOCALHOST_ONLY unset. ``extra`` is added last (it may
+    override).
     """
     roots = [*python_roots(), *SYSTEM_PATHS]
     bin_folder = os.path.dirname(sys.executable)
@@ -372,7 +373,7 @@ class Sandbox:
         return f'NOT sandboxed: {self.mode.why}'
 
     def environment(self, extra: Mapping[str, str] = {}) -> dict[str, str]:
-        """Return the run's clean environment (:func:`clean_environment` in its scratch)."""
+        """Return the run's clean environment: :func:`clean_environment` in its scratch."""
         return clean_environment(self.scratch, extra)
 
     @property
