@@ -437,11 +437,13 @@ class Sandbox:
         if self.mode.bwrap:
             info_read, info_write = os.pipe()
             command = ['bwrap', *self.bwrap_arguments(info_write), '--', *command]
+        if self.cgroup is not None:
+            command = self.cgroup.joining(command)
         try:
             process = subprocess.Popen(
                 command, env=dict(env), cwd=popen_kwargs.pop('cwd', '/'),
                 pass_fds=[*pass_fds, *([info_write] if info_write is not None else [])],
-                preexec_fn=self.cgroup.join if self.cgroup else None, **popen_kwargs)
+                **popen_kwargs)
         finally:
             if info_write is not None:
                 os.close(info_write)

@@ -19,7 +19,7 @@ import shutil
 import signal
 import tempfile
 import time
-from typing import Mapping
+from typing import Mapping, Sequence
 
 #: Dedicated uids (and gids of the same number) for runs of a grader running as root.
 UID_BASE = 60100
@@ -31,6 +31,10 @@ SCRATCH_PREFIX = 'lab-sandbox-'
 LOCK_SUFFIX = '.lock'
 #: Where the kernel's control groups are mounted.
 CGROUP_ROOT = Path('/sys/fs/cgroup')
+#: The shell script that writes its pid into each file named before ``--``, then executes
+#: what follows (exit status 125 when it cannot).
+JOIN_SCRIPT = ('while [ "$1" != -- ]; do echo $$ > "$1" || exit 125; shift; done; shift; '
+               'exec "$@"')
 #: Wall seconds close() waits for the processes of a run to be gone before it gives up.
 END_TIMEOUT_S = 10.0
 #: Wall seconds between two looks at whether a run's processes are gone.
@@ -250,10 +254,16 @@ class RunCgroup:
                 if 'swap' not in file:
                     raise
 
-    def join(self) -> None:
-        """Put this process in the run's groups (a Popen preexec_fn, run as root)."""
-        for folder in self.folders:
-            (folder / 'cgroup.procs').write_text(str(os.getpid()))
+    def joining(self, command: Sequence[str]) -> list[str]:
+        """
+        Return ``command`` run by a shell that first puts itself in the run's groups.
+
+        Everything the command starts is in them from its first instruction on. (A shell, not
+        a Popen preexec_fn: Python code between fork and exec may deadlock in a grader that
+        runs threads.)
+        """
+        return ['/bin/sh', '-c', JOIN_SCRIPT, 'join',
+                *(str(folder / 'cgroup.procs') for folder in self.folders), '--', *command]
 
     def pids(self) -> set[int]:
         """Return the pids of the processes in the run's groups."""
