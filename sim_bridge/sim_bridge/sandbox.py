@@ -332,10 +332,13 @@ class Sandbox:
         self.timed_out = False
         self.closed = False
         self.cgroup: RunCgroup | None = None
-        self.lease = UidLease() if self.mode.dedicated_uid else None
-        self.uid = self.lease.uid if self.lease else None
+        self.lease: UidLease | None = None
+        self.uid: int | None = None
         self.scratch = Path(tempfile.mkdtemp(prefix='run-', dir=grader_folder()))
         try:
+            if self.mode.dedicated_uid:
+                self.lease = UidLease()
+                self.uid = self.lease.uid
             copy_student_files(student_files, self.scratch, limits.scratch_bytes)
             memory = self.limit_memory()
         except BaseException:
