@@ -21,11 +21,13 @@ import pytest
 
 from sim_bridge import sandbox as sandbox_module
 from sim_bridge.sandbox import (
-    clean_environment, isolation_mode, IsolationMode, python_roots, Sandbox, SandboxLimits)
+    clean_environment, isolation_mode, IsolationMode, KIT_PACKAGE, python_roots, Sandbox,
+    SandboxLimits)
 from sim_bridge.sandbox_host import (
     grader_folder, lease_folder, lock_exclusive, remove_leftover_scratch, uid_processes)
 
 HOSTILE = Path(__file__).resolve().parent / 'fixtures' / 'hostile'
+REPOSITORY = KIT_PACKAGE.parents[1]
 #: Wall seconds a hostile script may take (it starts Python, some rclpy).
 RUN_TIMEOUT_S = 120.0
 MiB = 2 ** 20
@@ -93,12 +95,11 @@ def test_a_run_reads_nothing_of_the_instructor_other_students_or_the_grader(
     instructor.mkdir()
     (instructor / 'secret.txt').write_text('the answers')
     os.chmod(tmp_path, 0o755)
-    repository = Path(sandbox_module.__file__).resolve().parents[2]
-    scenario = repository / 'test' / 'scenarios' / 'scan_ahead.yaml'
+    scenario = REPOSITORY / 'test' / 'scenarios' / 'scan_ahead.yaml'
     with Sandbox({'answer.py': HOSTILE / 'sleeper.py'}) as other, \
             Sandbox(hostile('snoop')) as box:
         files = [instructor / 'secret.txt', other.scratch / 'answer.py', scenario]
-        kit = [Path(sandbox_module.__file__).with_name('__init__.py'),
+        kit = [KIT_PACKAGE / '__init__.py',
                Path(sys.prefix) / 'lib' / 'sitecustomize.py']
         status, output = run(box, 'snoop', os.getpid(), *files, '--write', *kit)
     assert status == 0, output
@@ -129,7 +130,7 @@ def test_a_run_cannot_touch_another_runs_files_or_the_uid_leases(python):
 
 @needs_namespaces
 def test_the_reference_nodes_stay_hidden_in_a_folder_the_run_may_read():
-    package = Path(sandbox_module.__file__).resolve().parents[2] / 'scan_pkg' / 'scan_pkg'
+    package = REPOSITORY / 'scan_pkg' / 'scan_pkg'
     with Sandbox(hostile('snoop'), readable=[package.parent]) as box:
         status, output = run(box, 'snoop', os.getpid(), package / 'wall_follow.py', '--write')
     found = json.loads(output.splitlines()[-1])
@@ -156,7 +157,7 @@ for name, args in (('fork_bomb', []), ('network', ['1']), ('signals', [grader, '
 @needs_root
 def test_as_an_ordinary_user_a_run_gets_a_user_namespace():
     setpriv, python = shutil.which('setpriv'), '/usr/bin/python3'
-    project = Path(sandbox_module.__file__).resolve().parents[1]
+    project = KIT_PACKAGE.parent
     if not (setpriv and reachable_by_others(python) and reachable_by_others(project)):
         pytest.skip('needs setpriv, and a Python and the kit that user nobody reaches')
     done = subprocess.run(
