@@ -19,11 +19,11 @@ import tempfile
 
 import pytest
 
-from sim_bridge import sandbox as sandbox_module
-from sim_bridge.sandbox import (
+from sim_bridge.runner import sandbox as sandbox_module
+from sim_bridge.runner.sandbox import (
     clean_environment, isolation_mode, IsolationMode, KIT_PACKAGE, python_roots, Sandbox,
     SandboxLimits)
-from sim_bridge.sandbox_host import (
+from sim_bridge.runner.sandbox_host import (
     grader_folder, lease_folder, lock_exclusive, remove_leftover_scratch, uid_processes)
 
 HOSTILE = Path(__file__).resolve().parent / 'fixtures' / 'hostile'
@@ -95,7 +95,7 @@ def test_a_run_reads_nothing_of_the_instructor_other_students_or_the_grader(
     instructor.mkdir()
     (instructor / 'secret.txt').write_text('the answers')
     os.chmod(tmp_path, 0o755)
-    scenario = REPOSITORY / 'test' / 'scenarios' / 'scan_ahead.yaml'
+    scenario = REPOSITORY / 'scenarios' / 'scan_ahead.yaml'
     with Sandbox({'answer.py': HOSTILE / 'sleeper.py'}) as other, \
             Sandbox(hostile('snoop')) as box:
         files = [instructor / 'secret.txt', other.scratch / 'answer.py', scenario]
@@ -142,7 +142,7 @@ def test_the_reference_nodes_stay_hidden_in_a_folder_the_run_may_read():
 AS_USER = """
 import json, os, subprocess, sys, tempfile
 from pathlib import Path
-from sim_bridge.sandbox import Sandbox, SandboxLimits
+from sim_bridge.runner.sandbox import Sandbox, SandboxLimits
 hostile, grader = Path(sys.argv[1]), sys.argv[2]
 for name, args in (('fork_bomb', []), ('network', ['1']), ('signals', [grader, '1'])):
     with Sandbox({name + '.py': hostile / (name + '.py')}, SandboxLimits(pids=24)) as box, \\

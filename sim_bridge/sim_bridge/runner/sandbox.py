@@ -39,7 +39,7 @@ import tempfile
 import threading
 from typing import Iterator, Mapping, Sequence
 
-from sim_bridge.sandbox_host import (
+from sim_bridge.runner.sandbox_host import (
     END_TIMEOUT_S, grader_folder, kill_uid, read_lines, RunCgroup, SCRATCH_PREFIX, uid_processes,
     UidLease)
 
@@ -52,7 +52,7 @@ ETC_PATHS = ('/etc/ld.so.cache', '/etc/ld.so.conf', '/etc/ld.so.conf.d', '/etc/l
 #: Top folders of the system installation, read-only (symlinks mirrored on merged-/usr).
 SYSTEM_PATHS = ('/usr', '/bin', '/sbin', '/lib', '/lib32', '/lib64')
 #: The kit's sim_bridge package, which runs see read-only (the stepping agent lives there).
-KIT_PACKAGE = Path(__file__).resolve().parent
+KIT_PACKAGE = Path(__file__).resolve().parents[1]
 #: Packages of the kit a run must not import (the reference nodes).
 HIDDEN_PACKAGES = ('scan_pkg',)
 #: Namespaces every bwrap run gets; an ordinary user's also gets a user namespace.
