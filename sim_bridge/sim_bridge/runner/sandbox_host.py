@@ -1,5 +1,5 @@
 """
-What the grader's machine gives each sandbox (sim_bridge.runner.sandbox): an identity, groups, a folder.
+What the machine gives each sandbox (sim_bridge.runner.sandbox): an identity, groups, a folder.
 
 - :class:`UidLease`: a dedicated uid (and gid) per concurrent run when the grader is root,
   leased machine-wide with a lock file in a root-only folder; :func:`kill_uid` ends every
