@@ -32,6 +32,7 @@ from sim_bridge.grading.batch import BatchProgress, grade_runs
 from sim_bridge.grading.class_batch import CSV_NAME
 from sim_bridge.grading.runs import GradeJob, RESULT_NAME, reuse_notes
 from sim_bridge.grading.scenario import scenario_from_dict
+from sim_bridge.runner import sandbox_host
 
 FIXTURES = Path(__file__).resolve().parent / 'fixtures'
 MOVER = FIXTURES / 'function_node.py'
@@ -129,7 +130,7 @@ def hanging_grader(tmp_path: Path, out: Path):
     scenario = scenario_file(tmp_path / 'hang', str(HELPER_STARTER), 5.0, 'hang',
                              'params: {helper_starter: {how: hang}}\n')
     (tmp_path / 'tmp').mkdir(exist_ok=True)
-    with open(tmp_path / 'first.txt', 'w') as stderr:
+    with open(out.parent / f'{out.name}.stderr.txt', 'w') as stderr:
         first = subprocess.Popen(
             [sys.executable, '-m', 'sim_bridge.grade', str(scenario), '--out', str(out),
              '--stall-timeout', '600', *QUICK],
@@ -137,7 +138,7 @@ def hanging_grader(tmp_path: Path, out: Path):
             stdout=subprocess.DEVNULL, stderr=stderr)
     try:
         assert wait_until(lambda: started(out / 'hang' / 'seed_1' / isolate.LOG_NAME)), (
-            (tmp_path / 'first.txt').read_text())
+            (out.parent / f'{out.name}.stderr.txt').read_text())
         yield first
     finally:
         first.kill()
@@ -302,28 +303,27 @@ def test_an_edited_saved_result_is_run_again_and_the_report_says_so(tmp_path):
                     '(lap/seed_1)')
 
 
-def scratch_folders(folder: Path) -> list[str]:
-    return sorted(name for name in os.listdir(folder)
-                  if name.startswith(isolate.SCRATCH_PREFIX))
+def scratch_parents(folder: Path) -> set[str]:
+    """Return the graders' scratch parents in ``folder`` (without their lock files)."""
+    return {name for name in os.listdir(folder) if name.startswith(sandbox_host.SCRATCH_PREFIX)
+            and not name.endswith(sandbox_host.LOCK_SUFFIX)}
 
 
 def test_the_scratch_cleanup_keeps_a_live_graders_folder_and_removes_a_dead_ones(tmp_path):
     temporary = tmp_path / 'tmp'
-    # A grader killed with SIGKILL leaves its run's scratch folder behind.
-    with hanging_grader(tmp_path / 'dead', tmp_path / 'dead' / 'out') as dead:
-        pass
-    assert dead.returncode == -signal.SIGKILL
-    [left] = scratch_folders(tmp_path / 'dead' / 'tmp')
-    os.rename(tmp_path / 'dead' / 'tmp' / left, tmp_path / 'left')
-    temporary.mkdir()
-    with hanging_grader(tmp_path, tmp_path / 'out'):
-        [live] = scratch_folders(temporary)
-        # The live grader seen from another pid namespace: its pid is no process here.
-        os.rename(temporary / live, temporary / f'{isolate.SCRATCH_PREFIX}999999999-live')
-        # The dead grader's pid reused by a running process (this one).
-        os.rename(tmp_path / 'left', temporary / f'{isolate.SCRATCH_PREFIX}{os.getpid()}-dead')
-        isolate.remove_leftover_scratch(str(temporary))
-        assert scratch_folders(temporary) == [f'{isolate.SCRATCH_PREFIX}999999999-live']
+    with hanging_grader(tmp_path, tmp_path / 'live') as live:
+        [live_parent] = scratch_parents(temporary)
+        with hanging_grader(tmp_path, tmp_path / 'dead') as dead:
+            [dead_parent] = scratch_parents(temporary) - {live_parent}
+        assert dead.returncode == -signal.SIGKILL
+        # A third grader on the same machine cleans up as it starts its runs.
+        done = run_grader(str(scenario_file(tmp_path / 'scenarios')), '--out',
+                          str(tmp_path / 'third'), *QUICK,
+                          env={**os.environ, 'TMPDIR': str(temporary)})
+        assert done.returncode == 0, done.stderr
+        parents = scratch_parents(temporary)
+        assert live_parent in parents and dead_parent not in parents
+        assert live.poll() is None and os.listdir(temporary / live_parent)  # its run's folder
 
 
 @pytest.mark.parametrize('whom', ['self', 'group'])
@@ -368,7 +368,7 @@ def test_gradescopes_output_holds_no_secret_and_no_instructor_path(tmp_path):
     text = results.read_text()
     assert secret not in text
     for path in (instructor, repo_root() or Path(__file__).parents[2],
-                 Path(tempfile.gettempdir()) / isolate.SCRATCH_PREFIX):
+                 Path(tempfile.gettempdir()) / sandbox_host.SCRATCH_PREFIX):
         assert str(path) not in text, path
     assert 'RuntimeError' in text  # the student's own error is shown
 

@@ -22,11 +22,12 @@ from sim_bridge.grading import isolate, limits
 from sim_bridge.grading.batch import BatchProgress, grade_runs
 from sim_bridge.grading.isolate import (
     CappedLog, exit_reason, LOG_HEAD_BYTES, log_tail, LOG_TAIL_BYTES, LOG_TAIL_READ,
-    remove_leftover_scratch, trimmed_environment)
+    trimmed_environment)
 from sim_bridge.grading.isolated_child import process_exists
 from sim_bridge.grading.limits import Limits
 from sim_bridge.grading.runs import GradeJob, RESULT_NAME
 from sim_bridge.grading.scenario import scenario_from_dict
+from sim_bridge.runner import sandbox_host
 
 FIXTURES = Path(__file__).resolve().parent / 'fixtures'
 MISBEHAVING = FIXTURES / 'misbehaving_node.py'
@@ -406,9 +407,10 @@ def started_runs(tmp_path: Path) -> list[int]:
 
 
 def scratch_folders(tmp_path: Path) -> list[str]:
-    """Return the scratch folders in the temporary folder of :func:`grader`."""
-    return [name for name in os.listdir(tmp_path / 'tmp')
-            if name.startswith(isolate.SCRATCH_PREFIX)]
+    """Return the runs' scratch folders in the graders' scratch parents of :func:`grader`."""
+    return [f'{parent.name}/{run}' for parent in (tmp_path / 'tmp').iterdir()
+            if parent.name.startswith(sandbox_host.SCRATCH_PREFIX) and parent.is_dir()
+            for run in os.listdir(parent)]
 
 
 def test_sigterm_interrupts_the_grader_as_ctrl_c_and_ends_every_process_of_its_runs(
@@ -441,6 +443,5 @@ def test_a_killed_graders_runs_end_with_it_and_its_scratch_goes_at_the_next_star
         process.wait()
     assert wait_until(lambda: not any(map(process_exists, no_strays)), 30.0)
     [left] = scratch_folders(tmp_path)
-    assert left.startswith(f'{isolate.SCRATCH_PREFIX}{process.pid}-')
-    remove_leftover_scratch(str(tmp_path / 'tmp'))
+    sandbox_host.remove_leftover_scratch(tmp_path / 'tmp')
     assert scratch_folders(tmp_path) == []

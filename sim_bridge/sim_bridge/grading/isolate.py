@@ -31,10 +31,11 @@ still has not ended a while after that is killed (SIGKILL): the batch never wait
 
 Nothing outlives the grader: the supervisor gets SIGTERM when the fork server dies, which it
 does when the grader dies, however (SIGKILL included); the run is killed with its supervisor.
-Each scratch folder holds a lock file that its grader holds (``fcntl.flock``) as long as it uses
-the folder; a grader that starts a run removes the scratch folders whose lock it can take: those
-of graders that have ended, whatever their process ids now name (a reused pid, another pid
-namespace on a shared machine).
+The runs' scratch folders are in the grader's scratch parent
+(:func:`sim_bridge.runner.sandbox_host.grader_folder`), whose lock the grader holds as long as
+it lives: a grader removes only the parents whose lock it can take, those of graders that have
+ended, whatever their process ids now name (a reused pid, another pid namespace on a shared
+machine).
 """
 
 import fcntl
@@ -49,11 +50,12 @@ import shutil
 import signal
 import tempfile
 import time
-from typing import Any, IO
+from typing import Any
 
 from sim_bridge.grading.isolated_child import fork_server, process_stats, run_child
 from sim_bridge.grading.limits import Job
 from sim_bridge.grading.runs import LOG_NAME
+from sim_bridge.runner.sandbox_host import grader_folder
 
 #: Wall seconds a stopped run gets to write its outputs, a SIGABRT for its stack dump, and its
 #: supervisor to end it before it is killed.
@@ -82,13 +84,6 @@ KEPT_VARIABLES = ('PATH', 'LANG', 'LANGUAGE', 'TZ', 'PYTHONPATH', 'PYTHONHASHSEE
                   'GZ_SIM_RESOURCE_PATH', 'IGN_GAZEBO_RESOURCE_PATH', 'GAZEBO_MODEL_PATH',
                   'GAZEBO_RESOURCE_PATH')
 KEPT_PREFIXES = ('LC_', 'ROS_', 'RMW_', 'RCUTILS_', 'FASTRTPS_', 'FASTDDS_', 'OPENBLAS_')
-#: Scratch folders are ``lab-grade-<grader's pid>-<random>`` in the temporary folder, each
-#: with the lock file its grader holds while it uses it.
-SCRATCH_PREFIX = 'lab-grade-'
-SCRATCH_LOCK = '.grader.lock'
-#: Wall seconds after which a scratch folder without a lock file (its grader ended while
-#: making it) is a leftover; a younger one is being made.
-UNLOCKED_SCRATCH_AGE_S = 3600.0
 #: Process states (/proc/<pid>/stat) of a process stopped by a signal or a tracer.
 STOPPED_STATES = (b'T', b't')
 
@@ -208,9 +203,7 @@ class Child:
         self.log_failure: str | None = None
         self.halted = False
         self.ended_at: float | None = None
-        remove_leftover_scratch()
-        self.scratch = Path(tempfile.mkdtemp(prefix=f'{SCRATCH_PREFIX}{os.getpid()}-'))
-        self.scratch_lock = hold_scratch(self.scratch)
+        self.scratch = Path(tempfile.mkdtemp(prefix='run-', dir=grader_folder()))
         context = fork_server()
         self.pipe, writer = context.Pipe(duplex=False)
         # A pipe, not a file, takes the child's output: the grader writes what fits the cap
@@ -391,48 +384,6 @@ class Child:
         self.output.close()
         self.events.close()
         shutil.rmtree(self.scratch, ignore_errors=True)
-        self.scratch_lock.close()
-
-
-def hold_scratch(folder: Path) -> IO[bytes]:
-    """Take the lock of a scratch folder made by this grader; return it (keep it open)."""
-    lock = open(folder / SCRATCH_LOCK, 'wb')
-    fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    return lock
-
-
-def remove_leftover_scratch(folder: str | None = None) -> None:
-    """
-    Remove the scratch folders in ``folder`` that no grader uses: those whose lock is free.
-
-    A folder without its lock file is removed once older than UNLOCKED_SCRATCH_AGE_S.
-    """
-    folder = folder or tempfile.gettempdir()
-    try:
-        names = os.listdir(folder)
-    except OSError:
-        return
-    for name in names:
-        path = os.path.join(folder, name)
-        if not name.startswith(SCRATCH_PREFIX) or os.path.islink(path):
-            continue
-        try:
-            lock = open(os.path.join(path, SCRATCH_LOCK), 'rb')
-        except FileNotFoundError:
-            try:
-                if time.time() - os.lstat(path).st_mtime > UNLOCKED_SCRATCH_AGE_S:
-                    shutil.rmtree(path, ignore_errors=True)
-            except OSError:
-                pass
-            continue
-        except OSError:
-            continue
-        with lock:
-            try:
-                fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            except OSError:  # a live grader holds it
-                continue
-            shutil.rmtree(path, ignore_errors=True)
 
 
 def stopped_group(group: int) -> bool:
