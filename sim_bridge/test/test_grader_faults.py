@@ -407,3 +407,30 @@ def test_the_signing_key_is_the_graders_alone_and_binds_a_result_to_its_folder(t
     assert signer.signs(tmp_path / 'ana', saved, signature)
     assert not signer.signs(tmp_path / 'bob', saved, signature)  # copied to another's folder
     assert not grader_state.ResultSigner(bytes(32)).signs(tmp_path / 'ana', saved, signature)
+
+
+def test_a_stopped_gradescope_grading_keeps_the_tests_of_its_finished_runs(tmp_path):
+    submission = class_folder(tmp_path / 'class', ana=MOVER) / 'ana'
+    shutil.copy(HELPER_STARTER, submission / HELPER_STARTER.name)
+    scenarios = tmp_path / 'scenarios'
+    scenario_file(scenarios, 'scan_ahead', 1.0, 'moves')
+    scenario_file(scenarios, str(HELPER_STARTER), 0.5, 'hangs',
+                  'params: {helper_starter: {how: hang}}\n')  # shorter: run second
+    results, out = tmp_path / 'results.json', tmp_path / 'out'
+    with open(tmp_path / 'stderr.txt', 'w') as stderr:
+        grader = subprocess.Popen(
+            [sys.executable, '-m', 'sim_bridge.grade', str(scenarios), '--submission',
+             str(submission), '--gradescope', str(results), '--out', str(out),
+             '--stall-timeout', '600', *QUICK], stdout=subprocess.DEVNULL, stderr=stderr)
+    try:
+        assert wait_until(lambda: started(out / 'hangs' / 'seed_1' / isolate.LOG_NAME)), (
+            (tmp_path / 'stderr.txt').read_text())
+        grader.send_signal(signal.SIGTERM)  # Gradescope's time limit
+        assert grader.wait(timeout=WAIT_S) == 128 + signal.SIGTERM
+    finally:
+        grader.kill()
+    tests = {test['name']: test for test in json.loads(results.read_text())['tests']}
+    assert tests['moves: moves']['status'] == 'passed', tests
+    assert tests['hangs: hangs']['status'] == 'failed'
+    assert ('not graded: the grading was stopped after 1 of 2 runs'
+            in tests['hangs: hangs']['output'])

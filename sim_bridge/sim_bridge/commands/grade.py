@@ -178,10 +178,13 @@ def main(argv: list[str] | None = None) -> int:
         failed_gradescope(args, str(error))
         return 2
     jobs, missing = batch_jobs(args, scenarios, batch)
-    progress = BatchProgress(len(jobs), sum(job.run.scenario.duration_s for job in jobs),
-                             enabled=not args.quiet)
     names = report_names(args.out, args.submissions or args.submission,
                          [scenario.path for scenario in scenarios if scenario.path])
+    progress = (gradescope.GradescopeProgress(jobs, missing, scenarios, args.gradescope, names,
+                                              enabled=not args.quiet)
+                if args.gradescope is not None else
+                BatchProgress(len(jobs), sum(job.run.scenario.duration_s for job in jobs),
+                              enabled=not args.quiet))
     # SIGTERM (kill, a CI job's timeout) and SIGHUP (the terminal or the ssh session closed)
     # interrupt as Ctrl-C does; the exit status then says which it was, 128 + the signal's
     # number, as a shell's for a process killed by it.
@@ -209,8 +212,9 @@ def main(argv: list[str] | None = None) -> int:
         status = write_reports(args, batch, reports, names, scenarios)
         return max(status, 1) if progress.faults else status
     except KeyboardInterrupt:
-        failed_gradescope(args, f'the grading was stopped after {progress.done} of '
-                          f'{len(jobs)} runs')
+        stopped = f'the grading was stopped after {progress.done} of {len(jobs)} runs'
+        if isinstance(progress, gradescope.GradescopeProgress):  # the finished runs' tests
+            progress.write_results(stopped)
         try:
             print(f'\ninterrupted: {progress.done} of {len(jobs)} runs finished; the same '
                   'command again resumes from there', file=sys.stderr)

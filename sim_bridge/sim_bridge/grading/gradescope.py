@@ -28,9 +28,10 @@ import zipfile
 
 from sim_bridge.common.paths import WORLD_FILE_SUFFIXES, world_names
 from sim_bridge.common.text import cap_text, PathNames, printable, reason
+from sim_bridge.grading.batch import BatchProgress, format_table
 from sim_bridge.grading.isolate import trimmed_environment
 from sim_bridge.grading.marks import format_marks, summary as marks_summary, task_marks, total
-from sim_bridge.grading.runs import RunReport
+from sim_bridge.grading.runs import GradeJob, RunReport
 from sim_bridge.grading.scenario import load_scenarios, Scenario, ScenarioError
 
 #: The most bytes of one test's output in results.json (the reason, the table, tracebacks).
@@ -177,6 +178,49 @@ def tracebacks(reports: list[RunReport], names: PathNames) -> list[str]:
             if text:
                 return ['', f'traceback of {report.run.name}:', names(text)]
     return []
+
+
+class GradescopeProgress(BatchProgress):
+    """
+    A batch's progress that keeps Gradescope's ``results.json`` up to date as its runs end.
+
+    After each run (finished now, or earlier and resumed), ``path`` gets the results of the
+    runs finished so far, each run not yet finished failing as not graded: when Gradescope
+    stops the grader at its time limit, or the grader is stopped, the student still has the
+    tests of every run that finished.
+    """
+
+    def __init__(self, jobs: list[GradeJob], missing: list[RunReport],
+                 scenarios: list[Scenario], path: Path, names: PathNames,
+                 enabled: bool = True) -> None:
+        super().__init__(len(jobs), sum(job.run.scenario.duration_s for job in jobs),
+                         enabled=enabled)
+        self.jobs, self.missing, self.scenarios = jobs, missing, scenarios
+        self.path, self.names = path, names
+        self.finished: dict[Path, RunReport] = {}
+
+    def resume(self, report: RunReport) -> None:
+        """Note a run finished by an earlier invocation, and write the results so far."""
+        super().resume(report)
+        self.finished[report.out_dir] = report
+        self.write_results('the grading has not reached this run yet')
+
+    def finish(self, name: str, report: RunReport) -> None:
+        """Note that a run ended, and write the results so far."""
+        super().finish(name, report)
+        self.finished[report.out_dir] = report
+        self.write_results('the grading has not reached this run yet')
+
+    def write_results(self, why_not_graded: str) -> None:
+        """Write the results of the runs finished so far; the others fail, saying why."""
+        reports = [self.finished.get(job.out_dir) or RunReport(
+            job.run, job.out_dir, [], None, f'not graded: {why_not_graded}', 0.0)
+            for job in self.jobs]
+        try:
+            write_results(self.path, results(reports + self.missing, self.scenarios,
+                                             format_table, self.names))
+        except OSError as error:  # the final write says it, once
+            self.note(f'cannot write {printable(str(self.path))}: {error.strerror or error}')
 
 
 def failed_results(why: str) -> dict[str, Any]:
