@@ -337,7 +337,7 @@ def test_a_stopped_run_fails_at_its_budget_alone_and_the_batch_goes_on(tmp_path,
     try:
         done = subprocess.run(
             [sys.executable, '-m', 'sim_bridge.grade', str(scenarios), '--out', str(out),
-             '--jobs', '2', '--timeout', '25', '--stall-timeout', '3', *QUICK],
+             '--jobs', '2', '--timeout', '40', '--stall-timeout', '3', *QUICK],
             capture_output=True, text=True, timeout=WAIT_S)
     except subprocess.TimeoutExpired:
         pytest.fail('the grader waited for ever on a stopped run')
@@ -345,7 +345,7 @@ def test_a_stopped_run_fails_at_its_budget_alone_and_the_batch_goes_on(tmp_path,
     runs = {run['run']: run for run in json.loads((out / 'report.json').read_text())['runs']}
     assert runs['moving/seed_1']['passed']
     assert runs['stopped/seed_1']['error'].startswith(
-        'wall-clock budget of 25 s used up; the run was stopped (SIGSTOP)'), runs
+        'wall-clock budget of 40 s used up; the run was stopped (SIGSTOP)'), runs
 
 
 def test_gradescopes_output_holds_no_secret_and_no_instructor_path(tmp_path):

@@ -191,14 +191,19 @@ def fingerprint(job: GradeJob, options: dict[str, Any], limits: Limits) -> str:
     return digest.hexdigest()
 
 
+class ResultRefused(Exception):
+    """A saved result does not match its signature: its run is run again, and reported so."""
+
+
 def finished_report(job: GradeJob, digest: str, signer: ResultSigner,
                     note: Callable[[str], None] = print) -> 'RunReport | None':
     """
     Return the report of ``job`` from an earlier invocation, if it ran with ``digest``.
 
-    Only a result signed by ``signer`` (the grader's key) is reused; one that is there but is
-    not one the grader wrote, or was changed since, is named with ``note`` and its run is run
-    again.
+    Only a result signed by ``signer`` (the grader's key) is reused. One that is there but is
+    not a result the grader writes is named with ``note`` and its run is run again; one whose
+    signature does not match (edited, or copied from another run's folder) is named too, and
+    raises ResultRefused: it is run again and the batch's report says so.
     """
     path = job.out_dir / RESULT_NAME
     try:
@@ -226,10 +231,6 @@ def finished_report(job: GradeJob, digest: str, signer: ResultSigner,
         raise ResultRefused
     report.reused = True
     return report
-
-
-class ResultRefused(Exception):
-    """A saved result does not match its signature: its run is run again, and reported so."""
 
 
 def save_result(report: 'RunReport', digest: str, signer: ResultSigner,

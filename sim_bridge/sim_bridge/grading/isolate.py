@@ -201,8 +201,8 @@ class Child:
         self.log = CappedLog(self.log_path)
         #: Why the log could not be written (a full disk), or None.
         self.log_failure: str | None = None
+        #: True when the run was found stopped by a signal at its budget.
         self.halted = False
-        self.ended_at: float | None = None
         self.scratch = Path(tempfile.mkdtemp(prefix='run-', dir=grader_folder()))
         context = fork_server()
         self.pipe, writer = context.Pipe(duplex=False)
@@ -291,8 +291,8 @@ class Child:
                 reason = f'wall-clock budget of {self.budget_s:g} s used up'
                 if stopped_group(self.process.pid):
                     # Stopped, it can write nothing: its supervisor ends it now.
-                    self.stop_reason = f'{reason}; the run was stopped (SIGSTOP) and never ' \
-                        'went on'
+                    self.stop_reason = (f'{reason}; the run was stopped (SIGSTOP) and never '
+                                        'went on')
                     self.stop_sent_at = now - GRACE_S - ABORT_GRACE_S
                     self.aborted = self.halted = True
                 else:
