@@ -214,7 +214,7 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         stopped = f'the grading was stopped after {progress.done} of {len(jobs)} runs'
         if isinstance(progress, gradescope.GradescopeProgress):  # the finished runs' tests
-            progress.write_results(stopped)
+            progress.write_results(stopped, stopped=True)
         try:
             print(f'\ninterrupted: {progress.done} of {len(jobs)} runs finished; the same '
                   'command again resumes from there', file=sys.stderr)

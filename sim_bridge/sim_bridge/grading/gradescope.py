@@ -211,14 +211,19 @@ class GradescopeProgress(BatchProgress):
         self.finished[report.out_dir] = report
         self.write_results('the grading has not reached this run yet')
 
-    def write_results(self, why_not_graded: str) -> None:
-        """Write the results of the runs finished so far; the others fail, saying why."""
+    def write_results(self, why_not_graded: str, stopped: bool = False) -> None:
+        """
+        Write the results of the runs finished so far; the others fail, saying why.
+
+        ``stopped``: the grading was stopped; its output says so first.
+        """
         reports = [self.finished.get(job.out_dir) or RunReport(
             job.run, job.out_dir, [], None, f'not graded: {why_not_graded}', 0.0)
             for job in self.jobs]
         try:
             write_results(self.path, results(reports + self.missing, self.scenarios,
-                                             format_table, self.names))
+                                             format_table, self.names,
+                                             [why_not_graded] if stopped else []))
         except OSError as error:  # the final write says it, once
             self.note(f'cannot write {printable(str(self.path))}: {error.strerror or error}')
 
