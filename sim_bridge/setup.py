@@ -29,7 +29,7 @@ setup(
         *tree('../worlds', os.path.join(share, 'worlds')),
         *tree('../models', os.path.join(share, 'models')),
     ],
-    install_requires=['setuptools', 'numpy', 'pybullet', 'rosbags>=0.11,<0.12', 'matplotlib',
+    install_requires=['setuptools', 'numpy>=1.26,<2', 'pybullet', 'rosbags>=0.11,<0.12', 'matplotlib',
                       'contourpy', 'PyYAML', 'trimesh', 'pycollada', 'shapely', 'pillow',
                       'imageio-ffmpeg'],
     extras_require={
