@@ -25,11 +25,12 @@ setup(
         (share, ['package.xml']),
         (os.path.join(share, 'launch'), glob('launch/*.launch.py')),
         (os.path.join(share, 'params'), glob('params/*.yaml')),
-        # The worlds and models live at the workspace's top level (see README).
-        *tree('../worlds', os.path.join(share, 'worlds')),
-        *tree('../models', os.path.join(share, 'models')),
+        # The package's worlds and models: links to the workspace's top-level folders (their
+        # source), so that the package built alone, a copy of its folder, installs them too.
+        *tree('worlds', os.path.join(share, 'worlds')),
+        *tree('models', os.path.join(share, 'models')),
     ],
-    install_requires=['setuptools', 'numpy>=1.26,<2', 'pybullet', 'rosbags>=0.11,<0.12', 'matplotlib',
+    install_requires=['setuptools', 'numpy>=1.26,<2', 'pybullet', 'mcap>=1.1', 'matplotlib',
                       'contourpy', 'PyYAML', 'trimesh', 'pycollada', 'shapely', 'pillow',
                       'imageio-ffmpeg'],
     extras_require={

@@ -34,7 +34,7 @@ IMPORT_KEYS = {
     'jinja2': 'python3-jinja2', 'rich': 'python3-rich', 'pydantic': 'python3-pydantic',
     'pytest': 'python3-pytest', 'hypothesis': 'python3-hypothesis',
     'trimesh': 'python3-trimesh-pip', 'pybullet': 'python3-pybullet-pip',
-    'rosbags': 'python3-rosbags-pip', 'ruamel': 'python3-ruamel.yaml',
+    'rosbags': 'python3-rosbags-pip',
     # mcap-ros2-support depends on mcap, the writer and reader of the files.
     'mcap': 'mcap-ros2-support', 'mcap_ros2': 'mcap-ros2-support',
     # The Python module tf2_ros is tf2_ros_py's; the package tf2_ros is C++.

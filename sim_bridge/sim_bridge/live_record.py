@@ -18,7 +18,7 @@ import threading
 import time
 from typing import Mapping, Sequence
 
-from sim_bridge.node_output import NodeLog, rosout_message, ROSOUT_TOPIC, ROSOUT_TYPE
+from sim_bridge.node_output import NodeLog, ROSOUT_TOPIC, ROSOUT_TYPE
 from sim_bridge.run_environment import environment_set
 from sim_bridge.run_trace import CollisionEvent, Trace
 
@@ -86,6 +86,7 @@ class LiveRecorder:
         with environment_set(self.env):
             rclpy.init(context=self.context, signal_handler_options=SignalHandlerOptions.NO)
         node = self.node()
+        self.bag.graph = node  # the live processes' offered QoS, as DDS discovery reports it
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(node)
         self.spinner = threading.Thread(target=self.executor.spin, name='live-recorder',
@@ -112,7 +113,7 @@ class LiveRecorder:
     def on_message(self, topic: str, msg) -> None:
         """Record a message at its sim time; keep the clock and the odometry's pose."""
         from rclpy.serialization import serialize_message
-        from sim_bridge.record import message_type_name
+        from sim_bridge.message_types import message_type_name
         stamp = getattr(msg, 'clock', None) or getattr(getattr(msg, 'header', None), 'stamp',
                                                        None)
         with self.lock:
@@ -135,8 +136,8 @@ class LiveRecorder:
 
     def write_log(self) -> None:
         """Record the console lines not yet recorded, on /rosout at their sim time."""
-        for t_ns, entry in self.log.take_pending():
-            self.bag.write(ROSOUT_TOPIC, ROSOUT_TYPE, rosout_message(entry, t_ns), t_ns)
+        for t_ns, data in self.log.take_rosout():
+            self.bag.write(ROSOUT_TOPIC, ROSOUT_TYPE, data, t_ns)
 
     def on_collision(self, msg) -> None:
         """Keep a contact the simulator reports (where, when; not with what)."""

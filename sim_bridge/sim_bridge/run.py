@@ -36,9 +36,10 @@ from rclpy.serialization import serialize_message
 from sim_bridge.drive import check_obstacles, DriveError, DrivePlan, parse_drive, Segment
 from sim_bridge.hints import printed_scan_hint, ros_module_hint, scan_hint
 from sim_bridge.live import LiveRun, prefixed, print_line, process_names
+from sim_bridge.message_types import message_type_name
 from sim_bridge.metrics import compute_metrics
 from sim_bridge.node_output import (
-    LOG_FILE, NodeLog, OutputCapture, rosout_message, ROSOUT_TOPIC, ROSOUT_TYPE,
+    LOG_FILE, NodeLog, OutputCapture, ROSOUT_TOPIC, ROSOUT_TYPE,
     terminal_colours, to_terminal, write_log)
 from sim_bridge.node_styles import Decision
 from sim_bridge.paths import find_world
@@ -46,7 +47,7 @@ from sim_bridge.plot import plot_trajectory
 from sim_bridge.process_run import (
     DomainReservation, last_traceback, node_spec, NODE_START_TIMEOUT_S, OUTPUT_TAIL_LINES,
     printed_error, private_ros_environment, process_environment)
-from sim_bridge.record import BagRecorder, DEFAULT_TOPICS, message_type_name
+from sim_bridge.record import BagRecorder, DEFAULT_TOPICS
 from sim_bridge.report_text import json_safe
 from sim_bridge.run_environment import (
     FIELD_CHECK_HINT, is_field_check_failure, run_environment)
@@ -471,9 +472,11 @@ class RunRecorder:
         self.type_names: dict[type, str] = {}
         bridge = run.bridge
         bridge.on_publish = self.on_bridge_message
+        self.node = None
         if not record:
             return
-        node = run.node('sim_bridge_recorder')
+        # Its view of the run's graph gives the bag each topic's offered QoS.
+        self.node = node = run.node('sim_bridge_recorder')
         bridge_topics = {publisher.topic_name for publisher in bridge.publishers}
         subscribed = {sub.topic_name: sub.msg_type for sub in bridge.subscriptions}
         for publisher in bridge.publishers:
@@ -506,8 +509,8 @@ class RunRecorder:
 
     def write_log(self) -> None:
         """Write (or hold) the nodes' lines not yet recorded, on /rosout at their own times."""
-        for t_ns, entry in self.log.take_pending():
-            self.store(ROSOUT_TOPIC, ROSOUT_TYPE, rosout_message(entry, t_ns), t_ns)
+        for t_ns, data in self.log.take_rosout():
+            self.store(ROSOUT_TOPIC, ROSOUT_TYPE, data, t_ns)
 
     def store(self, topic: str, type_name: str, data: bytes, t_ns: int) -> None:
         """Write (or hold) one message's CDR bytes at ``t_ns`` (ns)."""
@@ -520,6 +523,7 @@ class RunRecorder:
         """Write the held messages to ``bag`` and everything sent from now on."""
         self.write_log()
         if bag is not None:
+            bag.graph = self.node
             for message in self.held:
                 bag.write(*message)
         self.bag, self.held = bag, None

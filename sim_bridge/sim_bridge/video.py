@@ -170,29 +170,34 @@ def read_recording(bag: Path) -> tuple[tuple, tuple]:
 
     ``geometry`` is the scans' (angle_min rad, angle_increment rad, range_max m).
 
-    Read with rosbags' reader and Jazzy type store; times are the messages' bag stamps (sim
+    Read with mcap's reader (the files ``metadata.yaml`` names), the messages deserialised by
+    rclpy as the installed packages define them; times are the messages' bag stamps (sim
     time: the runner stamps each message with the step that sent it).
     """
-    from rosbags.rosbag2 import Reader
-    from rosbags.typesys import get_typestore, Stores
-    store = get_typestore(Stores.ROS2_JAZZY)
+    from mcap.exceptions import McapError
+    from mcap.reader import make_reader
+    from rclpy.serialization import deserialize_message
+    from sim_bridge.message_types import message_class
     pose_t, poses, scan_t, scans = [], [], [], []
     geometry = (0.0, 0.0, 0.0)
     try:
-        with Reader(bag) as reader:
-            wanted = [c for c in reader.connections if c.topic in (ODOM_TOPIC, SCAN_TOPIC)]
-            for connection, stamp, raw in reader.messages(connections=wanted):
-                msg = store.deserialize_cdr(raw, connection.msgtype)
-                if connection.topic == ODOM_TOPIC:
-                    pose = msg.pose.pose
-                    yaw = 2.0 * math.atan2(pose.orientation.z, pose.orientation.w)
-                    pose_t.append(stamp * 1e-9)
-                    poses.append((pose.position.x, pose.position.y, yaw))
-                else:
-                    scan_t.append(stamp * 1e-9)
-                    scans.append(np.asarray(msg.ranges, dtype=float))
-                    geometry = (msg.angle_min, msg.angle_increment, msg.range_max)
-    except Exception as error:  # noqa: B902 rosbags raises its own errors and OSError
+        info = yaml.safe_load((bag / 'metadata.yaml').read_text('utf-8'))
+        for name in info['rosbag2_bagfile_information']['relative_file_paths']:
+            with open(bag / name, 'rb') as stream:
+                messages = make_reader(stream).iter_messages(topics=[ODOM_TOPIC, SCAN_TOPIC])
+                for schema, channel, message in messages:
+                    msg = deserialize_message(message.data, message_class(schema.name))
+                    if channel.topic == ODOM_TOPIC:
+                        pose = msg.pose.pose
+                        yaw = 2.0 * math.atan2(pose.orientation.z, pose.orientation.w)
+                        pose_t.append(message.log_time * 1e-9)
+                        poses.append((pose.position.x, pose.position.y, yaw))
+                    else:
+                        scan_t.append(message.log_time * 1e-9)
+                        scans.append(np.asarray(msg.ranges, dtype=float))
+                        geometry = (msg.angle_min, msg.angle_increment, msg.range_max)
+    except (OSError, KeyError, TypeError, ValueError, yaml.YAMLError, McapError) \
+            as error:
         raise VideoError(f'{bag}: cannot read the recording: {error}') from None
     if not poses:
         raise VideoError(f"{bag}: the recording has no {ODOM_TOPIC} (the robot's pose)")
