@@ -16,6 +16,7 @@ $ROSDISTRO_DIR names a folder with its ``base.yaml``, ``python.yaml`` and
 import ast
 import os
 from pathlib import Path
+import re
 import sys
 import xml.etree.ElementTree as ElementTree
 
@@ -46,10 +47,22 @@ NO_KEY = {'imageio_ffmpeg': 'imageio-ffmpeg'}
 STUDENT_FIXTURES = 'fixtures'
 
 
-def known_keys() -> dict[str, str]:
-    """Return test/rosdep_keys.txt: each key and where rosdistro defines it."""
+def key_records() -> list[list[str]]:
+    """Return test/rosdep_keys.txt's lines: key, where rosdistro defines it[, pip package]."""
     lines = (ROOT / 'test' / 'rosdep_keys.txt').read_text().splitlines()
-    return dict(line.split() for line in lines if line and not line.startswith('#'))
+    return [line.split() for line in lines if line and not line.startswith('#')]
+
+
+def known_keys() -> dict[str, str]:
+    """Return each known key and where rosdistro defines it."""
+    return {record[0]: record[1] for record in key_records()}
+
+
+def requirement_names(name: str) -> set[str]:
+    """Return the distribution names a requirements file at the top of the workspace lists."""
+    lines = (ROOT / name).read_text().splitlines()
+    return {re.split(r'[<>=!~ ;\[]', line, maxsplit=1)[0].lower()
+            for line in lines if line.strip() and not line.startswith(('#', '-'))}
 
 
 def declared(package: str) -> dict[str, set[str]]:
@@ -134,6 +147,15 @@ def test_modules_without_a_key_are_in_requirements():
         assert f'\n{requirement}' in requirements, f'{requirement} is not in requirements.txt'
 
 
+def test_the_ros_machine_s_pip_file_has_what_rosdep_installs_with_pip_or_cannot():
+    """On Ubuntu 24.04 rosdep's pip rules fail (PEP 668): the venv gets them (README)."""
+    declared_keys = set().union(*(keys for package in PACKAGES
+                                  for keys in declared(package).values()))
+    pip_rules = {record[2] for record in key_records()
+                 if len(record) > 2 and record[0] in declared_keys}
+    assert requirement_names('requirements-ros-machine.txt') == pip_rules | set(NO_KEY.values())
+
+
 def test_every_import_has_a_known_key():
     """A new import needs its key named here (IMPORT_KEYS) or in rosdep_keys.txt."""
     keys = known_keys()
@@ -154,9 +176,13 @@ def test_recorded_keys_are_rosdistros():
     for name in ('base.yaml', 'python.yaml'):
         rules.update(yaml.safe_load((rosdistro / name).read_text()))
     jazzy = set((rosdistro / 'jazzy_packages.txt').read_text().split())
-    for key, source in known_keys().items():
+    for key, source, *pip_package in key_records():
         if source == 'jazzy':
             assert key in jazzy, f'{key} is not a package of Jazzy'
-        else:
-            rule = rules.get(key) or {}
-            assert 'ubuntu' in rule or '*' in rule, f'{key} has no Ubuntu rule in {source}'
+            continue
+        rule = rules.get(key) or {}
+        assert 'ubuntu' in rule or '*' in rule, f'{key} has no Ubuntu rule in {source}'
+        ubuntu = rule.get('ubuntu', rule.get('*'))
+        if pip_package:  # {'pip': {'packages': [name]}} or {'pip': [name]}
+            pip = ubuntu['pip']
+            assert pip_package[0] in (pip['packages'] if isinstance(pip, dict) else pip), key

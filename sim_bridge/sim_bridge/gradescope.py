@@ -39,6 +39,7 @@ OUTPUT_LIMIT_BYTES = 8 * 1024
 REASONS_SHOWN = 3
 #: What the zip carries of the kit, relative to the workspace's top.
 KIT_FILES = ('lab', 'requirements.txt', 'requirements-dev.txt', 'requirements-ros.txt',
+             'requirements-ros-dev.txt',
              'scan_pkg', 'sim_bridge', 'worlds', 'models')
 #: Folders of the kit left out of the zip: tests, caches and build outputs.
 SKIPPED_FOLDERS = {'test', '__pycache__', '.pytest_cache', 'build', 'install', 'log'}
