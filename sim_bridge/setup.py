@@ -20,6 +20,8 @@ setup(
     name=package_name,
     version='0.1.0',
     packages=find_packages(exclude=['test', 'test.*']),
+    # The HTML pages' jinja2 templates (sim_bridge.html_report).
+    package_data={package_name: ['templates/*.html']},
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         (share, ['package.xml']),
