@@ -333,6 +333,7 @@ class BagRecorder:
         if not self._closed:
             self._closed = True
             self._routes.clear()  # so that write finds the bag closed
+            self._graph = None  # the run's node is freed with the run, not with the bag
             self._writer.add_metadata('rosbag2', {
                 'serialized_metadata': _yaml(self._metadata()), 'ROS_DISTRO': ROS_DISTRO})
             self._writer.finish()
