@@ -109,23 +109,20 @@ def key_of(module: str) -> str | None:
     return IMPORT_KEYS.get(module, module)
 
 
-@pytest.mark.parametrize('package', PACKAGES)
-def test_every_runtime_import_is_an_exec_depend(package):
-    tags = declared(package)
-    runtime = tags.get('exec_depend', set()) | tags.get('depend', set())
-    missing = [f'{module} ({path}): <exec_depend>{key_of(module)}</exec_depend>'
-               for module, path in third_party_imports(package, tests=False).items()
-               if key_of(module) is not None and key_of(module) not in runtime]
-    assert not missing, f'{package}/package.xml does not declare: ' + '; '.join(missing)
+#: What each kind of code may rely on: the tags whose keys it sees, and the tag it needs.
+DECLARING_TAGS = {False: (('exec_depend', 'depend'), 'exec_depend'),
+                  True: (('exec_depend', 'depend', 'test_depend'), 'test_depend')}
 
 
+@pytest.mark.parametrize('tests', [False, True], ids=['runtime', 'tests'])
 @pytest.mark.parametrize('package', PACKAGES)
-def test_every_test_import_is_declared(package):
+def test_every_import_is_declared(package, tests):
+    """Modules and launch files need an exec_depend (or depend); tests a test_depend too."""
     tags = declared(package)
-    available = set().union(*(tags.get(tag, set())
-                              for tag in ('exec_depend', 'depend', 'test_depend')))
-    missing = [f'{module} ({path}): <test_depend>{key_of(module)}</test_depend>'
-               for module, path in third_party_imports(package, tests=True).items()
+    seen, needed = DECLARING_TAGS[tests]
+    available = set().union(*(tags.get(tag, set()) for tag in seen))
+    missing = [f'{module} ({path}): <{needed}>{key_of(module)}</{needed}>'
+               for module, path in third_party_imports(package, tests).items()
                if key_of(module) is not None and key_of(module) not in available]
     assert not missing, f'{package}/package.xml does not declare: ' + '; '.join(missing)
 
