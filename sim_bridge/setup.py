@@ -34,7 +34,7 @@ setup(
     ],
     install_requires=['setuptools', 'numpy>=1.26,<2', 'pybullet', 'mcap>=1.1', 'matplotlib',
                       'contourpy', 'PyYAML', 'trimesh', 'pycollada', 'shapely', 'pillow',
-                      'imageio-ffmpeg', 'jinja2', 'pydantic>=2'],
+                      'imageio-ffmpeg', 'jinja2', 'pydantic>=2', 'rich'],
     extras_require={
         'test': [
             'pytest',

@@ -17,6 +17,7 @@ import os
 from pathlib import Path
 
 from sim_bridge import html_report
+from sim_bridge.console import text_table
 from sim_bridge.grading import (
     GradeJob, PAGE_NAME, REPORT_NAME, reuse_notes, RunReport, write_outputs, write_report)
 from sim_bridge.marks import format_marks, task_marks, TaskMarks, total
@@ -201,10 +202,5 @@ def write_csv(path: Path, rows: list[list[str]]) -> None:
 
 
 def format_rows(rows: list[list[str]]) -> str:
-    """Return rows as an aligned text table: the first column left, the others right."""
-    widths = [max(len(row[column]) for row in rows) for column in range(len(rows[0]))]
-    lines = ['  '.join([row[0].ljust(widths[0])] + [cell.rjust(width) for cell, width
-                                                    in zip(row[1:], widths[1:])])
-             for row in rows]
-    lines.insert(1, '-' * len(lines[0]))
-    return '\n'.join(lines)
+    """Return rows as an aligned text table: the first row the header, the first column left."""
+    return text_table(rows[0], rows[1:], right=range(1, len(rows[0])))
