@@ -353,8 +353,9 @@ def recover(path: str | os.PathLike) -> dict[str, int]:
     Close a bag whose recording was cut short: keep every message its MCAP file holds whole.
 
     The readable messages (those of the chunks that reached the file) are written again, as
-    they were, into a closed bag of the same name, with the schemas, the topics' QoS and hashes
-    the bag recorded, and a complete ``metadata.yaml``. Returns the count per topic.
+    they were, into a closed bag of the same name, with the topics' QoS as the bag recorded
+    them, the types' definitions and hashes of the installed packages (as when recording), and
+    a complete ``metadata.yaml``. Returns the count per topic.
     """
     bag = Path(path)
     info = yaml.safe_load((bag / METADATA_FILE).read_text('utf-8'))
