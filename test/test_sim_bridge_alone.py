@@ -3,7 +3,8 @@ sim_bridge built alone, as a package in someone else's workspace, installs its w
 
 A copy of the package's folder (its links to the workspace's ``worlds/`` and ``models/``
 followed, as ``cp -rL`` copies them) is built by colcon in a workspace of its own: its share
-folder must hold every world and every model folder of the kit (about 15 s).
+folder must hold every world and every model folder of the kit, its Python package the
+grading pages' templates (about 15 s).
 """
 
 from pathlib import Path
@@ -32,3 +33,8 @@ def test_a_copy_of_sim_bridge_built_alone_installs_the_worlds_and_models(tmp_pat
     share = tmp_path / 'install' / 'sim_bridge' / 'share' / 'sim_bridge'
     for name in ('worlds', 'models'):
         assert files_below(share / name) == files_below(ROOT / name) != set(), name
+    # The grading pages' templates are package data beside the modules.
+    templates = ROOT / 'sim_bridge' / 'sim_bridge' / 'templates'
+    installed = list((tmp_path / 'install' / 'sim_bridge').glob(
+        'lib/python*/site-packages/sim_bridge/templates'))
+    assert len(installed) == 1 and files_below(installed[0]) == files_below(templates)
