@@ -20,17 +20,20 @@ setup(
     name=package_name,
     version='0.1.0',
     packages=find_packages(exclude=['test', 'test.*']),
-    # The HTML pages' jinja2 templates (sim_bridge.html_report).
-    package_data={package_name: ['templates/*.html']},
+    # The HTML pages' jinja2 templates (sim_bridge.grading.html_report).
+    package_data={f'{package_name}.grading': ['templates/*.html']},
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         (share, ['package.xml']),
         (os.path.join(share, 'launch'), glob('launch/*.launch.py')),
         (os.path.join(share, 'params'), glob('params/*.yaml')),
-        # The package's worlds and models: links to the workspace's top-level folders (their
-        # source), so that the package built alone, a copy of its folder, installs them too.
+        # The worlds, models, shipped scenarios and example nodes: links to the workspace's
+        # top-level folders (their source), so that the package built alone, a copy of its
+        # folder, installs them too; sim_bridge.common.paths finds them in a checkout or here.
         *tree('worlds', os.path.join(share, 'worlds')),
         *tree('models', os.path.join(share, 'models')),
+        *tree('scenarios', os.path.join(share, 'scenarios')),
+        *tree('examples', os.path.join(share, 'examples')),
     ],
     install_requires=['setuptools', 'numpy>=1.26,<2', 'pybullet', 'mcap>=1.1', 'matplotlib',
                       'contourpy', 'PyYAML', 'trimesh', 'pycollada', 'shapely', 'pillow',
@@ -47,12 +50,12 @@ setup(
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
-            'sim_bridge = sim_bridge.bridge:main',
-            'lab_run = sim_bridge.run:main',
-            'lab_grade = sim_bridge.grade:main',
-            'lab_video = sim_bridge.video:main',
-            'teleop_keyboard = sim_bridge.teleop:main',
-            'send_cmd_vel = sim_bridge.send_cmd_vel:main',
+            'sim_bridge = sim_bridge.ros.bridge:main',
+            'lab_run = sim_bridge.commands.run:main',
+            'lab_grade = sim_bridge.commands.grade:main',
+            'lab_video = sim_bridge.commands.video:main',
+            'teleop_keyboard = sim_bridge.ros.teleop:main',
+            'send_cmd_vel = sim_bridge.ros.send_cmd_vel:main',
         ],
     },
 )

@@ -5,7 +5,8 @@ Each MCAP schema and hash is compared with what the installed message packages h
 independently of the recorder: the ``.msg`` files in each package's share folder, the
 dependencies from rclpy's classes (rosidl's ``SLOT_TYPES``), the hash that rmw computes for a
 publisher of the type (the ROS graph's ``topic_type_hash``). A recording cut by ``kill -9``
-keeps what reached its file and is closed by ``python -m sim_bridge.record recover``.
+keeps what reached its file and is closed by ``python -m sim_bridge.commands.record
+recover``.
 """
 
 import os
@@ -18,8 +19,8 @@ from mcap.reader import make_reader
 import pytest
 from rosbags.rosbag2 import Reader
 from rosidl_parser import definition
-from sim_bridge.message_types import message_class
-from sim_bridge.run import run_simulation
+from sim_bridge.common.message_types import message_class
+from sim_bridge.runner.run import run_simulation
 import yaml
 
 SEPARATOR = '\n' + '=' * 80 + '\n'
@@ -127,7 +128,7 @@ KILLED_RECORDING = textwrap.dedent("""
     import os, signal, sys
     from rclpy.serialization import serialize_message
     from sensor_msgs.msg import LaserScan
-    from sim_bridge.record import BagRecorder
+    from sim_bridge.runner.record import BagRecorder
     bag = BagRecorder(sys.argv[1])
     for step in range(2000):
         scan = LaserScan(ranges=[float(step)] * 360)
@@ -142,8 +143,9 @@ def test_a_recording_killed_keeps_what_reached_its_file_and_recover_closes_it(tm
     assert killed.returncode == -9
     info = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
     assert info['relative_file_paths'] == ['cut_0.mcap'] and (bag / 'cut_0.mcap').is_file()
-    recovered = subprocess.run([sys.executable, '-m', 'sim_bridge.record', 'recover', str(bag)],
-                               capture_output=True, text=True)
+    recovered = subprocess.run(
+        [sys.executable, '-m', 'sim_bridge.commands.record', 'recover', str(bag)],
+        capture_output=True, text=True)
     assert recovered.returncode == 0, recovered.stderr
     with Reader(bag) as reader:
         times = [t_ns for _, t_ns, _ in reader.messages()]

@@ -89,16 +89,17 @@ import os
 from pathlib import Path
 from typing import Any
 
-from sim_bridge import paths
+from sim_bridge.common import paths
+from sim_bridge.common.values import with_type
+from sim_bridge.common.yaml_loader import load_yaml, read_text
 from sim_bridge.simulation import world_file
 from sim_bridge.simulation.floor_slice import FloorSlice
 from sim_bridge.simulation.geometry import Footprint, Shape, triangulate, wrap_angle
-from sim_bridge.simulation.sdf import (describe_ignored, Ignored, is_sdf_text, load_model, Model,
-                                       parse_world, place, SdfError)
+from sim_bridge.simulation.sdf import (
+    describe_ignored, Ignored, is_sdf_text, load_model, Model, parse_world, place, SdfError)
 from sim_bridge.simulation.world_file import (  # noqa: F401 - the world file's names
-    DEFAULT_ROBOT_MODEL, kind_of, MAX_COORDINATE_M, MAX_SIZE_M, OBSTACLE_TYPES,
-    validate_world_file, WorldError)
-from sim_bridge.yaml_loader import load_yaml, read_text
+    DEFAULT_ROBOT_MODEL, MAX_COORDINATE_M, MAX_SIZE_M, OBSTACLE_TYPES, validate_world_file,
+    WorldError)
 import yaml
 
 #: The largest world file read (bytes): an SDF world of a whole house is a few hundred KiB.
@@ -403,7 +404,7 @@ class _Parser:
               lidar: str | None = None) -> Model:
         """Return the model ``name`` (a folder's name, or a path to a folder or SDF file)."""
         if not isinstance(name, str) or not name:
-            raise self.fail(where, 'model', f'must be a model name, got {kind_of(name)}')
+            raise self.fail(where, 'model', f'must be a model name, got {with_type(name)}')
         try:
             given = Path(name)
             found = given if given.parent != Path('.') or given.suffix == '.sdf' \

@@ -9,10 +9,10 @@ stands) is checked by sim_bridge.simulation.world.
 """
 
 from collections.abc import Mapping
-import math
 from typing import Annotated, Any, Literal, Union
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError
+from sim_bridge.common.values import is_finite_number, with_type
 
 DEFAULT_ROBOT_MODEL = 'lab_robot'
 DEFAULT_WALL_THICKNESS = 0.15
@@ -42,17 +42,6 @@ class WorldError(ValueError):
         super().__init__(': '.join(part for part in parts if part))
 
 
-def is_number(value: Any) -> bool:
-    """Return True for a finite int or float (not a bool, not text)."""
-    return (isinstance(value, (int, float)) and not isinstance(value, bool)
-            and math.isfinite(value))
-
-
-def kind_of(value: Any) -> str:
-    """Return ``value`` and its type, as the messages show a wrong value."""
-    return f'{value!r} ({type(value).__name__})'
-
-
 def _within_limits(numbers: list, value: Any, sizes: bool) -> None:
     """Fail unless every number is a lab's: a size or a position in metres (see module)."""
     if sizes and any(number > MAX_SIZE_M for number in numbers):
@@ -67,7 +56,7 @@ def numbers(count: int, positions: int | None = None):
     """Return a validator of ``count`` finite numbers, the first ``positions`` positions (m)."""
     def check(value: Any) -> tuple[float, ...]:
         if not isinstance(value, list) or len(value) != count \
-                or not all(is_number(item) for item in value):
+                or not all(is_finite_number(item) for item in value):
             raise ValueError(f'must be {count} finite numbers, got {value!r}')
         _within_limits(value[:positions], value, sizes=False)
         return tuple(float(item) for item in value)
@@ -78,7 +67,7 @@ def sizes(count: int):
     """Return a validator of ``count`` lengths (m), each positive and at most MAX_SIZE_M."""
     def check(value: Any) -> tuple[float, ...]:
         if not isinstance(value, list) or len(value) != count \
-                or not all(is_number(item) and item > 0 for item in value):
+                or not all(is_finite_number(item) and item > 0 for item in value):
             raise ValueError(f'must be {count} positive finite numbers, got {value!r}')
         _within_limits(value, value, sizes=True)
         return tuple(float(item) for item in value)
@@ -86,14 +75,14 @@ def sizes(count: int):
 
 
 def _position(value: Any) -> float:
-    if not is_number(value):
+    if not is_finite_number(value):
         raise ValueError(f'must be a finite number, got {value!r}')
     _within_limits([value], value, sizes=False)
     return float(value)
 
 
 def _size(value: Any) -> float:
-    if not is_number(value):
+    if not is_finite_number(value):
         raise ValueError(f'must be a finite number, got {value!r}')
     if value <= 0:
         raise ValueError(f'must be a positive number, got {value!r}')
@@ -113,7 +102,7 @@ def _text(what: str, empty: bool = True):
     def check(value: Any) -> str:
         if not isinstance(value, str) or (not empty and not value):
             raise ValueError(f'must be {what}, got {value!r}' if not empty
-                             else f'must be {what}, got {kind_of(value)}')
+                             else f'must be {what}, got {with_type(value)}')
         return value
     return BeforeValidator(check)
 
@@ -126,7 +115,7 @@ Point = Annotated[tuple[float, float], numbers(2)]
 ObstacleName = Annotated[str, _text('text')]
 ModelName = Annotated[str, BeforeValidator(
     lambda value: value if isinstance(value, str) and value else _fail(
-        f'must be a model name, got {kind_of(value)}'))]
+        f'must be a model name, got {with_type(value)}'))]
 
 
 def _fail(problem: str):
@@ -215,7 +204,7 @@ class WorldFile(_Entry):
     obstacles: list[Obstacle] | None = None
     target: Annotated[str, BeforeValidator(
         lambda value: value if isinstance(value, str) else _fail(
-            f'must be an obstacle name, got {kind_of(value)}'))] | None = None
+            f'must be an obstacle name, got {with_type(value)}'))] | None = None
     bounds: Annotated[tuple[float, float, float, float], numbers(4)] | None = None
 
 
@@ -263,10 +252,10 @@ def _world_error(error: dict[str, Any], data: Any, label: str) -> WorldError:
         problem = (f"{'missing' if given is None else f'unknown type {given!r}'}; use one of "
                    f"{', '.join(OBSTACLE_TYPES)}")
     elif kind == 'list_type':
-        problem = f"must be a list of entries, got {kind_of(error['input'])}"
+        problem = f"must be a list of entries, got {with_type(error['input'])}"
     elif kind in ('model_type', 'model_attributes_type', 'dict_type'):
         problem = (f"must be a mapping{'' if error['loc'] else ' of keys'}, got "
-                   f"{kind_of(error['input'])}")
+                   f"{with_type(error['input'])}")
     else:
         problem = error['msg']
     return WorldError(label, entry, field_name, problem)
