@@ -28,8 +28,8 @@ from rosbags.rosbag2 import Reader
 from rosbags.typesys import get_typestore, Stores
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import LaserScan
-from sim_bridge.runner.cdr_padding import PaddingZeroer
 from sim_bridge.common.message_types import message_type_name
+from sim_bridge.runner.cdr_padding import PaddingZeroer
 from sim_bridge.runner.record import BAG_VERSION, BagRecorder, DEFAULT_TOPICS
 from sim_bridge.runner.run import run_simulation
 from std_msgs.msg import String

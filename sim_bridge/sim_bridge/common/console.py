@@ -39,17 +39,19 @@ def text_table(header: Sequence[str], rows: Iterable[Sequence[str]],
 
 class ProgressBar:
     """
-    One progress bar on ``stream`` (a terminal; elsewhere nothing is drawn), lines above it.
+    One progress bar on ``stream`` (a terminal, and ``draw``; else none is drawn), lines above.
 
-    :meth:`update` sets the share done (0 to 1) and the text after the bar; :meth:`print`
+    :meth:`update` sets the share done (0 to 1) and the text after the bar; :meth:`write_line`
     prints a line above it (on any stream); :meth:`close` removes the bar.
     """
 
-    def __init__(self, stream: TextIO) -> None:
+    def __init__(self, stream: TextIO, draw: bool = True) -> None:
         self.console = Console(file=stream, highlight=False, markup=False, emoji=False)
-        self.live = self.console.is_terminal
+        self.live = draw and self.console.is_terminal
+        # Redrawn when told (no thread), and sys.stdout and sys.stderr left as they are.
         self.progress = Progress(BarColumn(), TextColumn('{task.fields[status]}'),
-                                 console=self.console, transient=True, auto_refresh=False)
+                                 console=self.console, transient=True, auto_refresh=False,
+                                 redirect_stdout=False, redirect_stderr=False)
         self.task = self.progress.add_task('', total=1.0, status='', visible=self.live)
         if self.live:
             self.progress.start()
@@ -60,7 +62,7 @@ class ProgressBar:
             self.progress.update(self.task, completed=min(max(share, 0.0), 1.0), status=status)
             self.progress.refresh()
 
-    def print(self, line: str) -> None:
+    def write_line(self, line: str) -> None:
         """Print ``line`` above the bar, as it is (no markup)."""
         self.console.print(line, soft_wrap=True)
 

@@ -13,37 +13,20 @@ import math
 from typing import Annotated, Any
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, ValidationError
+from sim_bridge.common.values import described, is_number_not_nan
+from sim_bridge.runner.options import is_seed, MAX_SEED
 
-#: Largest seed: a ROS integer parameter is an int64.
-MAX_SEED = 2 ** 63 - 1
-#: Longest run (simulated s) a scenario may ask for: a day.
+#: The longest simulated run (s): a day. A lab's run lasts minutes; ``duration: 1e9`` (a typo,
+#: or milliseconds) would hold a batch for months of wall time.
 MAX_DURATION_S = 86400.0
+#: How a task's runs become marks: all must pass for its marks, or marks in proportion.
 MARKINGS = ('all', 'proportional')
-#: Metrics a scenario may give a setpoint for, and their units.
+#: What a scenario's ``setpoint:`` can set, and the unit of each.
 SETPOINTS = {'wall_distance_m': 'm'}
 
 
 class ScenarioError(ValueError):
-    """A scenario file that cannot be used; the message names the file and the key."""
-
-
-def is_seed(value: Any) -> bool:
-    """Return True when ``value`` can be a run's seed: an integer from 0 to MAX_SEED."""
-    return isinstance(value, int) and not isinstance(value, bool) and 0 <= value <= MAX_SEED
-
-
-def is_number(value: Any) -> bool:
-    """Return True for an int or float that is not a bool nor NaN."""
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and \
-        not math.isnan(value)
-
-
-def kind_of(value: Any) -> str:
-    """Return what ``value`` is, as the messages say it: 'a list', 'the text 'x'', 'int 3'."""
-    if value is None:
-        return 'nothing'
-    return {dict: 'a mapping', list: 'a list', str: f'the text {value!r}'}.get(
-        type(value), f'{type(value).__name__} {value!r}')
+    """A scenario file that cannot be used; the message names the file and the field."""
 
 
 def _check(test, problem):
@@ -73,14 +56,14 @@ def _seed_problem(value: Any) -> str:
 
 
 Text = Annotated[str, _check(lambda value: isinstance(value, str) and value != '',
-                             lambda value: f'must be a TARGET text, got {kind_of(value)}')]
+                             lambda value: f'must be a TARGET text, got {described(value)}')]
 Seed = Annotated[int, _check(is_seed, _seed_problem)]
 ParameterValue = Annotated[Any, _check(
     _is_parameter_value, lambda value: 'must be a bool, number, text or a list of one of them, '
-    f'got {kind_of(value)}')]
+    f'got {described(value)}')]
 Parameters = Annotated[dict[str, ParameterValue], _check(
     lambda value: isinstance(value, Mapping),
-    lambda value: f'must map parameter names to values, got {kind_of(value)}')]
+    lambda value: f'must map parameter names to values, got {described(value)}')]
 SetpointName = Annotated[str, _check(
     lambda name: name in SETPOINTS,
     lambda name: f"unknown; setpoints are {', '.join(SETPOINTS)}")]
@@ -92,47 +75,48 @@ class ScenarioFile(BaseModel):
     model_config = ConfigDict(extra='forbid', frozen=True)
 
     description: Annotated[str, _check(lambda value: isinstance(value, str),
-                                       lambda value: f'must be text, got {kind_of(value)}')] = ''
+                                       lambda value: f'must be text, got {described(value)}')] = ''
     world: Annotated[str, _check(lambda value: isinstance(value, str) and value != '',
                                  lambda value: 'must be a world name or path, got '
-                                 f'{kind_of(value)}')]
+                                 f'{described(value)}')]
     nodes: Annotated[list[Text], _check(
         lambda value: isinstance(value, list) and value != [],
-        lambda value: f'must be a non-empty list of TARGETs, got {kind_of(value)}'),
+        lambda value: f'must be a non-empty list of TARGETs, got {described(value)}'),
         BeforeValidator(_one_or_list)]
     params: Annotated[dict[str, Parameters], _check(
         lambda value: isinstance(value, Mapping),
-        lambda value: f'must map node names to parameters, got {kind_of(value)}'),
+        lambda value: f'must map node names to parameters, got {described(value)}'),
         BeforeValidator(lambda value: value or {})] = {}
     duration: Annotated[float, _check(
-        lambda value: is_number(value) and 0 < value <= MAX_DURATION_S,
+        lambda value: is_number_not_nan(value) and 0 < value <= MAX_DURATION_S,
         lambda value: f'must be a positive number of seconds, at most {MAX_DURATION_S:g} '
         f'(a day), got {value!r}')]
     seed: Seed | None = None
     seeds: Annotated[list[Seed], _check(
         lambda value: isinstance(value, list) and value != [],
-        lambda value: f'must be a non-empty list of integers, got {kind_of(value)}')] | None = None
+        lambda value: f'must be a non-empty list of integers, got {described(value)}'
+    )] | None = None
     start: Annotated[str | tuple[float, float, float] | None, _check(
         lambda value: value is None or value == 'mirrored' or (
-            isinstance(value, list) and len(value) == 3 and all(map(is_number, value))),
+            isinstance(value, list) and len(value) == 3 and all(map(is_number_not_nan, value))),
         lambda value: f"must be 'mirrored' or [x, y, yaw], got {value!r}")] = None
     robot: Annotated[str | None, _check(
         lambda value: value is None or (isinstance(value, str) and value != ''),
-        lambda value: f'must be a robot model name, got {kind_of(value)}')] = None
+        lambda value: f'must be a robot model name, got {described(value)}')] = None
     remap: Annotated[list[Any], _check(
         lambda value: isinstance(value, list),
-        lambda value: f'must be a list of remapping rules, got {kind_of(value)}'),
+        lambda value: f'must be a list of remapping rules, got {described(value)}'),
         BeforeValidator(lambda value: _one_or_list(value or []))] = []
     setpoint: Annotated[dict[SetpointName, Annotated[float, _check(
-        lambda value: is_number(value) and math.isfinite(value),
-        lambda value: f'must be a number (m), got {kind_of(value)}')]], _check(
+        lambda value: is_number_not_nan(value) and math.isfinite(value),
+        lambda value: f'must be a number (m), got {described(value)}')]], _check(
         lambda value: isinstance(value, Mapping),
         lambda value: 'must map metrics to values, e.g. wall_distance_m: 0.5, got '
-        f'{kind_of(value)}'), BeforeValidator(lambda value: value or {})] = {}
+        f'{described(value)}'), BeforeValidator(lambda value: value or {})] = {}
     drive: Any = None
     criteria: Annotated[list[Any], _check(
         lambda value: isinstance(value, list) and value != [],
-        lambda value: f'must be a non-empty list of criteria, got {kind_of(value)}')]
+        lambda value: f'must be a non-empty list of criteria, got {described(value)}')]
 
     # (pydantic runs the validators of one annotation last first: the check, then the text.)
     task: Annotated[str | None, BeforeValidator(
@@ -140,19 +124,20 @@ class ScenarioFile(BaseModel):
         lambda value: value is None or isinstance(value, (int, str))
         and not isinstance(value, bool) and str(value).strip() != '',
         lambda value: 'must be a task number or label, e.g. 1 or wall_follow, got '
-        f'{kind_of(value)}')] = None
+        f'{described(value)}')] = None
     marks: Annotated[float | None, _check(
-        lambda value: value is None or (is_number(value) and 0 < value < math.inf),
-        lambda value: f'must be a positive number, got {kind_of(value)}')] = None
+        lambda value: value is None or (is_number_not_nan(value) and 0 < value < math.inf),
+        lambda value: f'must be a positive number, got {described(value)}')] = None
     marking: Annotated[str, _check(
         lambda value: value in MARKINGS,
         lambda value: f"must be one of {', '.join(MARKINGS)} (all: every run passes for the "
-        f'marks; proportional: marks x runs passed / runs), got {kind_of(value)}')] = MARKINGS[0]
+        f'marks; proportional: marks x runs passed / runs), got {described(value)}')] = MARKINGS[0]
+
 
 def validate_scenario_file(data: Any, label: str) -> ScenarioFile:
     """Return the scenario ``data`` (parsed YAML) as a ScenarioFile; ScenarioError if not."""
     if not isinstance(data, Mapping):
-        raise ScenarioError(f'{label}: must be a mapping of keys, got {kind_of(data)}')
+        raise ScenarioError(f'{label}: must be a mapping of keys, got {described(data)}')
     if 'seed' in data and 'seeds' in data:
         raise ScenarioError(f"{label}: seeds: give either 'seed' or 'seeds', not both")
     try:

@@ -19,8 +19,8 @@ import time
 from typing import Mapping, Sequence
 
 from sim_bridge.common.errors import UserInterrupt
-from sim_bridge.common.run_environment import environment_set
 from sim_bridge.common.message_types import message_type_name
+from sim_bridge.common.run_environment import environment_set
 from sim_bridge.runner.node_output import NodeLog, ROSOUT_TOPIC, ROSOUT_TYPE
 from sim_bridge.runner.options import load_world, write_params_file
 from sim_bridge.runner.outputs import open_outputs, write_outputs

@@ -16,8 +16,8 @@ import numpy as np
 from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.serialization import serialize_message
 from sim_bridge.common.errors import RunError, RunStopped, UserInterrupt
-from sim_bridge.media.plot import plot_trajectory
 from sim_bridge.common.message_types import message_type_name
+from sim_bridge.media.plot import plot_trajectory
 from sim_bridge.runner.node_output import (
     LOG_FILE, NodeLog, ROSOUT_TOPIC, ROSOUT_TYPE, to_terminal, write_log)
 from sim_bridge.runner.options import BRIDGE_NODE, RunResult

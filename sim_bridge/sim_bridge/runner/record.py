@@ -41,8 +41,8 @@ from mcap.reader import NonSeekingReader
 from mcap.writer import Writer
 from rclpy.serialization import serialize_message
 from rosgraph_msgs.msg import Clock
-from sim_bridge.runner.cdr_padding import PaddingZeroer
 from sim_bridge.common.message_types import message_definition, type_hash, UnknownMessageType
+from sim_bridge.runner.cdr_padding import PaddingZeroer
 import yaml
 
 #: Topics recorded when none are named: what the bridge and the nodes under test exchange,
