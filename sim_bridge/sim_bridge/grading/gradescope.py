@@ -53,7 +53,7 @@ here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 export DEBIAN_FRONTEND=noninteractive
 apt-get update
 apt-get install -y --no-install-recommends python3 python3-venv python3-pip python3-dev \
-    build-essential
+    build-essential bubblewrap
 PYTHON=python3 "$here/kit/lab" setup
 """
 
