@@ -81,7 +81,8 @@ METRIC_KINDS = {
     'wander': {'distance_m': 'number', 'straight_m': 'number', 'blocked_driving_s': 'number',
                'turns': 'list'},
     'wall_follow': {'laps': 'number', 'direction': 'text', 'winding': 'number',
-                    'distance_m': 'number', 'chosen_m': 'number', 'following': 'number',
+                    'distance_m': 'number', 'chosen_m': 'number', 'declared_m': 'number',
+                    'following': 'number',
                     'mae_m': 'number'},
     'printed': {'range_ahead': _PRINTED_SCORES,
                 'regions': {**_PRINTED_SCORES, 'unprinted': 'list'},
@@ -388,14 +389,15 @@ def wall_follow_evidence(time: np.ndarray, x: np.ndarray, y: np.ndarray, laps: i
     the object's surface at each sample; ``declared`` the distance (m) the node says it keeps (its
     parameter), else None: then the distance it chose is its behaviour's, the median of the
     last two thirds of the run (the first third may be the way to the wall). Keys: ``laps``
-    (signed, + counter-clockwise), ``direction`` (DIRECTIONS, None without a loop),
+    (signed, + counter-clockwise), ``direction`` (DIRECTIONS, '' without a loop),
     ``winding`` (net turns round the object, signed), ``distance_m`` (driven), ``chosen_m``
-    and whether it was ``declared``, ``following`` (share of the run from the first sample
-    within WALL_SETTLED of it), ``mae_m`` (mean error from there on).
+    and ``declared_m`` (None when not declared), ``following`` (share of the run from the first sample
+    within WALL_SETTLED of it), ``mae_m`` (mean error from there on; over the whole run
+    when it never came that near).
     """
     evidence: dict[str, Any] = {
-        'laps': laps, 'direction': DIRECTIONS.get(int(np.sign(laps))), 'winding': 0.0,
-        'distance_m': path_length(x, y), 'chosen_m': None, 'declared': declared is not None,
+        'laps': laps, 'direction': DIRECTIONS.get(int(np.sign(laps)), ''), 'winding': 0.0,
+        'distance_m': path_length(x, y), 'chosen_m': None, 'declared_m': declared,
         'following': 0.0, 'mae_m': None}
     if len(time) < 2 or not len(inside):
         return evidence
@@ -406,10 +408,9 @@ def wall_follow_evidence(time: np.ndarray, x: np.ndarray, y: np.ndarray, laps: i
         np.median(distances[len(distances) // 3:]))
     evidence['chosen_m'] = chosen
     near = np.flatnonzero(np.abs(distances - chosen) <= WALL_SETTLED)
-    if len(near):
-        following = distances[near[0]:]
-        evidence['following'] = len(following) / len(distances)
-        evidence['mae_m'] = float(np.abs(following - chosen).mean())
+    following = distances[near[0]:] if len(near) else distances
+    evidence['following'] = len(following) / len(distances) if len(near) else 0.0
+    evidence['mae_m'] = float(np.abs(following - chosen).mean())
     return evidence
 
 

@@ -110,7 +110,7 @@ def wall_follow_points(evidence: Mapping[str, Any], collisions: int) -> list[Poi
     points = [Point('loops the object in one direction', laps != 0,
                     f'went {abs(winding):.2f} of the way round the object: no full loop')]
     chosen, mae = evidence['chosen_m'], evidence['mae_m']
-    how = 'its parameter' if evidence['declared'] else 'its median'
+    how = 'its parameter' if evidence['declared_m'] is not None else 'its median'
     low, high = WALL_BAND
     if chosen is None:
         why = 'no wall distance measured'
