@@ -20,8 +20,10 @@ import traceback
 from typing import Any
 
 from sim_bridge.marks import as_dict as marks_as_dict, TaskMarks
-from sim_bridge.report_text import cap_text, json_safe, outcome, PathNames, printable
+from sim_bridge.report_text import (
+    cap_text, first_line, json_safe, outcome, PathNames, printable)
 from sim_bridge.scenario import CriterionResult, ScenarioRun
+from sim_bridge.task_points import judge_points, Point, unearned_points
 
 #: Each run's captured output (stdout and stderr of its process), in its folder.
 LOG_NAME = 'log.txt'
@@ -52,6 +54,22 @@ class RunReport:
     def passed(self) -> bool:
         """Return True when the run completed and every criterion holds."""
         return self.error is None and all(result.passed for result in self.results)
+
+    @property
+    def points(self) -> list[Point]:
+        """
+        Return the handout's points of the scenario's ``points:`` judged on this run.
+
+        A run that failed as a whole (not submitted, could not start, ended early) shows no
+        point: each is lost for that reason. Judged from the metrics, so a report read back
+        judges them the same way. Empty for a scenario without points.
+        """
+        point_set = self.run.scenario.points
+        if point_set is None:
+            return []
+        if self.error is not None or self.metrics is None:
+            return unearned_points(point_set, first_line(self.error or 'no metrics'))
+        return judge_points(point_set, self.metrics)
 
     @property
     def sim_time_s(self) -> float:
@@ -98,6 +116,7 @@ class RunReport:
             'drive': [segment.as_dict() for segment in scenario.drive], 'passed': self.passed,
             'error': self.error, 'traceback': self.traceback,
             'criteria': [result.as_dict() for result in self.results],
+            'points': [point.as_dict() for point in self.points],
             'out_dir': names.path(self.out_dir), 'wall_time_s': self.wall_time_s,
             'metrics': self.metrics, 'log': names.path(log) if log.is_file() else None,
             'reused': self.reused,

@@ -173,3 +173,16 @@ def judge_points(point_set: str, metrics: Mapping[str, Any]) -> list[Point]:
         points = printed_points(point_set, (metrics.get('printed') or {}).get(point_set))
     return [Point(point.point, point.earned, '' if point.earned else point.reason)
             for point in points]
+
+
+#: The metrics of a run that showed nothing: what a run that never ran is judged on.
+_NOTHING_SHOWN = {
+    'collisions': 0, 'printed': {},
+    'wander': {'distance_m': 0.0, 'straight_m': 0.0, 'blocked_driving_s': 0.0, 'turns': []},
+    'wall_follow': {'laps': 0, 'winding': 0.0, 'distance_m': 0.0, 'chosen_m': None,
+                    'declared_m': None, 'following': 0.0, 'mae_m': None}}
+
+
+def unearned_points(point_set: str, reason: str) -> list[Point]:
+    """Return the points of ``point_set``, none earned, each for ``reason`` (one line)."""
+    return [Point(point.point, False, reason) for point in judge_points(point_set, _NOTHING_SHOWN)]
