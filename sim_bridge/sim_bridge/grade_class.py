@@ -95,29 +95,41 @@ class ClassBatch:
         """Return each student's marks per task from their run entries."""
         return {student: task_marks(self.scenarios, runs) for student, runs in entries.items()}
 
-    def table(self, entries: dict[str, list[dict]]) -> list[list[str]]:
+    def table(self, entries: dict[str, list[dict]], *,
+              points: bool = False) -> list[list[str]]:
         """
-        Return the class table: a header, then per student a cell per scenario and the runs.
+        Return the class table: a header, then per student the marks, then the runs.
 
-        ``entries`` are each student's run entries (``RunReport.as_dict``). A cell is
-        'passed/total' runs, followed by the worst reason of a failed one: ``0/3 not
-        submitted`` (see :data:`OUTCOME_LEGEND`). When the scenarios carry marks, a column per
-        task with marks (``task 1 (of 2)``) and the total (``marks (of 5)``) follow.
+        ``entries`` are each student's run entries (``RunReport.as_dict``). When the scenarios
+        carry marks, the total (``marks (of 10)``) and a column per task with marks (``task 1
+        (of 2)``) come first; with ``points``, a column per point of each task marked by the
+        handout's points (``task 2: no collision (of 0.5)``), its marks and, when lost, why
+        (``0: 1 collision(s)``). Then a cell per scenario, 'passed/total' runs followed by the
+        worst reason of a failed one (``0/3 not submitted``, see :data:`OUTCOME_LEGEND`), and
+        the runs in all.
         """
         marks = self.marks(entries)
         marked = [task for task in task_marks(self.scenarios, []) if task.marks is not None]
         _, maximum = total(marked)
-        rows = [['student', *(scenario.name for scenario in self.scenarios), 'runs',
-                 *(f'{task.title} (of {format_marks(task.marks)})' for task in marked),
-                 *([f'marks (of {format_marks(maximum)})'] if marked else [])]]
+        header = [*([f'marks (of {format_marks(maximum)})'] if marked else []),
+                  *(f'{task.title} (of {format_marks(task.marks)})' for task in marked)]
+        students = {student: [task for task in marks[student] if task.marks is not None]
+                    for student in entries}
+        if points:
+            header += [f'{task.title}: {point.point} (of {format_marks(point.marks)})'
+                       for task in next(iter(students.values()), []) for point in task.points]
+        rows = [['student', *header, *(scenario.name for scenario in self.scenarios), 'runs']]
         for student, runs in entries.items():
-            cells = [' '.join(filter(None, count_cell(
+            tasks = students[student]
+            cells = [*([format_marks(total(tasks)[0])] if tasks else []),
+                     *(format_marks(task.earned) for task in tasks)]
+            if points:
+                cells += [format_marks(point.earned) + (f': {point.why()}' if point.lost else '')
+                          for task in tasks for point in task.points]
+            cells += [' '.join(filter(None, count_cell(
                 [run for run in runs if run['scenario'] == scenario.name])))
                 for scenario in self.scenarios]
-            tasks = [task for task in marks[student] if task.marks is not None]
-            rows.append([one_line(student), *cells, ' '.join(filter(None, count_cell(runs))),
-                         *(format_marks(task.earned) for task in tasks),
-                         *([format_marks(total(tasks)[0])] if tasks else [])])
+            rows.append([one_line(student), *cells, ' '.join(filter(None, count_cell(runs)))])
         return rows
 
     def write_outputs(self, reports: list[RunReport],
@@ -145,7 +157,8 @@ class ClassBatch:
                     path, f'Grading report: {student}', entries[student], up=index,
                     root=self.out, notes=notes, marks=marks[student]))
         rows = self.table(entries)
-        writers[self.out / CSV_NAME] = lambda path: write_csv(path, rows)
+        with_points = self.table(entries, points=True)
+        writers[self.out / CSV_NAME] = lambda path: write_csv(path, with_points)
         writers[index] = lambda path: html_report.write_class_index(
             path, 'Class grading report', entries,
             [scenario.name for scenario in self.scenarios],
@@ -178,6 +191,8 @@ def submission_runs(scenarios: list[Scenario], source: Path, out: Path,
     for scenario in scenarios:
         files = {target_name(node): source / f'{target_name(node)}.py' for node in scenario.nodes}
         absent = [path.name for path in files.values() if not path.is_file()]
+        if absent and scenario.marks is None:
+            continue
         graded = scenario
         for node, path in files.items():
             # An existing file is taken as a file whatever its path holds (targets).

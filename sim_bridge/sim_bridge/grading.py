@@ -61,7 +61,8 @@ class RunReport:
         Return the handout's points of the scenario's ``points:`` judged on this run.
 
         A run that failed as a whole (not submitted, could not start, ended early) shows no
-        point: each is lost for that reason. Judged from the metrics, so a report read back
+        point: each is lost for that reason; a point a node that raised did not show is lost
+        for its node error. Judged from the metrics, so a report read back
         judges them the same way. Empty for a scenario without points.
         """
         point_set = self.run.scenario.points
@@ -69,7 +70,13 @@ class RunReport:
             return []
         if self.error is not None or self.metrics is None:
             return unearned_points(point_set, first_line(self.error or 'no metrics'))
-        return judge_points(point_set, self.metrics)
+        points = judge_points(point_set, self.metrics)
+        node_errors = self.metrics.get('node_errors') or []
+        if node_errors:  # what the node did not show, it did not show for this reason
+            why = first_line(f"node error: {node_errors[0].get('error')}")
+            points = [point if point.earned else Point(point.point, False, why)
+                      for point in points]
+        return points
 
     @property
     def sim_time_s(self) -> float:
