@@ -28,7 +28,8 @@ from typing import Any
 import zipfile
 
 from sim_bridge.grading import RunReport
-from sim_bridge.marks import format_marks, summary as marks_summary, task_marks, total
+from sim_bridge.marks import (
+    format_marks, summary as marks_summary, task_marks, TaskMarks, total)
 from sim_bridge.paths import repo_root, WORLD_FILE_SUFFIXES, world_names
 from sim_bridge.report_text import cap_text, PathNames, printable, reason
 from sim_bridge.scenario import load_scenarios, Scenario, ScenarioError
@@ -99,43 +100,68 @@ def results(reports: list[RunReport], scenarios: list[Scenario],
     """
     Return Gradescope's results of one submission's graded runs.
 
-    The score is the marks (:mod:`sim_bridge.marks`); a test per scenario, ordered by task,
-    named ``task 1: scan_ahead``, scores its share of its task's marks (a scenario without
-    marks scores 0 of 0), passes when every run of it passed, and its output says why the
-    runs failed, how the task is marked and the runs' ``table`` (grade's pass/fail table),
-    without the grader's paths (``names``), cut to OUTPUT_LIMIT_BYTES.
+    The score is the marks (:mod:`sim_bridge.marks`). A task marked by the handout's points
+    has a test per point, named ``task 2: no collision``, scoring the point's marks, its
+    output saying why it was lost, and a test of its runs (``task 2: runs``, no score) with
+    their ``table`` (grade's pass/fail table). Another task has a test per scenario, named
+    ``task 1: scan_ahead``, scoring its share of its task's marks (a scenario without marks
+    scores 0 of 0), passing when every run of it passed, its output saying why the runs
+    failed, how the task is marked and the runs' ``table``. Tests are ordered by task,
+    without the grader's paths (``names``), each output cut to OUTPUT_LIMIT_BYTES.
     """
     names = names or PathNames({})
     entries = [report.as_dict(names) for report in reports]
     tasks = task_marks(scenarios, entries)
     tests = []
     for task in tasks:
-        for scenario in task.scenarios:
-            runs = [report for report in reports if report.run.scenario.name == scenario]
+        runs = [report for report in reports if report.run.scenario.name in task.scenarios]
+        if task.points:
+            tests += [_test(f'{task.title}: {point.point}', point.earned, point.marks,
+                            not point.lost,
+                            [point.why() or f'shown in every run ({point.runs})'])
+                      for point in task.points]
             passed = sum(report.passed for report in runs)
-            score, maximum = task.share(len(runs), passed)
-            failed = [entry for entry in entries if entry['scenario'] == scenario
-                      and not entry['passed']]
-            lines = [f'{passed} of {len(runs)} runs passed'
-                     + (f', {format_marks(score)} of {format_marks(maximum)} marks'
-                        if task.marks is not None else '')]
-            lines += [f"{entry['run']}: {reason(entry)}" for entry in failed[:REASONS_SHOWN]]
-            if len(failed) > REASONS_SHOWN:
-                lines.append(f'... and {len(failed) - REASONS_SHOWN} more failed runs')
-            lines += [task.rule(), '', names(table(runs))]
-            lines += tracebacks(runs, names)
-            tests.append({
-                'name': f'{task.title}: {scenario}', 'score': round(score, 4),
-                'max_score': round(maximum, 4),
-                'status': 'passed' if runs and passed == len(runs) else 'failed',
-                'output': cap_text('\n'.join(lines), OUTPUT_LIMIT_BYTES),
-                'visibility': 'visible'})
+            lines = [f'{passed} of {len(runs)} runs passed', task.rule(), '',
+                     names(table(runs)), *tracebacks(runs, names)]
+            tests.append(_test(f'{task.title}: runs', 0.0, 0.0, passed == len(runs), lines))
+            continue
+        for scenario in task.scenarios:
+            tests.append(_scenario_test(task, scenario, reports, entries, table, names))
     earned, _ = total(tasks)
     runs_passed = sum(report.passed for report in reports)
     output = [marks_summary(tasks) or 'no scenario carries marks',
               f'{runs_passed} of {len(reports)} runs passed', *map(printable, notes)]
     return {'score': round(earned, 4), 'output': '\n'.join(output), 'output_format': 'text',
             'visibility': 'visible', 'tests': tests}
+
+
+def _test(name: str, score: float, maximum: float, passed: bool,
+          lines: list[str]) -> dict[str, Any]:
+    """Return one test of results.json: its marks (rounded), status and output."""
+    return {'name': name, 'score': round(score, 4), 'max_score': round(maximum, 4),
+            'status': 'passed' if passed else 'failed',
+            'output': cap_text('\n'.join(lines), OUTPUT_LIMIT_BYTES), 'visibility': 'visible'}
+
+
+def _scenario_test(task: TaskMarks, scenario: str, reports: list[RunReport],
+                   entries: list[dict[str, Any]], table: Callable[[list[RunReport]], str],
+                   names: PathNames) -> dict[str, Any]:
+    """Return the test of one scenario of a task not marked by points (see results)."""
+    runs = [report for report in reports if report.run.scenario.name == scenario]
+    passed = sum(report.passed for report in runs)
+    score, maximum = task.share(len(runs), passed)
+    failed = [entry for entry in entries if entry['scenario'] == scenario
+              and not entry['passed']]
+    lines = [f'{passed} of {len(runs)} runs passed'
+             + (f', {format_marks(score)} of {format_marks(maximum)} marks'
+                if task.marks is not None else '')]
+    lines += [f"{entry['run']}: {reason(entry)}" for entry in failed[:REASONS_SHOWN]]
+    if len(failed) > REASONS_SHOWN:
+        lines.append(f'... and {len(failed) - REASONS_SHOWN} more failed runs')
+    lines += [task.rule(), '', names(table(runs))]
+    lines += tracebacks(runs, names)
+    return _test(f'{task.title}: {scenario}', score, maximum,
+                 bool(runs) and passed == len(runs), lines)
 
 
 def tracebacks(reports: list[RunReport], names: PathNames) -> list[str]:
