@@ -22,12 +22,15 @@ from sim_bridge.grading import (
 from sim_bridge.marks import format_marks, task_marks, TaskMarks, total
 from sim_bridge.report_text import count_cell, one_line, OUTCOME_LEGEND, PathNames, printable
 from sim_bridge.scenario import Scenario, target_name
+from sim_bridge.submission_files import find_node_files, missing_text
 
 CSV_NAME = 'class.csv'
 INDEX_NAME = 'index.html'
 #: The folder of ``--out`` holding a folder per student: no student's name can collide with
 #: the class's own outputs.
 STUDENTS_DIR = 'students'
+#: The folder of a submission's outputs its zips are unpacked in.
+UNPACKED_DIR = '.unpacked'
 
 
 class ClassBatch:
@@ -182,26 +185,35 @@ def submission_runs(scenarios: list[Scenario], source: Path, out: Path,
     """
     Return the runs of one submission: the jobs to run, and the failed runs of missing files.
 
-    Each scenario's node is replaced by the file of the same name in the folder ``source``
-    (``wall_follow`` by ``source/wall_follow.py``); a scenario with a file missing is not
-    run and its runs fail as ``not submitted: no wall_follow.py in <name>/``. Outputs go to
-    ``out/<scenario>/seed_<n>``; the progress calls a run ``<name>/<run>``.
+    Each scenario's node is replaced by the student's file of the same name
+    (``wall_follow`` by ``wall_follow.py``), found in the folder ``source`` as students hand
+    it in (:func:`sim_bridge.submission_files.find_node_files`: at the top, in a folder, in
+    ``scan_pkg/scan_pkg/``, in a zip, which is unpacked below ``out``); a scenario with a file
+    missing is not run and its runs fail as ``not submitted: no wall_follow.py in <name>/ (found:
+    ...; expected ...)``, unless the scenario carries no marks (an extra task the instructor did
+    not ask for): then the student simply has no runs of it (``-`` in the class table).
+    Outputs go to ``out/<scenario>/seed_<n>``; the progress calls a run ``<name>/<run>``.
     """
+    wanted = list(dict.fromkeys(f'{target_name(node)}.py' for scenario in scenarios
+                                for node in scenario.nodes))
+    found = find_node_files(source, wanted, out / UNPACKED_DIR)
     jobs, missing = [], []
     for scenario in scenarios:
-        files = {target_name(node): source / f'{target_name(node)}.py' for node in scenario.nodes}
-        absent = [path.name for path in files.values() if not path.is_file()]
+        files = {target_name(node): found.files.get(f'{target_name(node)}.py')
+                 for node in scenario.nodes}
+        absent = [f'{node}.py' for node, path in files.items() if path is None]
         if absent and scenario.marks is None:
             continue
         graded = scenario
         for node, path in files.items():
-            # An existing file is taken as a file whatever its path holds (targets).
-            graded = graded.with_node_override(f'{node}={os.path.abspath(path)}')
+            if path is not None:
+                # An existing file is taken as a file whatever its path holds (targets).
+                graded = graded.with_node_override(f'{node}={os.path.abspath(path)}')
         for run in graded.runs():
             job = GradeJob(run, out / run.name, f'{name}/{run.name}')
             if absent:
-                missing.append(RunReport(run, job.out_dir, [], None,
-                                         f"not submitted: no {', '.join(absent)} in {name}/",
+                missing.append(RunReport(run, job.out_dir, [], None, 'not submitted: '
+                                         + missing_text(absent, found, wanted, name),
                                          0.0))
             else:
                 jobs.append(job)
