@@ -11,8 +11,8 @@ specification: https://gradescope-autograders.readthedocs.io/en/latest/specs/). 
 the results (:func:`results`): the marks as the score, a test per scenario, ordered by task.
 ``python -m sim_bridge.gradescope build SCENARIO... -o autograder.zip`` (``./lab autograder``)
 builds the zip: the kit (the two packages, worlds, models, ``lab`` and its requirements), the
-chosen scenario files, ``setup.sh`` (``./lab setup``: a venv with ROS 2 Jazzy's wheels and the
-kit, as on a machine with only Python) and ``run_autograder``. ``AUTOGRADER_ROOT`` (default
+chosen scenario files, ``setup.sh`` (a venv with what grading needs: the runtime requirements,
+ROS 2 Jazzy's runtime wheels and the kit; no development tools) and ``run_autograder``. ``AUTOGRADER_ROOT`` (default
 ``/autograder``) moves the root ``run_autograder`` works in, so it can be tried on a folder laid
 out as Gradescope lays it out.
 """
@@ -47,16 +47,23 @@ KIT_DIR = 'kit'
 SCENARIOS_DIR = 'scenarios'
 
 SETUP_SH = r"""#!/usr/bin/env bash
-# Gradescope runs this once, as root, when it builds the autograder's image (Ubuntu): Python 3
-# with venv, then ./lab setup: a venv in kit/.venv with ROS 2 Jazzy from PyPI
-# (requirements-ros.txt) and the kit, as on any machine with only Python. No display needed.
+# Gradescope runs this once, as root, when it builds the autograder's image (Ubuntu 22.04,
+# Python 3.10): Python 3 with venv, then a venv in kit/.venv with what grading needs and
+# nothing for development: the kit's runtime requirements (requirements.txt), ROS 2 Jazzy's
+# runtime wheels (requirements-ros.txt without the ament linters) and the two packages. No
+# colcon, no linters, no pytest; no display needed.
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+kit=$here/kit
 export DEBIAN_FRONTEND=noninteractive
 apt-get update
-apt-get install -y --no-install-recommends python3 python3-venv python3-pip python3-dev \
-    build-essential
-PYTHON=python3 "$here/kit/lab" setup
+apt-get install -y --no-install-recommends python3 python3-venv python3-pip
+python3 -m venv "$kit/.venv"
+ros=$(grep -v -E '^[[:space:]]*(#|$)|ament-(flake8|pep257)' "$kit/requirements-ros.txt")
+# shellcheck disable=SC2086  # one requirement a word
+"$kit/.venv/bin/python" -m pip install --quiet --no-cache-dir -r "$kit/requirements.txt" $ros
+"$kit/.venv/bin/python" -m pip install --quiet --no-cache-dir --no-deps "$kit/scan_pkg" \
+    "$kit/sim_bridge"
 """
 
 RUN_AUTOGRADER = r"""#!/usr/bin/env bash
