@@ -8,13 +8,14 @@ specification: https://gradescope-autograders.readthedocs.io/en/latest/specs/). 
 ``/autograder/submission``; it must write ``/autograder/results/results.json``.
 
 ``python -m sim_bridge.grade SCENARIO... --submission DIR --gradescope results.json`` writes
-the results (:func:`results`): the marks as the score, a test per scenario, ordered by task.
+the results (:func:`results`): the marks as the score, a test per point (or per scenario),
+ordered by task.
 ``python -m sim_bridge.gradescope build SCENARIO... -o autograder.zip`` (``./lab autograder``)
 builds the zip: the kit (the two packages, worlds, models, ``lab`` and its requirements), the
 chosen scenario files, ``setup.sh`` (a venv with what grading needs: the runtime requirements,
-ROS 2 Jazzy's runtime wheels and the kit; no development tools) and ``run_autograder``. ``AUTOGRADER_ROOT`` (default
-``/autograder``) moves the root ``run_autograder`` works in, so it can be tried on a folder laid
-out as Gradescope lays it out.
+ROS 2 Jazzy's runtime wheels and the kit; no development tools) and ``run_autograder``.
+``AUTOGRADER_ROOT`` (default ``/autograder``) moves the root ``run_autograder`` works in, so it
+can be tried on a folder laid out as Gradescope lays it out.
 """
 
 import argparse

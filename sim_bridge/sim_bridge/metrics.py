@@ -391,9 +391,9 @@ def wall_follow_evidence(time: np.ndarray, x: np.ndarray, y: np.ndarray, laps: i
     last two thirds of the run (the first third may be the way to the wall). Keys: ``laps``
     (signed, + counter-clockwise), ``direction`` (DIRECTIONS, '' without a loop),
     ``winding`` (net turns round the object, signed), ``distance_m`` (driven), ``chosen_m``
-    and ``declared_m`` (None when not declared), ``following`` (share of the run from the first sample
-    within WALL_SETTLED of it), ``mae_m`` (mean error from there on; over the whole run
-    when it never came that near).
+    and ``declared_m`` (None when not declared), ``following`` (share of the run from the
+    first sample within WALL_SETTLED of it), ``mae_m`` (mean error from there on; over the
+    whole run when it never came that near).
     """
     evidence: dict[str, Any] = {
         'laps': laps, 'direction': DIRECTIONS.get(int(np.sign(laps)), ''), 'winding': 0.0,

@@ -151,5 +151,5 @@ def missing_text(absent: list[str], found: Found, wanted: list[str], name: str) 
     """Say which files ``name/`` misses, what was found instead, and what is expected."""
     seen = found.seen[:LISTED] + (['...'] if len(found.seen) > LISTED else [])
     return (f"no {', '.join(absent)} in {name}/ (found: {', '.join(seen) or 'no Python file'}; "
-            f"expected "
-            f"{', '.join(wanted)} at the top, in a folder, in scan_pkg/scan_pkg/ or in a zip)")
+            f"expected {', '.join(wanted)} at the top, in a folder, in scan_pkg/scan_pkg/ or in "
+            'a zip)')

@@ -14,7 +14,7 @@ from PIL import Image
 import pybullet
 
 from sim_bridge.simulation.lidar import build_scene
-from sim_bridge.simulation.viewer import robot_mesh, ROBOT_COLOUR
+from sim_bridge.simulation.viewer import ROBOT_COLOUR, robot_mesh
 
 #: The camera: this far (m) behind the robot, this high (m) above the floor, looking at a point
 #: this far (m) ahead of it, with this vertical field of view (deg).

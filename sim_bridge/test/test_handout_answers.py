@@ -101,7 +101,7 @@ def test_the_handout_scan_around_prints_five_labelled_lines_and_loses_its_droppe
     task = marks['handout']['3']
     assert task['marks'] == 1.0
     assert list(lost(task)) == ['the five region minima printed right (no return as 10 m or inf)']
-    assert "left printed 10" in lost(task)[
+    assert 'left printed 10' in lost(task)[
         'the five region minima printed right (no return as 10 m or inf)']
 
 

@@ -85,8 +85,8 @@ def test_a_process_runs_printed_scan_error_gets_the_simulators_scan_geometry(
     ('\u00a0', 'no-break space (U+00A0)', 'a space'),
     ('\u200b', 'zero width space (U+200B)', 'nothing (delete it)'),
 ])
-def test_an_invisible_character_gets_the_line_and_what_to_replace_it_with(character, name,
-                                                                            instead):
+def test_an_invisible_character_gets_the_line_and_what_to_replace_it_with(
+        character, name, instead):
     source = f'def main():\n    x = 1\n{character * 4}return x\n'
     with pytest.raises(SyntaxError) as raised:
         compile(source, 'wanderbot.py', 'exec')

@@ -151,7 +151,7 @@ def scored(fraction, worst_error, unprinted=()):
 def test_a_reading_task_earns_each_point_on_its_own():
     points = points_of('regions', {'printed': {'regions': scored(1.0, 8.81)}})
     assert [point.earned for point in points.values()] == [True, False]
-    assert "left printed 10 at t=18.1 s, truth 1.19 m" in list(points.values())[1].reason
+    assert 'left printed 10 at t=18.1 s, truth 1.19 m' in list(points.values())[1].reason
     points = points_of('regions', {'printed': {'regions': scored(0.0, 0.0, ['front'])}})
     assert [point.earned for point in points.values()] == [False, True]
     assert '(front never printed)' in list(points.values())[0].reason
