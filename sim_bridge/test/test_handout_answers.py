@@ -18,9 +18,9 @@ import re
 
 import pytest
 
-from sim_bridge import grade
-from sim_bridge.scenario import load_scenario
-from sim_bridge.targets import describe
+from sim_bridge.commands import grade
+from sim_bridge.grading.scenario import load_scenario
+from sim_bridge.runner.targets import describe
 
 WORKSPACE = Path(__file__).resolve().parents[2]
 HANDOUT = next((folder / 'shared' / 'lab_handout.md' for folder in WORKSPACE.parents
@@ -53,7 +53,7 @@ def marks(tmp_path_factory):
     scenarios = root / 'scenarios'
     scenarios.mkdir()
     for name in GRADED:
-        source = WORKSPACE / 'test' / 'scenarios' / f'{name}.yaml'
+        source = WORKSPACE / 'scenarios' / f'{name}.yaml'
         seed = load_scenario(source).seeds[0]
         text = re.sub(r'^seeds?: .*$', f'seed: {seed}', source.read_text(), flags=re.MULTILINE)
         (scenarios / f'{name}.yaml').write_text(text)

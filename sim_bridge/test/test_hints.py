@@ -1,13 +1,13 @@
-"""The hints a node error gets (sim_bridge.hints): ROS-installation modules, scan geometry."""
+"""The hints a node error gets (sim_bridge.runner.hints): ROS-installation modules, scan shape."""
 
 import importlib.util
 import math
 import os
 
 import pytest
-from sim_bridge.hints import (
+from sim_bridge.runner.hints import (
     direction, geometry, printed_scan_hint, ros_module_hint, ROS_MODULES, turtlebot3_lidar)
-from sim_bridge.targets import describe, invisible_character_hint
+from sim_bridge.runner.targets import describe, invisible_character_hint
 
 
 @pytest.mark.skipif(bool(os.environ.get('ROS_DISTRO')), reason='a sourced ROS installation')

@@ -4,8 +4,8 @@ import zipfile
 
 import pytest
 
-from sim_bridge import submission_files
-from sim_bridge.submission_files import find_node_files, missing_text
+from sim_bridge.grading import submission_files
+from sim_bridge.grading.submission_files import find_node_files, missing_text
 
 WANTED = ['scan_ahead.py', 'wanderbot.py', 'scan_around.py', 'wall_follow.py']
 

@@ -1,6 +1,6 @@
 """A video's terminal text: stamps as a live run prints them, the teleop's keys."""
 
-from sim_bridge.terminal_text import live_stamped, teleop_lines
+from sim_bridge.media.terminal_text import live_stamped, teleop_lines
 
 
 def test_a_stepped_runs_lines_get_the_stamps_of_a_live_run_at_real_time():

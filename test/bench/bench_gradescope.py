@@ -87,11 +87,11 @@ def run_sampled(command: list[str], environment: dict[str, str]) -> dict[str, fl
 def main() -> int:
     """Grade the submission and print the figures; 0 when within 5 min and 512 MiB."""
     parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
-    parser.add_argument('scenarios', nargs='*', default=[str(WORKSPACE / 'test' / 'scenarios')])
+    parser.add_argument('scenarios', nargs='*', default=[str(WORKSPACE / 'scenarios')])
     parser.add_argument('--submission', type=Path)
     args = parser.parse_args()
     root = Path(tempfile.mkdtemp(prefix='gradescope_'))
-    subprocess.run([sys.executable, '-m', 'sim_bridge.gradescope', 'build', *args.scenarios,
+    subprocess.run([sys.executable, '-m', 'sim_bridge.commands.autograder', 'build', *args.scenarios,
                     '-o', str(root / 'autograder.zip')], check=True, stdout=subprocess.DEVNULL)
     shutil.unpack_archive(root / 'autograder.zip', root / 'source')
     (root / 'source' / 'run_autograder').chmod(0o755)
