@@ -257,12 +257,15 @@ def test_the_zip_holds_setup_run_autograder_the_kit_and_the_scenarios(autograder
                          'scenarios/wander.yaml']
     assert modes['run_autograder'] & stat.S_IXUSR and modes['setup.sh'] & stat.S_IXUSR
     for name in ('kit/lab', 'kit/requirements-ros.txt', 'kit/worlds/room.yaml',
-                 'kit/scan_pkg/scan_pkg/wanderbot.py', 'kit/sim_bridge/sim_bridge/grade.py',
+                 'kit/scan_pkg/scan_pkg/wanderbot.py',
+                 'kit/sim_bridge/sim_bridge/grading/runs.py',
                  'kit/sim_bridge/setup.py'):
         assert name in names
     assert modes['kit/lab'] & stat.S_IXUSR
     assert not [name for name in names if '/test/' in name or '__pycache__' in name]
-    assert 'kit/lab" setup' in setup and 'python3-venv' in setup
+    # What grading needs, nothing for development: no colcon, pytest or linters.
+    assert 'python3-venv' in setup and '-r "$kit/requirements.txt"' in setup
+    assert 'requirements-dev' not in setup and 'ament-(flake8|pep257)' in setup
 
 
 def test_run_autograder_grades_the_projects_nodes_full_marks(autograder, tmp_path):
