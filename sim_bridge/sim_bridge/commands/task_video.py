@@ -87,7 +87,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             print(f'error: {report.error}', file=sys.stderr)
             return 2
         speed = video_speed(scenario.duration_s, args.speed)
-        info = render_video(out_dir, output, args.names, speed=speed)
+        info = render_video(out_dir, output, args.names, speed=speed,
+                            teleop=bool(scenario.drive), view3d=True)
     except (ValueError, VideoError) as error:
         print(f'error: {error}', file=sys.stderr)
         return 2

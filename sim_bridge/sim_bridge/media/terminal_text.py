@@ -1,5 +1,5 @@
 """
-What a video's terminals show: the node's lines stamped as a live run stamps them, the teleop's.
+A video's terminals: the node's lines stamped as a live run stamps them, the teleop's, drawn.
 
 rcutils stamps each console line with the system clock, ``[INFO] [1795726253.603172832]
 [scan_ahead]: ...``, even under ``use_sim_time``. A live run goes at the simulator's pace, so
@@ -9,13 +9,31 @@ so its stamps advance a few milliseconds a line, whatever the simulated time bet
 the first line's stamp, advanced by the simulated time since it.
 
 :func:`teleop_lines` says what the person at the teleop did, from the commands it published
-(a scenario's ``drive:``): a line per key held, with teleop_twist_keyboard's keys. Pure text.
+(a scenario's ``drive:``): a line per key held, with teleop_twist_keyboard's keys.
+:class:`TerminalPane` draws a terminal (Pillow; fonts found by matplotlib): its command at the
+top, the lines written by then below, scrolling as a terminal does.
 """
 
+from dataclasses import dataclass
 import math
 import re
 from typing import Iterable, Sequence
 
+from matplotlib.font_manager import findfont, FontProperties
+import numpy as np
+from PIL import Image, ImageDraw, ImageFont
+
+#: Console text (px); DejaVu Sans Mono, the font matplotlib ships.
+TERMINAL_FONT_SIZE = 13
+TERMINAL_LINE_HEIGHT = 16
+TERMINAL_MARGIN = 8
+TERMINAL_BACKGROUND = (24, 24, 24)
+TERMINAL_HEADER = (56, 56, 64)
+TERMINAL_TEXT = (210, 210, 210)
+LEVEL_COLOURS = {'DEBUG': (140, 140, 140), 'WARN': (240, 200, 60), 'ERROR': (240, 90, 80),
+                 'FATAL': (240, 90, 80), 'STDERR': (240, 150, 120)}
+#: Escape sequences a terminal interprets rather than shows (rcutils colours, cursor moves).
+ANSI_ESCAPE = re.compile(r'\x1b\[[0-9;?]*[A-Za-z]')
 #: rcutils' default console format: ``[SEVERITY] [SECONDS.NANOSECONDS] [node]: message``.
 STAMP = re.compile(r'^(\[[A-Z]+\] \[)(\d+)\.(\d{9})(\])')
 #: A command this close to zero (m/s, rad/s) is none.
@@ -71,3 +89,88 @@ def teleop_lines(commands: Iterable[tuple[float, float, float]]) -> list[tuple[f
                 else f'linear.x {linear:+.2f} m/s, angular.z {angular:+.2f} rad/s')
         lines.append((t, f"key '{key}': {what}"))
     return lines
+
+
+@dataclass(frozen=True)
+class LogLine:
+    """A console line as the terminal showed it, at sim time ``t`` (s), of ``level``."""
+
+    t: float
+    level: str
+    line: str
+
+
+def font(family: str, size: int, weight: str = 'normal') -> ImageFont.FreeTypeFont:
+    """Return the font matplotlib finds for ``family`` at ``size`` (px)."""
+    path = findfont(FontProperties(family=family, weight=weight), fallback_to_default=True)
+    return ImageFont.truetype(path, size)
+
+
+def terminal_rows(text: str, columns: int) -> list[str]:
+    """Return ``text`` as the rows a terminal ``columns`` wide shows (escapes out, wrapped)."""
+    text = ANSI_ESCAPE.sub('', text).expandtabs(8)
+    text = ''.join(char if char.isprintable() else '?' for char in text)
+    return [text[start:start + columns] for start in range(0, len(text), columns)] or ['']
+
+
+class TerminalPane:
+    """
+    The terminal of a video: the command at its top, the console lines below, scrolling.
+
+    ``size`` (px); :meth:`image` of the first ``count`` lines is cached, so that frames with no
+    new line cost nothing.
+    """
+
+    def __init__(self, size: tuple[int, int], commands: Sequence[str], log: Sequence[LogLine]):
+        self.size = size
+        self.font = font('DejaVu Sans Mono', TERMINAL_FONT_SIZE)
+        advance = self.font.getlength('M')
+        self.columns = max(20, int((size[0] - 2 * TERMINAL_MARGIN) // advance))
+        self.header = [row for command in commands
+                       for row in terminal_rows(f'$ {command}', self.columns)]
+        self.header_height = TERMINAL_LINE_HEIGHT * len(self.header) + 2 * TERMINAL_MARGIN
+        self.capacity = max(1, (size[1] - self.header_height - TERMINAL_MARGIN)
+                            // TERMINAL_LINE_HEIGHT)
+        self.log = list(log)
+        self.times = np.array([entry.t for entry in self.log])
+        self._cached: tuple[int, Image.Image] | None = None
+        self._entry_rows: dict[int, list[tuple[str, tuple[int, int, int]]]] = {}
+        self._row_images: dict[tuple[str, tuple[int, int, int]], Image.Image] = {}
+        self._header = Image.new('RGB', self.size, TERMINAL_BACKGROUND)
+        draw = ImageDraw.Draw(self._header)
+        draw.rectangle((0, 0, self.size[0], self.header_height - TERMINAL_MARGIN // 2),
+                       fill=TERMINAL_HEADER)
+        for number, row in enumerate(self.header):
+            draw.text((TERMINAL_MARGIN, TERMINAL_MARGIN + number * TERMINAL_LINE_HEIGHT), row,
+                      font=self.font, fill=(255, 255, 255))
+
+    def count_at(self, t: float) -> int:
+        """Return how many lines had been written by sim time ``t`` (s)."""
+        return int(np.searchsorted(self.times, t, side='right'))
+
+    def image(self, count: int) -> Image.Image:
+        """Return the pane after the first ``count`` lines: the last rows that fit."""
+        if self._cached is not None and self._cached[0] == count:
+            return self._cached[1]
+        rows = []
+        for index in range(max(0, count - self.capacity), count):
+            if index not in self._entry_rows:
+                entry = self.log[index]
+                colour = LEVEL_COLOURS.get(entry.level.upper(), TERMINAL_TEXT)
+                self._entry_rows[index] = [(row, colour)
+                                           for row in terminal_rows(entry.line, self.columns)]
+            rows += self._entry_rows[index]
+        pane = self._header.copy()
+        # Text is the costly part of a frame: each row is drawn once, then moved as it scrolls.
+        drawn = {}
+        for number, key in enumerate(rows[-self.capacity:]):
+            drawn[key] = self._row_images.get(key) or drawn.get(key) or self._row(*key)
+            pane.paste(drawn[key], (0, self.header_height + number * TERMINAL_LINE_HEIGHT))
+        self._row_images = drawn
+        self._cached = (count, pane)
+        return pane
+
+    def _row(self, text: str, colour: tuple[int, int, int]) -> Image.Image:
+        row = Image.new('RGB', (self.size[0], TERMINAL_LINE_HEIGHT), TERMINAL_BACKGROUND)
+        ImageDraw.Draw(row).text((TERMINAL_MARGIN, 0), text, font=self.font, fill=colour)
+        return row
