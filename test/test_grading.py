@@ -1,6 +1,7 @@
 """
-Closed-loop grading: the shipped scenarios pass through the real grader with every point of the
-handout earned; naive nodes fail them, or lose points.
+Closed-loop grading: the shipped scenarios pass the real grader, every handout point earned.
+
+Naive nodes fail them, or lose points.
 
 Every seed of every scenario in ``scenarios/`` is one test. The module grades them all at
 once as ``python -m sim_bridge.grade --jobs N`` does (``grade_runs``: each run a child process

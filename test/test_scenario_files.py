@@ -1,6 +1,7 @@
 """
-The shipped scenarios cover every lab task, mark them by the handout's points, and state their
-durations; no scenario holds a target the handout does not state.
+The shipped scenarios cover every lab task and mark them by the handout's points.
+
+They state their durations; no scenario holds a target the handout does not state.
 """
 
 import math

@@ -5,9 +5,9 @@ import math
 import numpy as np
 import pytest
 
+from sim_bridge.grading.task_points import judge_points
 from sim_bridge.scoring.metrics import wall_follow_evidence, wander_evidence
 from sim_bridge.scoring.run_trace import ScanSnapshot, Trace
-from sim_bridge.grading.task_points import judge_points
 
 STEP = 0.01  # s, the runner's physics step
 SCAN_PERIOD = 0.1  # s, the lab robot's lidar

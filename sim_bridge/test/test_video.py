@@ -137,7 +137,7 @@ def test_the_terminal_scrolls_and_wraps_as_a_terminal_does():
     assert terminal_rows('ab\tc\x1b[31mred\x1b[0m', 80) == ['ab      cred']
     assert terminal_rows('x' * 25, 10) == ['x' * 10, 'x' * 10, 'x' * 5]
     pane = terminal_text.TerminalPane((400, 200), ['my_node --ros-args'],
-                              [LogLine(k, 'INFO', f'line {k}') for k in range(100)])
+                                      [LogLine(k, 'INFO', f'line {k}') for k in range(100)])
     assert pane.capacity < 100
     full, later = np.asarray(pane.image(50)), np.asarray(pane.image(51))
     body = np.s_[pane.header_height:]
@@ -319,7 +319,7 @@ def test_a_real_runs_console_lines_reach_its_video_at_their_time(tmp_path):
         decoded, without[terminal][rows]) / 4
 
 
-STUDENT_NODE = '''
+STUDENT_NODE = """
 import rclpy
 from rclpy.node import Node
 from sensor_msgs.msg import LaserScan
@@ -342,7 +342,7 @@ def main(args=None):
 
 if __name__ == '__main__':
     main()
-'''
+"""
 
 
 def test_the_handouts_video_of_a_students_own_node(tmp_path, monkeypatch, capfd):

@@ -91,8 +91,9 @@ def main() -> int:
     parser.add_argument('--submission', type=Path)
     args = parser.parse_args()
     root = Path(tempfile.mkdtemp(prefix='gradescope_'))
-    subprocess.run([sys.executable, '-m', 'sim_bridge.commands.autograder', 'build', *args.scenarios,
-                    '-o', str(root / 'autograder.zip')], check=True, stdout=subprocess.DEVNULL)
+    subprocess.run([sys.executable, '-m', 'sim_bridge.commands.autograder', 'build',
+                    *args.scenarios, '-o', str(root / 'autograder.zip')],
+                   check=True, stdout=subprocess.DEVNULL)
     shutil.unpack_archive(root / 'autograder.zip', root / 'source')
     (root / 'source' / 'run_autograder').chmod(0o755)
     if args.submission:
