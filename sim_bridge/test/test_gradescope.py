@@ -258,7 +258,7 @@ def test_the_zip_holds_setup_run_autograder_the_kit_and_the_scenarios(autograder
     assert modes['run_autograder'] & stat.S_IXUSR and modes['setup.sh'] & stat.S_IXUSR
     for name in ('kit/lab', 'kit/requirements-ros.txt', 'kit/worlds/room.yaml',
                  'kit/scan_pkg/scan_pkg/wanderbot.py',
-                 'kit/sim_bridge/sim_bridge/grading/runs.py',
+                 'kit/sim_bridge/sim_bridge/grade/__main__.py',
                  'kit/sim_bridge/setup.py'):
         assert name in names
     assert modes['kit/lab'] & stat.S_IXUSR

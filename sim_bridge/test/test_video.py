@@ -253,7 +253,9 @@ def test_a_recorded_live_session_has_a_runs_outputs_and_its_video(tmp_path):
     # while DDS discovery completes, told from the wall clock).
     times = [entry.t for entry in ranges]
     assert times == sorted(times) and 0 < times[-1] <= metrics['sim_time_s']
-    assert len(set(times)) == len(times)  # scan_ahead logs once a scan, every 0.1 s
+    # A line is stamped when it reaches this process: lines a busy machine delivers together
+    # share a stamp, but scan_ahead logs every 0.1 s of a 6 s session: they spread over it.
+    assert times[-1] - times[0] > 1.0
     # The node's lines, as the terminal showed them (launch's prefix aside); not the simulator's.
     assert all(f'[scan_ahead-2] {entry.line}' in result.stdout for entry in log)
     assert not any('[sim_bridge]' in entry.line for entry in log)

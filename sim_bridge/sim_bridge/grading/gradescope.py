@@ -56,7 +56,10 @@ here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 kit=$here/kit
 export DEBIAN_FRONTEND=noninteractive
 apt-get update
-apt-get install -y --no-install-recommends python3 python3-venv python3-pip
+# python3-dev and build-essential: pip compiles pybullet where it has no wheel (Python >= 3.12);
+# bubblewrap: the sandbox each student run is in.
+apt-get install -y --no-install-recommends python3 python3-venv python3-pip python3-dev \
+    build-essential bubblewrap
 python3 -m venv "$kit/.venv"
 ros=$(grep -v -E '^[[:space:]]*(#|$)|ament-(flake8|pep257)' "$kit/requirements-ros.txt")
 # shellcheck disable=SC2086  # one requirement a word
