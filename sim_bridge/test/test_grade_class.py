@@ -154,6 +154,19 @@ def test_each_job_is_named_after_its_student_and_a_missing_file_is_not_run(tmp_p
                for job in ana for node in job.run.scenario.nodes)
 
 
+def test_an_extra_task_without_marks_is_never_not_submitted(tmp_path):
+    """The guide's closest-obstacle node is graded for those who hand it in, no one else."""
+    scenarios = load_scenarios([*SCENARIOS, WORKSPACE / 'scenarios' / 'closest_obstacle.yaml'])
+    submissions = make_class(tmp_path / 'class', WORKSPACE)
+    shutil.copy(WORKSPACE / 'scan_pkg' / 'scan_pkg' / 'closest_obstacle.py',
+                submissions / 'ana' / 'closest_obstacle.py')
+    batch = ClassBatch(scenarios, submissions, tmp_path / 'out')
+    extra = [job.name for job in batch.jobs if 'closest_obstacle' in job.name]
+    assert extra == ['ana/closest_obstacle/seed_1']
+    assert not [report for _, report in batch.missing
+                if report.run.scenario.name == 'closest_obstacle']
+
+
 def test_only_folders_are_students_and_an_out_folder_inside_the_class_is_none(tmp_path):
     submissions = make_class(tmp_path / 'class', WORKSPACE)
     (submissions / 'notes.txt').write_text('a file, no student')
