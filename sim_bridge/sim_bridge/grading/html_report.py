@@ -11,6 +11,7 @@ output); paths in a run that are not absolute are relative to the ``root`` a pag
 and a text that is not valid UTF-8 (a lone surrogate) shows its bytes as ``\xNN``.
 """
 
+from collections import Counter
 from html.parser import HTMLParser
 import json
 import os
@@ -74,7 +75,8 @@ def _run_rows(run: dict[str, Any]) -> list[dict[str, str]]:
     """
     Return the table rows of one run, as grade prints them.
 
-    Its error, node errors, warnings (which fail nothing) and criteria with measured values.
+    Its error, node errors and criteria with measured values; its warnings (which fail
+    nothing) are listed once for the page (:func:`_warnings`).
     """
     metrics = run['metrics'] or {}
     cells = []
@@ -82,7 +84,6 @@ def _run_rows(run: dict[str, Any]) -> list[dict[str, str]]:
         cells.append((f"error: {run['error']}", '', 'fail'))
     for node_error in metrics.get('node_errors', []):
         cells.append((f"node error: {node_error['node']}: {node_error['error']}", '', 'fail'))
-    cells += [(f'warning: {warning}', '', 'warn') for warning in metrics.get('warnings') or []]
     cells += [(result['criterion'], format_measured(result['criterion'], result['value']),
                'pass' if result['passed'] else 'fail') for result in run['criteria']]
     if not cells:
@@ -115,8 +116,15 @@ def _run_view(index: int, run: dict[str, Any], folder: Path, root: Path) -> dict
             'video': _link(video, folder, 'video.mp4'),
             'plot': _href(plot, folder) if plot.is_file() else '',
             'outputs': [output for output in outputs if output.href],
-            'warnings': metrics.get('warnings') or [],
+            'warnings': _warnings([run]),
             'node_errors': metrics.get('node_errors', [])}
+
+
+def _warnings(runs: list[dict]) -> list[tuple[str, int]]:
+    """Return the runs' warnings, each once with the number of runs it was in."""
+    counts = Counter(warning for run in runs
+                     for warning in dict.fromkeys((run['metrics'] or {}).get('warnings') or []))
+    return list(counts.items())
 
 
 def write_runs_page(path: Path, title: str, runs: list[dict], *, up: Path | None = None,
@@ -125,16 +133,18 @@ def write_runs_page(path: Path, title: str, runs: list[dict], *, up: Path | None
     """
     Write one page of runs (a student's report, or one grading batch) and return its path.
 
-    The page holds a summary line, ``notes`` (e.g. runs reused from an earlier invocation), the
-    pass/fail table (a row per criterion of each run, the error of a run that did not complete)
-    and a section per run with its plot and outputs; ``marks`` (per task) add the marks earned
-    and how. ``up`` is the index page to link back to;
+    The page opens with the marks (``marks``, per task and point, with why marks were lost),
+    then a summary line, ``notes`` (e.g. runs reused from an earlier invocation), the runs'
+    warnings (each once, with the number of runs it was in), the pass/fail table (a row per
+    criterion of each run, the error of a run that did not complete) and a section per run
+    with its plot and outputs. ``up`` is the index page to link back to;
     it is linked even if not written yet. Relative paths in ``runs`` are relative to ``root``.
     """
     root = Path(root) if root is not None else Path()
     return _page(path, 'runs.html', up, title=title, notes=list(notes),
                  passed=sum(bool(run['passed']) for run in runs),
                  marked=[task for task in marks or [] if task.marks is not None],
+                 warnings=_warnings(runs),
                  runs=[_run_view(index, run, path.parent, root)
                        for index, run in enumerate(runs)])
 
@@ -155,10 +165,11 @@ def write_class_index(path: Path, title: str, students: dict[str, list[dict]],
     """
     Write the class index and return its path.
 
-    One row per student (sorted by name) with 'passed/total' runs per scenario and in all,
-    and the worst reason a run failed (see :data:`OUTCOME_LEGEND`, under the table), then,
-    with ``marks`` (each student's, per task), the marks per task and in all out of the
-    maximum; a student's name links to ``pages[student]`` when that page exists.
+    One row per student (sorted by name): with ``marks`` (each student's, per task), first the
+    marks in all and per task out of the maximum, with the points lost; then 'passed/total'
+    runs per scenario and in all, and the worst reason a run failed (see
+    :data:`OUTCOME_LEGEND`, under the table); a student's name links to ``pages[student]``
+    when that page exists.
     """
     marks = marks or {}
     rows = []

@@ -11,6 +11,13 @@ A scenario is a YAML mapping; every key not listed here is an error::
     marks: 3                      # optional: the task's marks (> 0), shared by its scenarios
     marking: proportional         # optional: how runs become marks: 'all' (default: every run
                                   # of the task passes, or none) or 'proportional'
+    points: wall_follow           # optional: the handout's points of the task, each earning
+                                  # its share of the marks (sim_bridge.task_points): one of
+                                  # range_ahead, wander, regions, wall_follow, closest
+    direction: clockwise          # optional: the loop the start is set up for (the target on
+                                  # the robot's right: clockwise; on its left: counterclockwise)
+    directions: one               # optional, per task: 'one' (default: the student's choice,
+                                  # its better direction counts) or 'both' (every start counts)
     world: wall_follow_box        # a shipped world's name, or a world file's path
     nodes: [wall_follow]          # TARGETs run with the simulator: a console script, a module
                                   # or a file path.py[:ClassName]
@@ -41,6 +48,12 @@ A scenario is a YAML mapping; every key not listed here is an error::
 
 Relative paths (a world file, a node file) are relative to the scenario file. The scenario's
 name is the file name without ``.yaml``. A seed is an integer from 0 to MAX_SEED (2**63 - 1).
+
+With ``points:``, a task's marks are its points' (:mod:`sim_bridge.marks`), each point earning
+its share of the marks over the task's runs, whatever the criteria say; the criteria still say
+whether each run passed. A task whose scenarios state a ``direction:`` is marked on the runs of
+one direction, the one whose runs earn more (the handout lets the student choose), unless
+``directions: both``.
 
 ``marks:`` are the marks of the scenario's ``task:`` (default: a task of its own, named after
 the scenario): every scenario of a task states the same ``marks:`` and ``marking:``, and the
@@ -81,12 +94,14 @@ from pathlib import Path
 import re
 from typing import Any, Callable
 
+from sim_bridge.common.values import described
 from sim_bridge.common.yaml_loader import load_yaml, read_text
 from sim_bridge.grading.criteria import (
     Criterion, CriterionResult, format_value, parse_criterion, parse_printed_criterion,
     PrintedCriterion)
 from sim_bridge.grading.scenario_file import (  # noqa: F401 - the file format's names
     MARKINGS, MAX_DURATION_S, ScenarioError, SETPOINTS, validate_scenario_file)
+from sim_bridge.grading.task_points import POINT_SETS
 from sim_bridge.ros.drive import DriveError, parse_drive, Segment
 from sim_bridge.runner.options import EVERY_NODE, remap_problem
 from sim_bridge.runner.targets import split_target, target_name
@@ -98,6 +113,9 @@ SCENARIO_SUFFIX = '.yaml'
 SEED_PLACEHOLDER = '$seed'
 #: What a NODE of ``--node-override NODE=TARGET`` can be: a node's name, no path.
 _OVERRIDE_NODE = re.compile(r'[\w.-]+')
+#: The loops a wall-following start is set up for, and which of them a task marks.
+LOOP_DIRECTIONS = ('clockwise', 'counterclockwise')
+DIRECTION_CHOICES = ('one', 'both')
 
 
 #: Makes the error of one field of a scenario: fail(FIELD or None, PROBLEM).
@@ -135,7 +153,9 @@ class Scenario:
     of SETPOINTS to the value (m) they measure against; ``drive`` the segments the runner's
     teleop drives the robot by (sim_bridge.ros.drive), none when empty; ``task`` the lab task it
     grades (None: a task of its own), ``marks`` that task's marks (None: no marks) and
-    ``marking`` one of MARKINGS.
+    ``marking`` one of MARKINGS; ``points`` the task's point set (task_points.POINT_SETS) or
+    None, ``direction`` the loop its start is for (LOOP_DIRECTIONS) or None, ``directions``
+    one of DIRECTION_CHOICES.
     """
 
     name: str
@@ -155,6 +175,9 @@ class Scenario:
     task: str | None = None
     marks: float | None = None
     marking: str = MARKINGS[0]
+    points: str | None = None
+    direction: str | None = None
+    directions: str = DIRECTION_CHOICES[0]
 
     @property
     def task_name(self) -> str:
@@ -304,7 +327,7 @@ def scenario_from_dict(data: Any, name: str, path: Path | None = None) -> Scenar
                     start=spec.start, description=spec.description, robot=spec.robot,
                     remap=tuple(spec.remap), setpoint=dict(spec.setpoint),
                     drive=_drive(spec.drive, fail), task=spec.task, marks=spec.marks,
-                    marking=spec.marking)
+                    marking=spec.marking, **_points(data, fail))
 
 
 def _criteria(criteria: list[Any], fail: Fail) -> tuple[Any, ...]:
@@ -325,6 +348,16 @@ def _drive(drive: Any, fail: Fail) -> tuple[Segment, ...]:
         return () if drive is None else parse_drive(drive)
     except DriveError as error:
         raise fail(None, str(error)) from None
+
+
+def _points(data: Mapping[Any, Any], fail: Fail) -> dict[str, Any]:
+    """Return the points, the start's direction and the directions marked (Scenario's keys)."""
+    for key, allowed in (('points', POINT_SETS), ('direction', LOOP_DIRECTIONS),
+                         ('directions', DIRECTION_CHOICES)):
+        if data.get(key) is not None and data[key] not in allowed:
+            raise fail(key, f"must be one of {', '.join(allowed)}, got {described(data[key])}")
+    return {'points': data.get('points'), 'direction': data.get('direction'),
+            'directions': data.get('directions') or DIRECTION_CHOICES[0]}
 
 
 def load_scenarios(paths: list[str | os.PathLike]) -> list[Scenario]:
@@ -361,7 +394,7 @@ def check_tasks(scenarios: list[Scenario]) -> None:
     first: dict[str, Scenario] = {}
     for scenario in scenarios:
         other = first.setdefault(scenario.task_name, scenario)
-        for key in ('marks', 'marking'):
+        for key in ('marks', 'marking', 'points', 'directions'):
             mine, theirs = getattr(scenario, key), getattr(other, key)
             if mine != theirs:
                 raise ScenarioError(

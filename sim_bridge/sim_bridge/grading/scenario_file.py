@@ -118,6 +118,11 @@ class ScenarioFile(BaseModel):
         lambda value: isinstance(value, list) and value != [],
         lambda value: f'must be a non-empty list of criteria, got {described(value)}')]
 
+    # The handout's points, the start's loop direction and the directions marked: read by
+    # sim_bridge.grading.scenario (they name its tables).
+    points: Any = None
+    direction: Any = None
+    directions: Any = None
     # (pydantic runs the validators of one annotation last first: the check, then the text.)
     task: Annotated[str | None, BeforeValidator(
         lambda value: value if value is None else str(value).strip()), _check(
