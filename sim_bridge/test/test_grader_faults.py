@@ -97,7 +97,7 @@ def test_a_huge_node_file_fails_its_student_in_one_line_and_the_class_is_graded(
     rows = (out / CSV_NAME).read_text().splitlines()
     assert rows[1:] == ['ana,0/1 error,0/1 error', 'bob,1/1,1/1'], rows
     [run] = json.loads((out / 'students' / 'ana' / 'report.json').read_text())['runs']
-    assert run['error'] == ('node file too big: scan_ahead.py is 3.0 GiB, over the 1.0 MiB a '
+    assert run['error'] == ('node file too big: scan_ahead.py is 3.0 GiB, over the 8.0 MiB a '
                             'node file may be')
 
 

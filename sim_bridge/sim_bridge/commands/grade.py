@@ -296,7 +296,8 @@ def write_videos(jobs: list[GradeJob], reports: list[RunReport], names: str | No
                 raise VideoError(f'world: {worlds[key]}')
             if report.sim_time_s <= 0:
                 raise VideoError('the run simulated nothing')
-            render_video(job.out_dir, video, banner, world=worlds[key],
+            render_video(job.out_dir, video, banner, teleop=bool(scenario.drive),
+                         world=worlds[key],
                          duration_s=min(report.sim_time_s, scenario.duration_s))
         except (VideoError, OSError) as error:
             note(f'no video of {job.name}: {error}')
