@@ -8,7 +8,9 @@ its lines are printed as plain lines.
 """
 
 from collections.abc import Iterable, Sequence
+import errno
 import io
+import os
 from typing import TextIO
 
 from rich.box import Box
@@ -37,6 +39,15 @@ def text_table(header: Sequence[str], rows: Iterable[Sequence[str]],
     return '\n'.join(line.rstrip() for line in text.getvalue().splitlines())
 
 
+class StreamConsole(Console):
+    """A rich Console whose stream, once closed (piped into ``head``), raises BrokenPipeError."""
+
+    def on_broken_pipe(self) -> None:
+        """Raise BrokenPipeError to the writer (rich's own exits: no report written)."""
+        self.quiet = True
+        raise BrokenPipeError(errno.EPIPE, os.strerror(errno.EPIPE))
+
+
 class ProgressBar:
     """
     One progress bar on ``stream`` (a terminal, and ``draw``; else none is drawn), lines above.
@@ -46,7 +57,7 @@ class ProgressBar:
     """
 
     def __init__(self, stream: TextIO, draw: bool = True) -> None:
-        self.console = Console(file=stream, highlight=False, markup=False, emoji=False)
+        self.console = StreamConsole(file=stream, highlight=False, markup=False, emoji=False)
         self.live = draw and self.console.is_terminal
         # Redrawn when told (no thread), and sys.stdout and sys.stderr left as they are.
         self.progress = Progress(BarColumn(), TextColumn('{task.fields[status]}'),
