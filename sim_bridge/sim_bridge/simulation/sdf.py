@@ -657,6 +657,8 @@ class _Reader:
                     found.shapes.append(place(shape, pose))
                     if shape.kind == 'mesh':
                         found.sources.append(Path(shape.mesh.source))
+                        if shape.mesh.notes:
+                            found.ignored.append(('mesh texture', Path(shape.mesh.source).name))
                 if child.find('geometry/mesh/submesh') is not None:
                     found.ignored.append(('submesh (whole mesh used)', ''))
             elif child.tag == 'visual':

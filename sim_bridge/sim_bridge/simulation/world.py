@@ -286,7 +286,7 @@ class World:
                 max(map(abs, pose[:2])) > MAX_COORDINATE_M:  # lab-sized, as in a world file
             raise WorldError(self._label(), 'robot', 'pose', 'must be finite, x and y within '
                              f'±{MAX_COORDINATE_M:g} m of the origin, got {pose}')
-        _check_robot_clear(self._label(), pose, self.floor_slice)
+        _check_robot_clear(self._label(), pose, self.floor_slice, self.robot.name)
         return replace(self, robot_start=pose)
 
     def with_robot(self, model: str | os.PathLike,
@@ -354,14 +354,14 @@ def _floor_slice(label: str, robot: Model, obstacles: tuple[Obstacle, ...]) -> F
 
 
 def _check_robot_clear(label: str, pose: tuple[float, float, float],
-                       floor_slice: FloorSlice) -> None:
-    """Fail unless the robot's outline at ``pose`` is clear of the obstacles in its band."""
+                       floor_slice: FloorSlice, robot_name: str) -> None:
+    """Fail unless robot ``robot_name``'s outline at ``pose`` is clear of the obstacles."""
     _, index, clear = floor_slice.probe(pose)
     if not clear:
         outline = (f'radius {floor_slice.robot_radius:g} m' if floor_slice.round
                    else f'outline reaching {floor_slice.robot_radius:g} m from its origin')
         raise WorldError(label, 'robot', 'pose',
-                         f'the robot ({outline}) at ({pose[0]:g}, {pose[1]:g}) '
+                         f"the robot '{robot_name}' ({outline}) at ({pose[0]:g}, {pose[1]:g}) "
                          f"overlaps obstacle '{floor_slice.owners[index]}'")
 
 
@@ -409,7 +409,7 @@ class _Parser:
                 raise self.fail(None, 'target', f"names no obstacle ('{target}'); obstacles: "
                                 f"{', '.join(names) or 'none'}")
         _check_robot_clear(self.label, robot_start,
-                           _floor_slice(self.label, robot, tuple(obstacles)))
+                           _floor_slice(self.label, robot, tuple(obstacles)), robot.name)
         if 'bounds' in data:
             bounds = self.bounds(data['bounds'])
         else:
@@ -710,7 +710,7 @@ def _sdf_world(path: Path, text: str, label: str, robot_given: bool,
     obstacles = []
     ignored = list(sdf.ignored)
     for placed in sdf.models:
-        if placed is robot:
+        if robot is not None and placed.name == robot.name:
             continue
         ignored += placed.model.not_simulated
         shapes = tuple(place(shape, placed.pose) for shape in placed.model.shapes)
@@ -729,7 +729,7 @@ def _sdf_world(path: Path, text: str, label: str, robot_given: bool,
         start = (0.0, 0.0, 0.0)
         radius = 0.0
     name = sdf.name if sdf.name != 'default' else path.stem
-    return World(name=name, path=path, obstacles=tuple(obstacles), robot_start=start,
+    world = World(name=name, path=path, obstacles=tuple(obstacles), robot_start=start,
                  robot_model=robot.name if robot is not None else '',
                  robot=robot.model if robot is not None else Model('none', path, ()),
                  target=None, bounds=_default_bounds(obstacles, start, radius),
@@ -737,6 +737,9 @@ def _sdf_world(path: Path, text: str, label: str, robot_given: bool,
                  ignored=_ignored_line(tuple(ignored) + (robot.model.not_simulated if robot
                                                          else ())),
                  world_ignored=tuple(ignored))
+    if robot is not None:
+        _check_robot_clear(label, start, world.floor_slice, robot.name)
+    return world
 
 
 def _without_file(message: str, path: Path) -> str:
