@@ -34,7 +34,7 @@ from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.parameter import get_parameter_value, Parameter, parameter_value_to_python
 from rclpy.serialization import serialize_message
 from sim_bridge.drive import check_obstacles, DriveError, DrivePlan, parse_drive, Segment
-from sim_bridge.hints import printed_scan_hint, ros_module_hint, scan_hint
+from sim_bridge.hints import printed_scan_hint, ros_module_hint, scan_hint, topic_type_hint
 from sim_bridge.live import LiveRun, prefixed, print_line, process_names
 from sim_bridge.metrics import compute_metrics
 from sim_bridge.node_output import (
@@ -266,7 +266,8 @@ def unconnected_topics(bridge, nodes: Iterable[tuple[str, str]]) -> list[str]:
     ROS_TOPICS are left out.
     """
     ends = {'publishes': {publisher.topic_name for publisher in bridge.publishers},
-            'subscribes to': {sub.topic_name for sub in bridge.subscriptions}}
+            'subscribes to': {sub.topic_name for sub in bridge.subscriptions}
+            | {bridge.command_topic}}
     uses = (('subscribes to', bridge.get_subscriber_names_and_types_by_node,
              bridge.count_publishers, 'nothing publishes it', 'publishes'),
             ('publishes', bridge.get_publisher_names_and_types_by_node,
@@ -371,11 +372,9 @@ class Teleop:
     def __init__(self, graph: 'SteppedRun | LiveGraph', bridge, world: World,
                  segments: Sequence[Segment]):
         self.bridge = bridge
-        subscription = next(sub for sub in bridge.subscriptions
-                            if sub.callback == bridge.on_cmd_vel)
-        self.msg_type = subscription.msg_type
+        self.msg_type = bridge.subscribe_command()
         self.node = graph.node(TELEOP_NODE, sim_time=True)
-        self.publisher = self.node.create_publisher(self.msg_type, subscription.topic_name, 10)
+        self.publisher = self.node.create_publisher(self.msg_type, bridge.command_topic, 10)
         self.plan = DrivePlan(segments, lambda name, x, y: world.obstacle(name).distance(x, y))
         self.timer = self.node.create_timer(1.0 / TELEOP_RATE_HZ, self.tick)
         self.tick()  # the first segment starts with the run
@@ -479,12 +478,21 @@ class RunRecorder:
         for publisher in bridge.publishers:
             subscribed.setdefault(publisher.topic_name, publisher.msg_type)
         latched = QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        self.node = node
         for topic, msg_type in subscribed.items():
-            if topic in DEFAULT_TOPICS and (topic not in bridge_topics or topic.startswith('/tf')):
-                write = functools.partial(self.write, topic, self.type_name(msg_type))
-                node.create_subscription(
-                    msg_type, topic, write, latched if topic == '/tf_static' else 10, raw=True,
-                    event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False))
+            if topic not in bridge_topics or topic.startswith('/tf'):
+                self.subscribe(topic, msg_type, latched if topic == '/tf_static' else 10)
+        # The command topic's type is known once its publisher shows (see SimBridge).
+        bridge.command_listeners.append(
+            lambda subscription: self.subscribe(subscription.topic_name, subscription.msg_type))
+
+    def subscribe(self, topic: str, msg_type: type, qos: Any = 10) -> None:
+        """Record ``topic`` (a default topic) as DDS delivers it, raw."""
+        if topic in DEFAULT_TOPICS:
+            write = functools.partial(self.write, topic, self.type_name(msg_type))
+            self.node.create_subscription(
+                msg_type, topic, write, qos, raw=True,
+                event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False))
 
     def type_name(self, msg_type: type) -> str:
         """Return (and keep) the ROS type name of a message class."""
@@ -643,6 +651,7 @@ class SteppedRun:
                 self.start(node_class, label)
         except (NodeError, NodeEnded) as error:
             return error
+        self.bridge.check_command_publishers()  # the command type their publishers use
         return None
 
     def parameter_warnings(self, params: Params) -> list[str]:
@@ -780,7 +789,8 @@ def node_failure(error: NodeError) -> str:
         hint = f' ({FIELD_CHECK_HINT})'
     elif isinstance(error.original, MemoryError) and memory_limit() is not None:
         hint = f' (memory limit {memory_limit()} reached in {error.place})'
-    elif text := ros_module_hint(error.original) or scan_hint(error.original, error.code):
+    elif text := (ros_module_hint(error.original) or topic_type_hint(error.original)
+                  or scan_hint(error.original, error.code)):
         hint = f' ({text})'
     return str(error) + hint
 

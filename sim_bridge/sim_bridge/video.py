@@ -202,6 +202,7 @@ def read_recording(bag: Path) -> tuple[tuple, tuple]:
 
 def load_footage(out_dir: str | os.PathLike) -> Footage:
     """Read what the video of the run in ``out_dir`` shows; VideoError when it cannot."""
+    from sim_bridge.simulation.robot import pose_in_world
     from sim_bridge.simulation.sdf import LidarConfig
     from sim_bridge.simulation.world import World, WorldError
     out_dir = Path(out_dir)
@@ -215,7 +216,9 @@ def load_footage(out_dir: str | os.PathLike) -> Footage:
     bag = out_dir / 'run'
     if not bag.is_dir():
         raise VideoError(f'{bag}: no recording (was the run made with --no-record?)')
-    (pose_t, poses), (scan_t, scans, geometry) = read_recording(bag)
+    (pose_t, odometry), (scan_t, scans, geometry) = read_recording(bag)
+    # Odometry starts at 0 in odom, the spawn pose's frame (see SimBridge.odometry).
+    poses = np.column_stack(pose_in_world(world.robot_start, odometry.T))
     lidar = world.robot.lidar or LidarConfig()
     mount = (lidar.pose[0], lidar.pose[1], lidar.pose[5])
     duration = metrics.get('sim_time_s')

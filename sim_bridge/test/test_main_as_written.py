@@ -502,3 +502,28 @@ def test_a_process_forked_after_a_process_run_can_collect_its_garbage(tmp_path):
     _, status = os.waitpid(child, 0)
     assert os.WIFEXITED(status) and os.WEXITSTATUS(status) == 0, (
         f'the forked process ended with status {status}')
+
+
+def test_a_turtlebot3_node_publishing_twist_stamped_drives_the_robot(tmp_path):
+    # TurtleBot3's Jazzy packages publish TwistStamped on /cmd_vel; the node runs in the
+    # runner's process, beside the bridge, and starts without an incompatible-type error.
+    result = run_simulation('obstacles', [str(FIXTURES / 'tb3_stamped_driver.py')],
+                            duration_s=3.0, robot='turtlebot3_burger', out_dir=tmp_path,
+                            quiet=True, record=True, plot=False)
+    assert result.metrics['node_errors'] == []
+    assert result.metrics['distance_m'] == pytest.approx(0.1 * 2.9, abs=0.03)
+    with Reader(tmp_path / 'run') as reader:
+        (connection,) = [c for c in reader.connections if c.topic == '/cmd_vel']
+        assert connection.msgtype == 'geometry_msgs/msg/TwistStamped'
+        assert connection.msgcount >= 25
+
+
+def test_two_nodes_publishing_both_command_types_get_a_hint(tmp_path):
+    result = run_simulation('obstacles', [str(FIXTURES / 'tb3_stamped_driver.py'),
+                                          str(FIXTURES / 'on_change_driver.py')],
+                            duration_s=1.0, robot='turtlebot3_burger', out_dir=tmp_path,
+                            quiet=True, record=False, plot=False)
+    [error] = result.metrics['node_errors']
+    assert error['error'].endswith(
+        '(another node of this run already uses /cmd_vel with another type than '
+        'geometry_msgs/msg/Twist: every node of a run must use one type on a topic)')
