@@ -31,7 +31,7 @@ setup(
     ],
     install_requires=['setuptools', 'numpy', 'pybullet', 'rosbags>=0.11,<0.12', 'matplotlib',
                       'contourpy', 'PyYAML', 'trimesh', 'pycollada', 'shapely', 'pillow',
-                      'imageio-ffmpeg'],
+                      'imageio-ffmpeg', 'lxml', 'xacro', 'urdfdom-py'],
     extras_require={
         'test': [
             'pytest',

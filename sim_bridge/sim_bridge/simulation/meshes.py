@@ -100,6 +100,14 @@ def _collada_unit(path: Path) -> float:
     return float(unit) if unit else 1.0
 
 
+def cone(radius: float, length: float, source: str) -> Mesh:
+    """Return SDF's ``<cone>``: its base circle (``radius`` m) ``length`` m below its apex."""
+    import trimesh
+    shape = trimesh.creation.cone(radius, length, sections=64)
+    return Mesh(np.asarray(shape.vertices) - (0.0, 0.0, 0.5 * length),
+                np.asarray(shape.faces, dtype=np.int64), source)
+
+
 def extrude(points: list[tuple[float, float]], height: float, source: str) -> Mesh:
     """
     Return the prism of a simple polygon (x, y points in m) from z = 0 up to ``height`` (m).

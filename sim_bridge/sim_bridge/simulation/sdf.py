@@ -2,14 +2,17 @@
 Read Gazebo model files as Gazebo reads them: collisions, the lidar and the diff-drive plugin.
 
 :func:`load_model` reads a model folder (``model.config`` naming its SDF file) or an SDF file,
-SDF 1.4 to 1.10, Gazebo Sim and Gazebo Classic forms alike, with :mod:`xml.etree`:
+any SDF version (1.0 to 1.12), Gazebo Sim and Gazebo Classic forms alike, with :mod:`xml.etree`
+(:mod:`.xml_text`: as leniently as Gazebo's TinyXML2, e.g. ``--`` in comments and undeclared
+``gz:`` prefixes as Gazebo's own example worlds have them):
 
 - every ``<collision>`` of every ``<link>``, at the link's and the collision's ``<pose>`` (any
   rotation; ``relative_to`` a link, a ``<frame>`` or the model), as a
   :class:`~.geometry.Shape`: ``<box>``, ``<cylinder>``, ``<sphere>``, ``<capsule>``,
-  ``<ellipsoid>``, ``<polyline>`` (extruded) and ``<mesh>`` (STL, OBJ, DAE with its ``<unit>``,
-  times ``<scale>``; :mod:`.meshes`). A ``<plane>`` is the floor, not an obstacle
-  (:attr:`Model.planes`);
+  ``<ellipsoid>``, ``<cone>``, ``<polyline>`` (extruded) and ``<mesh>`` (STL, OBJ, DAE with
+  its ``<unit>``, times ``<scale>``; :mod:`.meshes`), SDF's default sizes where a size is left
+  out. A ``<plane>`` is the floor, not an obstacle (:attr:`Model.planes`); a ``<heightmap>`` is
+  not simulated;
 - nested ``<model>`` elements at their pose in the parent, and ``<include>`` elements, whose
   ``<pose>``, ``<name>`` and ``<static>`` replace the included model's own (Gazebo's rule);
   ``model://NAME/...`` is looked up on :func:`~sim_bridge.paths.model_search_path`;
@@ -21,9 +24,11 @@ SDF 1.4 to 1.10, Gazebo Sim and Gazebo Classic forms alike, with :mod:`xml.etree
   ``libgazebo_ros_diff_drive.so``, as a :class:`~.robot.DiffDriveConfig` with Gazebo's defaults
   for what it leaves unset.
 
-What the simulator does not simulate (visuals, joints, other sensors and plugins,
-``<submesh>``) is listed in :attr:`Model.not_simulated`, never dropped in silence; what it cannot
-read is an :class:`SdfError` naming the file, the element path and what to do.
+What the simulator does not simulate (visuals, joints, lights, cameras, 3-D lidars, other
+sensors and plugins, heightmaps, ``<submesh>``, textures) is listed in
+:attr:`Model.not_simulated`, never dropped in silence; a model file holding only a
+``<light>`` (Classic's ``sun`` folder) is a model of nothing but that light. What it cannot read
+is an :class:`SdfError` naming the file, the element path and what to do.
 
 A ``<pose>`` is ``x y z roll pitch yaw`` (m, rad; degrees with ``degrees="true"``), fixed axes
 X-Y-Z, relative to the parent element unless ``relative_to`` says otherwise.
@@ -44,11 +49,16 @@ import numpy as np
 from sim_bridge import paths
 from sim_bridge.simulation.geometry import (euler_from_matrix, Footprint, Mesh,
                                             rotation_matrix, Shape, triangulate)
-from sim_bridge.simulation.meshes import extrude, load_mesh, MeshError
+from sim_bridge.simulation.meshes import cone, extrude, load_mesh, MeshError
 from sim_bridge.simulation.robot import DiffDriveConfig, DriveLimits
+from sim_bridge.simulation.xml_text import parse_xml, XmlError
 
 LIDAR_SENSOR_TYPES = ('ray', 'gpu_ray', 'lidar', 'gpu_lidar')
 NOISE_TYPES = ('gaussian', 'none')
+#: SDF's default radius (m) of a cylinder and a capsule when the file gives none.
+SDF_DEFAULT_RADIUS = {'cylinder': 1.0, 'capsule': 0.5}
+#: Collision shapes read but not simulated: terrain from an image. One ignored item each.
+UNSIMULATED_GEOMETRY = ('heightmap', 'image')
 #: Speed limit (m/s and rad/s) standing for "none": a diff-drive plugin without a velocity
 #: limit has none in Gazebo, and DriveLimits needs a finite number.
 NO_SPEED_LIMIT = 1000.0
@@ -355,6 +365,10 @@ def parse_model(text: str, path: Path, lidar: str | None = None,
         if root.tag != 'sdf':
             raise SdfError(f'{path}: <{root.tag}>: the root element must be <sdf>')
         element = root.find('model')
+        light = root.find('light')
+        if element is None and light is not None:  # a model folder holding a light: a sun
+            return Model(light.get('name') or path.parent.name, path, (), static=True,
+                         ignored=(('light', light.get('name') or ''),))
         if element is None:
             if root.find('world') is not None:
                 raise SdfError(f'{path}: <sdf>: is a world file, not a model; load it as a '
@@ -381,9 +395,9 @@ def is_sdf_text(text: str) -> bool:
 
 def _parse_xml(text: str, path: Path) -> ElementTree.Element:
     try:
-        return ElementTree.fromstring(text)
-    except ElementTree.ParseError as error:
-        raise SdfError(f'{path}: invalid XML: {error}') from None
+        return parse_xml(text, path)
+    except XmlError as error:
+        raise SdfError(str(error)) from None
 
 
 def _label(element: ElementTree.Element) -> str:
@@ -549,11 +563,14 @@ class _Reader:
         """Return the model folder (or SDF file) a ``model://``, Fuel, file or path URI names."""
         parsed = urlparse(uri)
         if parsed.scheme == 'model':
+            # model:///NAME/... (three slashes) names the same file as model://NAME/...
+            name, _, rest = (parsed.netloc + parsed.path).lstrip('/').partition('/') \
+                if not parsed.netloc else (parsed.netloc, '', parsed.path)
             try:
-                folder = paths.find_model(parsed.netloc, self.world_folder)
+                folder = paths.find_model(name, self.world_folder)
             except FileNotFoundError as error:
                 raise self.error(where, str(error)) from None
-            return folder / unquote(parsed.path.lstrip('/'))
+            return folder / unquote(rest.lstrip('/'))
         if parsed.scheme in ('http', 'https'):
             cached = _fuel_cache(parsed)
             if cached is not None:
@@ -650,6 +667,10 @@ class _Reader:
             child_where = f'{where}/{_label(child)}'
             if child.tag == 'collision':
                 pose = compose(model_frame, frames.resolve(child, child_where, link=link))
+                not_read = self.unsupported_geometry(child)
+                if not_read:
+                    found.ignored.append((f'{not_read} collision', child.get('name') or ''))
+                    continue
                 shape, plane = self.collision(child, child_where)
                 if plane is not None:
                     found.planes.append(Plane(pose[2], plane))
@@ -665,7 +686,9 @@ class _Reader:
                 found.ignored.append(('visual', ''))
             elif child.tag == 'sensor':
                 pose = compose(model_frame, frames.resolve(child, child_where, link=link))
-                if child.get('type') in LIDAR_SENSOR_TYPES:
+                if child.get('type') in LIDAR_SENSOR_TYPES and self.layers(child) > 1:
+                    found.ignored.append(('3-D lidar', child.get('name') or ''))
+                elif child.get('type') in LIDAR_SENSOR_TYPES:
                     found.lidars.append((child.get('name') or '', partial(
                         self.lidar, child, child_where, pose, link.get('name') or '')))
                 else:
@@ -680,21 +703,30 @@ class _Reader:
                   ) -> tuple[Shape | None, tuple[float, float] | None]:
         """Return (the shape in the collision's own frame, or a plane's size)."""
         geometry = element.find('geometry')
-        kinds = '<box>, <cylinder>, <sphere>, <capsule>, <ellipsoid>, <mesh>, <plane>'
-        if geometry is None or len(geometry) != 1:
+        kinds = ('<box>, <cylinder>, <sphere>, <capsule>, <ellipsoid>, <cone>, <mesh>, <plane>, '
+                 '<polyline>')
+        if geometry is None or not len(geometry) or (
+                len(geometry) > 1 and {child.tag for child in geometry} != {'polyline'}):
             raise self.error(f'{where}/<geometry>', f'needs exactly one of {kinds}')
         primitive = geometry[0]
         at = f'{where}/<geometry>/<{primitive.tag}>'
+        # Missing sizes take SDF's defaults, as Gazebo gives them.
         if primitive.tag == 'box':
-            size = self.vector(primitive, 'size', at, 3)
+            size = self.vector(primitive, 'size', at, 3) \
+                if primitive.find('size') is not None else (1.0, 1.0, 1.0)
             if min(size) <= 0.0:
                 raise self.error(f'{at}/<size>', f'must be positive, got {size}')
             return Shape('box', size=size), None
         if primitive.tag in ('cylinder', 'capsule'):
-            return Shape(primitive.tag, radius=self.positive(primitive, 'radius', at),
-                         length=self.positive(primitive, 'length', at)), None
+            radius = self.positive(primitive, 'radius', at, SDF_DEFAULT_RADIUS[primitive.tag])
+            return Shape(primitive.tag, radius=radius,
+                         length=self.positive(primitive, 'length', at, 1.0)), None
+        if primitive.tag == 'cone':
+            return Shape('mesh', mesh=cone(self.positive(primitive, 'radius', at, 1.0),
+                                           self.positive(primitive, 'length', at, 1.0), at)
+                         ), None
         if primitive.tag == 'sphere':
-            return Shape('sphere', radius=self.positive(primitive, 'radius', at)), None
+            return Shape('sphere', radius=self.positive(primitive, 'radius', at, 1.0)), None
         if primitive.tag == 'ellipsoid':
             radii = self.vector(primitive, 'radii', at, 3)
             if min(radii) <= 0.0:
@@ -710,6 +742,14 @@ class _Reader:
             return None, None
         raise self.error(at, f'unsupported geometry <{primitive.tag}>; use one of {kinds} '
                          '(replace a heightmap with a mesh)')
+
+    @staticmethod
+    def unsupported_geometry(collision: ElementTree.Element) -> str:
+        """Return '<heightmap>' (or another shape not simulated) for such a collision, or ''."""
+        geometry = collision.find('geometry')
+        if geometry is not None and len(geometry) and geometry[0].tag in UNSIMULATED_GEOMETRY:
+            return f'<{geometry[0].tag}>'
+        return ''
 
     def plane(self, element: ElementTree.Element, where: str) -> tuple[float, float]:
         normal = self.vector(element, 'normal', where, 3) \
@@ -766,7 +806,6 @@ class _Reader:
             block_where = f'{where}/<{blocks[0].tag}>'
             values.update(self.horizontal(blocks[0].find('scan/horizontal'),
                                           f'{block_where}/<scan>/<horizontal>'))
-            self.check_planar(blocks[0].find('scan/vertical'), f'{block_where}/<scan>/<vertical>')
             values.update(self.lidar_range(blocks[0].find('range'), f'{block_where}/<range>'))
             values.update(self.noise(blocks[0].find('noise'), f'{block_where}/<noise>'))
         values.update(self.children(sensor, where, {'update_rate': 'update_rate'}))
@@ -795,12 +834,12 @@ class _Reader:
             raise self.error(f'{where}/<min_angle>', 'must not be above <max_angle>')
         return values
 
-    def check_planar(self, element: ElementTree.Element | None, where: str) -> None:
-        if element is not None and element.find('samples') is not None:
-            layers = self.integer(element, 'samples', where)
-            if layers != 1:
-                raise self.error(f'{where}/<samples>', 'only planar lidars (1 vertical sample) '
-                                 f'are supported, got {layers}')
+    @staticmethod
+    def layers(sensor: ElementTree.Element) -> int:
+        """Return a lidar sensor's vertical samples: 1 for a planar lidar."""
+        text = (sensor.findtext('lidar/scan/vertical/samples')
+                or sensor.findtext('ray/scan/vertical/samples') or '1').strip()
+        return int(text) if text.isdigit() else 1
 
     def lidar_range(self, element: ElementTree.Element | None, where: str) -> dict:
         if element is None:
@@ -993,8 +1032,12 @@ class _Reader:
             raise self.error(f'{where}/<{tag}>', f'must be a positive integer, got {text!r}')
         return int(text)
 
-    def positive(self, parent: ElementTree.Element, tag: str, where: str) -> float:
+    def positive(self, parent: ElementTree.Element, tag: str, where: str,
+                 default: float | None = None) -> float:
+        """Return a positive number; ``default`` (SDF's) when the element is missing."""
         if parent.find(tag) is None:
+            if default is not None:
+                return default
             raise self.error(f'{where}/<{tag}>', 'is missing')
         value = self.number(parent, tag, where)
         if value <= 0.0:
