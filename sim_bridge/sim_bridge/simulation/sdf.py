@@ -308,7 +308,8 @@ class SdfWorld:
 def load_model(folder_or_file: str | os.PathLike, lidar: str | None = None,
                world_folder: Path | None = None) -> Model:
     """
-    Read a model folder (``model.config`` naming its SDF file) or an SDF file.
+    Read a model folder (``model.config`` naming its SDF file), an SDF file, or a URDF or
+    xacro robot (:mod:`.urdf`).
 
     ``lidar`` names the sensor to use when the model has several lidars (default: the first);
     ``world_folder`` is searched first for ``model://`` URIs (see
@@ -316,6 +317,9 @@ def load_model(folder_or_file: str | os.PathLike, lidar: str | None = None,
     cannot be used, FileNotFoundError for none.
     """
     path = model_file(Path(folder_or_file))
+    from sim_bridge.simulation import urdf  # it reads the SDF it makes with this module
+    if urdf.is_urdf_file(path):
+        return urdf.load_urdf(path, lidar)
     return parse_model(path.read_text(encoding='utf-8'), path, lidar=lidar,
                        world_folder=world_folder)
 

@@ -100,6 +100,8 @@ import yaml
 DEFAULT_ROBOT_MODEL = 'lab_robot'
 #: The largest world file read (bytes): an SDF world of a whole house is a few hundred KiB.
 WORLD_FILE_LIMIT_BYTES = 16 * 2 ** 20
+#: A model named by a bare file name with one of these suffixes is that file, not a folder.
+MODEL_FILE_SUFFIXES = ('.sdf', '.urdf', '.xacro')
 DEFAULT_WALL_THICKNESS = 0.15
 DEFAULT_WALL_HEIGHT = 1.0
 #: Margin (m) around obstacles and robot start for the default bounds of a world without walls.
@@ -475,7 +477,7 @@ class _Parser:
             raise self.fail(where, 'model', f'must be a model name, got {_kind(name)}')
         try:
             given = Path(name)
-            found = given if given.parent != Path('.') or given.suffix == '.sdf' \
+            found = given if given.parent != Path('.') or given.suffix in MODEL_FILE_SUFFIXES \
                 else paths.find_model(name, folder)
             model = load_model(found, lidar=lidar, world_folder=folder)
         except FileNotFoundError as error:
