@@ -48,7 +48,7 @@ except ImportError:  # tf2_ros is part of a ROS 2 installation, not of the PyPI 
     StaticTransformBroadcaster = TransformBroadcaster = None
 
 from sim_bridge.simulation.robot import DiffDriveConfig, DriveLimits, pose_from
-from sim_bridge.simulation.sdf import LidarConfig
+from sim_bridge.simulation.sdf import LidarConfig, relative_pose
 from sim_bridge.simulation.simulator import Simulator
 from sim_bridge.simulation.world import World
 
@@ -217,13 +217,14 @@ class SimBridge(Node):
         else:
             if publish_tf:
                 self.tf_broadcaster = TransformBroadcaster(self)
-            StaticTransformBroadcaster(self).sendTransform(self.laser_transform())
+            StaticTransformBroadcaster(self).sendTransform(self.static_transforms())
         # Messages published every step are filled in place: publishing copies them.
         self.clock = Clock()
         self.odom = Odometry(child_frame_id=self.frames['base_link'])
         self.odom.header.frame_id = self.frames['odom']
-        self.odom_transform = self.transform(self.clock.clock, 'odom', 'base_link',
-                                             (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+        self.odom_transform = self.transform(self.clock.clock, self.frames['odom'],
+                                             self.frames['base_link'], (0.0, 0.0, 0.0),
+                                             (0.0, 0.0, 0.0))
         self.command_topic = self.resolve_topic_name(relative(drive.command_topic))
         self.command_events = cmd_vel_events
         self.command_subscription = None
@@ -232,6 +233,7 @@ class SimBridge(Node):
         self.command_publisher_count = 0
         self.command_check_steps = [max(1, round(period / self.step_s))
                                     for period in COMMAND_GRAPH_CHECK_S]
+        self.next_command_check = 0
         if stamped is not None:
             self.subscribe_command(TwistStamped if stamped else Twist)
         else:
@@ -328,19 +330,40 @@ class SimBridge(Node):
         """Return the simulated time (ns) of the last physics step."""
         return self.steps * self.step_ns
 
-    def step(self, clock_due: bool = True) -> bool:
+    def quiet_steps(self, until_ns: int) -> int:
         """
-        Advance the physics one step and publish what is due; return True if anyone hears it.
+        Return how many physics steps the next :meth:`step` can take as one (at least 1).
 
+        The steps up to the first at or after ``until_ns`` (the caller's next event: a node's
+        timer, the run's end), the next scan or odometry, or the next look at the command
+        topic, when the drive holds its command's velocity: no message goes out and no command
+        can come in before the last of them, and an arc at constant velocity driven in one
+        piece is the arc driven in many. A drive still accelerating, or with a command timeout
+        to keep, takes one step at a time.
+        """
+        sim = self.sim
+        if sim.velocity != sim.command or sim.command_timeout is not None:
+            return 1
+        next_ns = min(until_ns, self.scan_schedule.next_ns, self.odom_schedule.next_ns,
+                      self.next_command_check * self.step_ns)
+        return max(1, -(-next_ns // self.step_ns) - self.steps)
+
+    def step(self, clock_due: bool = True, steps: int = 1) -> bool:
+        """
+        Advance the physics ``steps`` steps in one and publish what is due after them.
+
+        Returns True if anyone hears it. ``steps`` > 1 only as :meth:`quiet_steps` allows.
         /clock goes out with every other message, and on its own when ``clock_due`` (live: every
         step; a stepped runner asks for it only when a node's timer falls due). The return
         value tells a stepped runner whether a callback may now be ready: a message went to a
         topic with a subscriber, or /clock did.
         """
-        if self.steps % self.command_check_steps[self.command_subscription is not None] == 0:
+        if self.steps >= self.next_command_check:
             self.check_command_publishers()
-        self.sim.step(self.step_s)
-        self.steps += 1
+            self.next_command_check = self.steps + self.command_check_steps[
+                self.command_subscription is not None]
+        self.sim.step(self.step_s * steps)
+        self.steps += steps
         now_ns = self.now_ns
         stamp = self.clock.clock
         stamp.sec, stamp.nanosec = divmod(now_ns, NANOSECONDS_PER_SECOND)
@@ -411,15 +434,38 @@ class SimBridge(Node):
         rotation.z, rotation.w = half_yaw_sin, half_yaw_cos
         return odom
 
-    def laser_transform(self) -> TransformStamped:
-        pose = self.sim.lidar_config.pose
-        return self.transform(Time().to_msg(), 'base_link', 'laser', pose[:3], pose[3:])
+    def static_transforms(self) -> list[TransformStamped]:
+        """
+        Return the robot's fixed frames, as robot_state_publisher sends them from its joints.
+
+        Each joint between two of the model's links, from the drive's base frame down (e.g.
+        base_footprint -> base_link -> base_scan), the laser frame at the lidar sensor's own
+        pose; a robot without such a tree: base frame -> laser frame.
+        """
+        stamp = Time().to_msg()
+        base, laser = self.frames['base_link'], self.frames['laser']
+        lidar = self.sim.lidar_config.pose
+        transforms, reached = [], {base}
+        joints = list(self.sim.world.robot.joints)
+        while joints:  # breadth first from the base: only its subtree, parents first
+            below = [joint for joint in joints if joint[0] in reached]
+            if not below:
+                break
+            for parent, child, parent_pose, child_pose in below:
+                pose = relative_pose(parent_pose, lidar if child == laser else child_pose)
+                transforms.append(self.transform(stamp, parent, child, pose[:3], pose[3:]))
+                reached.add(child)
+                joints.remove((parent, child, parent_pose, child_pose))
+        if laser not in reached:
+            transforms.append(self.transform(stamp, base, laser, lidar[:3], lidar[3:]))
+        return transforms
 
     def transform(self, stamp, parent, child, translation, rotation_rpy) -> TransformStamped:
+        """Return the transform from frame ``parent`` to ``child`` (names) at a pose (m, rad)."""
         transform = TransformStamped()
         transform.header.stamp = stamp
-        transform.header.frame_id = self.frames[parent]
-        transform.child_frame_id = self.frames[child]
+        transform.header.frame_id = parent
+        transform.child_frame_id = child
         offset = transform.transform.translation
         offset.x, offset.y, offset.z = (float(value) for value in translation)
         rotation = transform.transform.rotation

@@ -687,8 +687,11 @@ class SteppedRun:
         next_call_ns = bridge.now_ns + step_ns
         physics_ns = bridge.step_ns
         while bridge.now_ns < end_ns:
-            clock_due = timer_due is not None and timer_due <= bridge.now_ns + physics_ns
-            if bridge.step(clock_due):
+            # Steps in which nothing is due are taken in one (SimBridge.quiet_steps).
+            steps = bridge.quiet_steps(min(end_ns, next_call_ns,
+                                           end_ns if timer_due is None else timer_due))
+            clock_due = timer_due is not None and timer_due <= bridge.now_ns + steps * physics_ns
+            if bridge.step(clock_due, steps):
                 spin_until_idle(executor)
                 timer_due = next_timer_ns(targets)
             if bridge.now_ns >= next_call_ns:
