@@ -169,10 +169,12 @@ def tf_sent(monkeypatch):
                 self.node = node
                 self.pub_tf = node.create_publisher(TransformStamped, f'/test_{kind}', 10)
 
-            def sendTransform(self, transform):  # noqa: N802 tf2_ros's name
-                # The bridge refills its transform in place; tf2_ros copies it by publishing.
-                sent[kind].append((self.node.now_ns, copy.deepcopy(transform)))
-                self.pub_tf.publish(transform)
+            def sendTransform(self, transforms):  # noqa: N802 tf2_ros's name
+                # One transform or a list, as tf2_ros takes. The bridge refills its transform
+                # in place; tf2_ros copies it by publishing.
+                for transform in transforms if isinstance(transforms, list) else [transforms]:
+                    sent[kind].append((self.node.now_ns, copy.deepcopy(transform)))
+                    self.pub_tf.publish(transform)
 
         return RecordingBroadcaster
 
@@ -455,6 +457,22 @@ def test_static_laser_transform_is_sent_once_at_start_from_the_robot_model(sessi
     assert yaw_of(rotation) == pytest.approx(laser[5])
     assert (rotation.x, rotation.y, rotation.z, rotation.w) == pytest.approx(
         bridge_module.quaternion_from_euler(*laser[3:]))
+
+
+def test_a_turtlebot3_has_the_tf_tree_robot_state_publisher_and_the_diff_drive_give(
+        session, tf_sent):
+    bridge = session.bridge(robot='turtlebot3_burger', robot_pose=[0.5, 0.5, 0.0])
+    session.run_for(0.1)
+    static = {(t.header.frame_id, t.child_frame_id): t.transform for _, t in tf_sent['tf_static']}
+    assert {('base_footprint', 'base_link'), ('base_link', 'base_scan'),
+            ('base_link', 'wheel_left_link')} <= set(static)
+    assert not any(child == 'base_scan' for parent, child in static if parent != 'base_link')
+    # The scan frame where the lidar sensor is, seen from base_link.
+    lidar = bridge.sim.lidar_config.pose
+    offset = static[('base_link', 'base_scan')].translation
+    assert (offset.x, offset.y, offset.z) == pytest.approx(lidar[:3])
+    (_, odom), *_ = tf_sent['tf']
+    assert (odom.header.frame_id, odom.child_frame_id) == ('odom', 'base_footprint')
 
 
 def test_odom_transform_goes_with_each_odometry_message(session, tf_sent):

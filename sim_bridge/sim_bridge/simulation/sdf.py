@@ -87,6 +87,13 @@ def compose(parent: Pose6, child: Pose6) -> Pose6:
     return (float(position[0]), float(position[1]), float(position[2]), roll, pitch, yaw)
 
 
+def relative_pose(parent: Pose6, child: Pose6) -> Pose6:
+    """Return ``child`` (a pose in some frame) in the frame of ``parent`` (same frame)."""
+    rotation = rotation_matrix(*parent[3:]).T
+    position = rotation @ (np.asarray(child[:3]) - parent[:3])
+    return (*map(float, position), *euler_from_matrix(rotation @ rotation_matrix(*child[3:])))
+
+
 def place(shape: Shape, pose: Pose6) -> Shape:
     """Return ``shape``, given in a frame at ``pose`` (m, rad), in that frame's parent."""
     x, y, z, roll, pitch, yaw = pose
@@ -225,6 +232,10 @@ class Model:
     ignored: tuple[Ignored, ...] = ()
     sources: tuple[Path, ...] = ()
     lidars: tuple[tuple[str, LidarConfig], ...] = ()
+    #: (parent link, child link, the parent's pose, the child's pose; in the model frame, m
+    #: and rad) of each joint between the top model's links, at joint position 0: the tree of
+    #: frames robot_state_publisher sends as TF.
+    joints: tuple[tuple[str, str, Pose6, Pose6], ...] = ()
 
     def with_lidar(self, name: str) -> 'Model':
         """Return this model using its lidar sensor called ``name``; SdfError when none is."""
@@ -438,6 +449,7 @@ class _Found:
     drives: list[DriveReader] = field(default_factory=list)
     ignored: list[Ignored] = field(default_factory=list)
     sources: list[Path] = field(default_factory=list)
+    joints: list[tuple[str, str, Pose6, Pose6]] = field(default_factory=list)
 
 
 #: Builtin stand-ins for the two models every Gazebo world includes, so they work offline.
@@ -620,7 +632,8 @@ class _Reader:
         return Model(name=name, path=self.path, shapes=tuple(found.shapes), lidar=lidar,
                      static=static, drive=drive, pose=self.pose(element, where),
                      planes=tuple(found.planes), ignored=tuple(found.ignored),
-                     sources=tuple(dict.fromkeys(found.sources)), lidars=lidars)
+                     sources=tuple(dict.fromkeys(found.sources)), lidars=lidars,
+                     joints=tuple(found.joints))
 
     @staticmethod
     def canonical_link(element: ElementTree.Element) -> str:
@@ -648,6 +661,19 @@ class _Reader:
                     found.drives.append(self.drive_reader(child, child_where, kind))
             elif child.tag == 'joint':
                 found.ignored.append(('joint', ''))
+                if frame == ZERO_POSE:  # the top model's own links: its frame tree
+                    found.joints += self.joint_frames(child, frames)
+
+    @staticmethod
+    def joint_frames(joint: ElementTree.Element, frames: '_Frames'
+                     ) -> list[tuple[str, str, Pose6, Pose6]]:
+        """Return [(parent, child, their poses in the model)] of a joint between two links."""
+        parent = (joint.findtext('parent') or '').strip()
+        child = (joint.findtext('child') or '').strip()
+        links = {name for name, (element, _) in frames.elements.items() if element.tag == 'link'}
+        if parent not in links or child not in links:
+            return []
+        return [(parent, child, frames.pose_of(parent), frames.pose_of(child))]
 
     def nested_include(self, include: ElementTree.Element, where: str, frame: Pose6,
                        frames: '_Frames', found: _Found) -> None:
