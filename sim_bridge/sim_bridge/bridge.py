@@ -228,14 +228,22 @@ class SimBridge(Node):
         self.command_topic = self.resolve_topic_name(relative(drive.command_topic))
         self.command_events = cmd_vel_events
         self.command_subscription = None
-        #: Called as ``listener(subscription)`` when the bridge subscribes to its commands.
+        #: Called as ``listener(msg_type)`` when the bridge subscribes to its commands, and as
+        #: ``listener(None)`` before it drops that subscription for one of the other type.
         self.command_listeners = []
         self.command_publisher_count = 0
         self.command_check_steps = [max(1, round(period / self.step_s))
                                     for period in COMMAND_GRAPH_CHECK_S]
         self.next_command_check = 0
+        #: Whether the command type may follow the publishers (cmd_vel_stamped unset).
+        self.command_type_follows = stamped is None
         if stamped is not None:
             self.subscribe_command(TwistStamped if stamped else Twist)
+        elif not stepped:
+            # Live, the nodes are other processes (other DDS participants): subscribe now, as
+            # Gazebo's bridge does, so that discovery runs while they start; a publisher of the
+            # other type shows on the graph and the subscription follows it.
+            self.subscribe_command(Twist)
         else:
             self.check_command_publishers()
         if not stepped:
@@ -293,8 +301,21 @@ class SimBridge(Node):
                 msg_type or Twist, self.command_topic, self.on_cmd_vel, 10,
                 **self.command_events)
             for listener in self.command_listeners:
-                listener(self.command_subscription)
+                listener(self.command_subscription.msg_type)
         return self.command_subscription.msg_type
+
+    def resubscribe_command(self, msg_type) -> None:
+        """
+        Take commands of ``msg_type`` instead of the type subscribed to.
+
+        The old subscription, and the listeners' (who are told None first), go before the new
+        one is made: one DDS participant holds one type per topic.
+        """
+        for listener in self.command_listeners:
+            listener(None)
+        self.destroy_subscription(self.command_subscription)
+        self.command_subscription = None
+        self.subscribe_command(msg_type)
 
     def check_command_publishers(self) -> None:
         """
@@ -316,8 +337,11 @@ class SimBridge(Node):
         msg_type, error = command_type(self.command_topic, publishers)
         if error:
             self.get_logger().error(error)
-        elif msg_type is not None:
+        elif msg_type is not None and self.command_subscription is None:
             self.subscribe_command(msg_type)
+        elif msg_type is not None and self.command_type_follows and \
+                msg_type is not self.command_subscription.msg_type:
+            self.resubscribe_command(msg_type)
 
     def on_cmd_vel(self, msg):
         twist = getattr(msg, 'twist', msg)

@@ -474,7 +474,8 @@ class RunRecorder:
             return
         node = run.node('sim_bridge_recorder')
         bridge_topics = {publisher.topic_name for publisher in bridge.publishers}
-        subscribed = {sub.topic_name: sub.msg_type for sub in bridge.subscriptions}
+        subscribed = {sub.topic_name: sub.msg_type for sub in bridge.subscriptions
+                      if sub is not bridge.command_subscription}
         for publisher in bridge.publishers:
             subscribed.setdefault(publisher.topic_name, publisher.msg_type)
         latched = QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -482,17 +483,28 @@ class RunRecorder:
         for topic, msg_type in subscribed.items():
             if topic not in bridge_topics or topic.startswith('/tf'):
                 self.subscribe(topic, msg_type, latched if topic == '/tf_static' else 10)
-        # The command topic's type is known once its publisher shows (see SimBridge).
-        bridge.command_listeners.append(
-            lambda subscription: self.subscribe(subscription.topic_name, subscription.msg_type))
+        # The command topic's type is the one its publishers use (see SimBridge).
+        self.command_subscription = None
+        if bridge.command_subscription is not None:
+            self.follow_command_type(bridge.command_subscription.msg_type)
+        bridge.command_listeners.append(self.follow_command_type)
 
-    def subscribe(self, topic: str, msg_type: type, qos: Any = 10) -> None:
-        """Record ``topic`` (a default topic) as DDS delivers it, raw."""
-        if topic in DEFAULT_TOPICS:
-            write = functools.partial(self.write, topic, self.type_name(msg_type))
-            self.node.create_subscription(
-                msg_type, topic, write, qos, raw=True,
-                event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False))
+    def follow_command_type(self, msg_type: type | None) -> None:
+        """Record the bridge's command topic in ``msg_type``; None: drop its subscription."""
+        if self.command_subscription is not None:
+            self.node.destroy_subscription(self.command_subscription)
+            self.command_subscription = None
+        if msg_type is not None:
+            self.command_subscription = self.subscribe(self.run.bridge.command_topic, msg_type)
+
+    def subscribe(self, topic: str, msg_type: type, qos: Any = 10) -> Any:
+        """Record ``topic`` (a default topic) as DDS delivers it, raw; return the subscription."""
+        if topic not in DEFAULT_TOPICS:
+            return None
+        write = functools.partial(self.write, topic, self.type_name(msg_type))
+        return self.node.create_subscription(
+            msg_type, topic, write, qos, raw=True,
+            event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False))
 
     def type_name(self, msg_type: type) -> str:
         """Return (and keep) the ROS type name of a message class."""
