@@ -753,7 +753,7 @@ def test_huge_command_is_clamped_with_a_warning(linear, angular, limit, session,
 # --- parameters ------------------------------------------------------------------------------
 
 def first_pose(session, **params):
-    """Start a bridge with ``params``; return (bridge, the robot's world pose at its first odom)."""
+    """Start a bridge with ``params``; return (bridge, its robot's world pose at first odom)."""
     bridge = session.bridge(**params)
     odometry = session.listen(session.probe(), Odometry, 'odom')
     session.run_for(ODOM_PERIOD_NS / NANOSECONDS_PER_SECOND)

@@ -1,5 +1,5 @@
 """
-Tests of opening what Gazebo opens: every SDF version, its example worlds' XML, what is not simulated.
+Tests of opening what Gazebo opens: every SDF version, its examples' XML, what is not simulated.
 
 The worlds and models here are written by the tests, in the forms Gazebo's own files take:
 Gazebo Sim's ``empty.sdf`` (a comment quoting shell commands with ``--``, ``<gz:...>``

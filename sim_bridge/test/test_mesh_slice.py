@@ -12,18 +12,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 import shapely
-import trimesh
-
 from sim_bridge import paths
 from sim_bridge.simulation.geometry import Mesh, Shape, slice_polygon
 from sim_bridge.simulation.simulator import Simulator
 from sim_bridge.simulation.world import World, WorldError
+import trimesh
 
 BAND = (0.005, 0.2)
 
 
 def sheet(length: float = 2.0, height: float = 1.0) -> trimesh.Trimesh:
-    """Return a vertical sheet (two triangles) along y at x = 0, from z = 0 up (m)."""
+    """Return a vertical sheet of two triangles along y at x = 0, from z = 0 up (m)."""
     half = 0.5 * length
     return trimesh.Trimesh([[0.0, -half, 0.0], [0.0, half, 0.0], [0.0, half, height],
                             [0.0, -half, height]], [[0, 1, 2], [0, 2, 3]], process=False)

@@ -9,12 +9,11 @@ Gazebo Sim tags.
 import math
 
 import pytest
-import trimesh
-
 from sim_bridge.run import run_simulation
 from sim_bridge.simulation.sdf import load_model, SdfError
 from sim_bridge.simulation.simulator import Simulator
 from sim_bridge.simulation.world import World
+import trimesh
 
 LINKS = """
   <link name="base_footprint"/>
@@ -105,7 +104,7 @@ SIM_XACRO = """<?xml version="1.0"?>
 
 @pytest.fixture
 def packages(tmp_path, monkeypatch):
-    """An install prefix holding package my_robot's body mesh, and a model folder's bumper."""
+    """Make an install prefix holding my_robot's body mesh, and a model folder's bumper."""
     share = tmp_path / 'install' / 'share' / 'my_robot' / 'meshes'
     share.mkdir(parents=True)
     trimesh.creation.box((0.14, 0.14, 0.1)).export(share / 'body.stl')
@@ -180,7 +179,7 @@ def test_the_runner_spawns_a_urdf_robot_as_its_robot_parameter(packages, tmp_pat
 
 
 @pytest.mark.parametrize('body, problem', [
-    ('package://nowhere/meshes/body.stl', "mesh package://nowhere/meshes/body.stl: not found"),
+    ('package://nowhere/meshes/body.stl', r'mesh package://nowhere/meshes/body.stl: not found'),
     ('http://example.org/body.stl', 'unsupported URI'),
 ])
 def test_a_urdf_mesh_that_cannot_be_found_says_where_it_looked(body, problem, packages):

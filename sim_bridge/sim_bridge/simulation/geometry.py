@@ -21,9 +21,8 @@ import math
 import numpy as np
 import shapely
 from shapely.geometry.base import BaseGeometry
-import trimesh
-
 from sim_bridge.simulation.mesh_slice import clip_triangles, mesh_slice
+import trimesh
 
 SHAPE_KINDS = ('box', 'cylinder', 'sphere', 'capsule', 'ellipsoid', 'mesh')
 FOOTPRINT_KINDS = ('circle', 'box', 'polygon')

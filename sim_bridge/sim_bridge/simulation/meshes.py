@@ -6,7 +6,8 @@ trimesh reads every format (DAE through pycollada). A COLLADA file carries its o
 it; trimesh's plain load does not, so :func:`load_mesh` applies it from pycollada's reading of
 the asset. The SDF ``<scale>`` is applied on top. Only the triangles matter here: what trimesh
 warns about while reading (a texture image missing or unreadable) is kept in the mesh's
-``notes`` for the one ``ignored:`` line, never printed as a traceback. A file is read once per process and kept
+``notes`` for the one ``ignored:`` line, never printed as a traceback. A file is read once
+per process and kept
 (worlds repeat the same mesh many times). :func:`extrude` builds the prism of an SDF
 ``<polyline>`` (shapely triangulates the outline).
 """

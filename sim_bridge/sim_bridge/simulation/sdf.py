@@ -319,8 +319,9 @@ class SdfWorld:
 def load_model(folder_or_file: str | os.PathLike, lidar: str | None = None,
                world_folder: Path | None = None) -> Model:
     """
-    Read a model folder (``model.config`` naming its SDF file), an SDF file, or a URDF or
-    xacro robot (:mod:`.urdf`).
+    Read a model folder (``model.config`` naming its SDF file), an SDF file, or a URDF robot.
+
+    A ``.urdf`` or ``.xacro`` file is read by :mod:`.urdf`.
 
     ``lidar`` names the sensor to use when the model has several lidars (default: the first);
     ``world_folder`` is searched first for ``model://`` URIs (see

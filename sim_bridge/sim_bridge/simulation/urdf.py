@@ -201,4 +201,3 @@ def _package_roots(package: str) -> list[Path]:
             roots += [folder] if folder.name == package else [folder / package]
     roots += [folder / package for folder in paths.model_search_path()]
     return list(dict.fromkeys(roots))
-

@@ -732,13 +732,13 @@ def _sdf_world(path: Path, text: str, label: str, robot_given: bool,
         radius = 0.0
     name = sdf.name if sdf.name != 'default' else path.stem
     world = World(name=name, path=path, obstacles=tuple(obstacles), robot_start=start,
-                 robot_model=robot.name if robot is not None else '',
-                 robot=robot.model if robot is not None else Model('none', path, ()),
-                 target=None, bounds=_default_bounds(obstacles, start, radius),
-                 floor_size=floor, sources=sdf.sources, physics_step_s=sdf.physics_step_s,
-                 ignored=_ignored_line(tuple(ignored) + (robot.model.not_simulated if robot
-                                                         else ())),
-                 world_ignored=tuple(ignored))
+                  robot_model=robot.name if robot is not None else '',
+                  robot=robot.model if robot is not None else Model('none', path, ()),
+                  target=None, bounds=_default_bounds(obstacles, start, radius),
+                  floor_size=floor, sources=sdf.sources, physics_step_s=sdf.physics_step_s,
+                  ignored=_ignored_line(tuple(ignored) + (robot.model.not_simulated if robot
+                                                          else ())),
+                  world_ignored=tuple(ignored))
     if robot is not None:
         _check_robot_clear(label, start, world.floor_slice, robot.name)
     return world
