@@ -142,7 +142,15 @@ def world_rows(world_files: list[Path], base: Path, robot: str) -> list[tuple[st
                     rows.append((label, f'ERROR {error}', '', '', '', '', ''))
                     continue
                 pose = SPAWN_POSES.get(world_file.stem, (0.0, 0.0, 0.0))
-                world = World.load(world_file, robot=robot, robot_pose=pose)
+                try:
+                    world = World.load(world_file, robot=robot, robot_pose=pose)
+                except ValueError as refused:
+                    if 'overlaps obstacle' not in str(refused):
+                        raise
+                    # The world loads; the census's spawn point is taken: a refusal, rightly.
+                    rows.append((label, 'loaded (no robot; a spawn at the origin is refused: '
+                                 + str(refused).rpartition(': ')[2] + ')', '', '', '', '', ''))
+                    continue
                 note = f' (no robot: --robot {robot} --robot-pose {pose})'
             rows.append((label, 'loaded' + note, lidar_text(world.robot.lidar),
                          str(len(world.shapes())), area_text(world.footprints),

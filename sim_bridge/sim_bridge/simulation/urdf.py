@@ -26,8 +26,7 @@ from urllib.parse import unquote, urlparse
 import xml.etree.ElementTree as ElementTree
 
 from sim_bridge import paths
-from sim_bridge.simulation.geometry import euler_from_matrix, rotation_matrix
-from sim_bridge.simulation.sdf import Model, parse_model, SdfError
+from sim_bridge.simulation.sdf import compose, Model, parse_model, SdfError
 
 #: File suffixes read as URDF (xacro first).
 URDF_SUFFIXES = ('.urdf', '.xacro')
@@ -112,8 +111,8 @@ def _link_poses(robot, path: Path) -> dict[str, Pose6]:
             if name in chain:
                 raise SdfError(f'{path}: the joints loop through link {name}')
             joint = parents[name]
-            poses[name] = _compose(pose_of(joint.parent, chain + (name,)),
-                                   _origin(joint.origin))
+            poses[name] = compose(pose_of(joint.parent, chain + (name,)),
+                                  _origin(joint.origin))
         return poses[name]
     for link in robot.links:
         pose_of(link.name)
@@ -127,12 +126,6 @@ def _origin(origin) -> Pose6:
     xyz = origin.xyz if origin.xyz is not None else (0.0, 0.0, 0.0)
     rpy = origin.rpy if origin.rpy is not None else (0.0, 0.0, 0.0)
     return tuple(float(value) for value in (*xyz, *rpy))
-
-
-def _compose(parent: Pose6, child: Pose6) -> Pose6:
-    rotation = rotation_matrix(*parent[3:])
-    position = rotation @ child[:3] + parent[:3]
-    return (*map(float, position), *euler_from_matrix(rotation @ rotation_matrix(*child[3:])))
 
 
 def _pose(element: ElementTree.Element, pose: Pose6) -> None:
