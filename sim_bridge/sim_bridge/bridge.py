@@ -360,13 +360,18 @@ class SimBridge(Node):
 
         The steps up to the first at or after ``until_ns`` (the caller's next event: a node's
         timer, the run's end), the next scan or odometry, or the next look at the command
-        topic, when the drive holds its command's velocity: no message goes out and no command
-        can come in before the last of them, and an arc at constant velocity driven in one
-        piece is the arc driven in many. A drive still accelerating, or with a command timeout
-        to keep, takes one step at a time.
+        topic: no message goes out and no command can come in before the last of them. Driven
+        in one piece, the motion is the motion driven in many when the drive holds its
+        command's velocity (one arc), or only speeds up or slows down in a straight line or
+        turning on the spot (the mean velocity covers the same distance or angle). A drive
+        changing both while moving, or with a command timeout to keep, takes one step at a time.
         """
         sim = self.sim
-        if sim.velocity != sim.command or sim.command_timeout is not None:
+        (linear, angular), command = sim.velocity, sim.command
+        steady = (linear, angular) == command
+        straight_ramp = angular == command[1] == 0.0
+        spin_ramp = linear == command[0] == 0.0
+        if not (steady or straight_ramp or spin_ramp) or sim.command_timeout is not None:
             return 1
         next_ns = min(until_ns, self.scan_schedule.next_ns, self.odom_schedule.next_ns,
                       self.next_command_check * self.step_ns)
