@@ -9,7 +9,7 @@ elements never declared, cameras, lights, system plugins), Classic's ``sun`` mod
 
 import pytest
 
-from sim_bridge import paths
+from sim_bridge.common import paths
 from sim_bridge.simulation.sdf import load_model, SdfError
 from sim_bridge.simulation.world import World
 

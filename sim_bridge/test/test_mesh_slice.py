@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import shapely
-from sim_bridge import paths
+from sim_bridge.common import paths
 from sim_bridge.simulation.geometry import Mesh, Shape, slice_polygon
 from sim_bridge.simulation.simulator import Simulator
 from sim_bridge.simulation.world import World, WorldError

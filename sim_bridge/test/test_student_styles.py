@@ -10,7 +10,7 @@ MultiThreadedExecutor, one made as a plain ``Node('...')`` in main(), and two no
 from pathlib import Path
 
 import pytest
-from sim_bridge.run import run_simulation
+from sim_bridge.runner.run import run_simulation
 
 FIXTURES = Path(__file__).parent / 'fixtures'
 

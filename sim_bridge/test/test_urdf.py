@@ -9,7 +9,7 @@ Gazebo Sim tags.
 import math
 
 import pytest
-from sim_bridge.run import run_simulation
+from sim_bridge.runner.run import run_simulation
 from sim_bridge.simulation.sdf import load_model, SdfError
 from sim_bridge.simulation.simulator import Simulator
 from sim_bridge.simulation.world import World

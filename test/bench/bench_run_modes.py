@@ -23,13 +23,15 @@ import tempfile
 import time
 
 from scan_pkg import wanderbot
-from sim_bridge.grade import grade_runs
-from sim_bridge.grading import GradeJob
-from sim_bridge.node_styles import Decision
-from sim_bridge.run import load_world, node_parameters, run_as_process, run_simulation
-from sim_bridge.run_environment import keep_dds_in_process
-from sim_bridge.scenario import scenario_from_dict
-from sim_bridge.targets import run_mode
+from sim_bridge.common.run_environment import keep_dds_in_process
+from sim_bridge.grading.batch import grade_runs
+from sim_bridge.grading.runs import GradeJob
+from sim_bridge.grading.scenario import scenario_from_dict
+from sim_bridge.runner.node_styles import Decision
+from sim_bridge.runner.options import prepare_run, RunSpec
+from sim_bridge.runner.process_run import run_as_process
+from sim_bridge.runner.run import run_simulation
+from sim_bridge.runner.targets import run_mode
 
 FIXTURES = Path(__file__).resolve().parents[2] / 'sim_bridge' / 'test' / 'fixtures'
 WORLD = 'room'
@@ -50,12 +52,9 @@ def one_run(process: bool, duration_s: float) -> tuple[float, float, dict]:
     with tempfile.TemporaryDirectory() as folder:
         wall, cpu = time.perf_counter(), cpu_seconds()
         if process:
-            world = load_world(WORLD)
-            params = node_parameters(world, {}, seed=1, gui=False, start=None)
-            result = run_as_process(
-                world, target, Decision(False, 'benchmark'), params, duration_s=duration_s,
-                out_dir=Path(folder), remap=(), ros_args=(), setpoint=None, quiet=True,
-                record=True, plot=False, field_checks=True)
+            spec = RunSpec(WORLD, (target,), duration_s=duration_s, seed=1, out_dir=folder,
+                           quiet=True, plot=False)
+            result = run_as_process(spec, prepare_run(spec), target, Decision(False, 'benchmark'))
         else:
             assert run_mode(target).steppable
             result = run_simulation(WORLD, [target], duration_s=duration_s, seed=1,

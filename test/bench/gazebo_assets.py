@@ -29,7 +29,7 @@ import numpy as np
 import pybullet
 import shapely
 
-from sim_bridge import paths
+from sim_bridge.common import paths
 from sim_bridge.simulation.floor_slice import FloorSlice
 from sim_bridge.simulation.geometry import FootprintSet
 from sim_bridge.simulation.lidar import build_scene, cast_rays

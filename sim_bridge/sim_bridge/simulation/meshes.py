@@ -17,7 +17,6 @@ import logging
 from pathlib import Path
 
 import numpy as np
-
 from sim_bridge.simulation.geometry import Mesh
 
 #: File suffixes trimesh reads here (lower case).

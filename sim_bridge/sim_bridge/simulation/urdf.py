@@ -25,7 +25,7 @@ from pathlib import Path
 from urllib.parse import unquote, urlparse
 import xml.etree.ElementTree as ElementTree
 
-from sim_bridge import paths
+from sim_bridge.common import paths
 from sim_bridge.simulation.sdf import compose, Model, parse_model, SdfError
 
 #: File suffixes read as URDF (xacro first).
