@@ -20,21 +20,25 @@ setup(
     name=package_name,
     version='0.1.0',
     packages=find_packages(exclude=['test', 'test.*']),
+    # The HTML pages' jinja2 templates (sim_bridge.grading.html_report).
+    package_data={f'{package_name}.grading': ['templates/*.html']},
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         (share, ['package.xml']),
         (os.path.join(share, 'launch'), glob('launch/*.launch.py')),
         (os.path.join(share, 'params'), glob('params/*.yaml')),
-        # The worlds, models, shipped scenarios and example nodes live at the workspace's top
-        # level (see README); sim_bridge.common.paths finds them in a checkout or here.
-        *tree('../worlds', os.path.join(share, 'worlds')),
-        *tree('../models', os.path.join(share, 'models')),
-        *tree('../scenarios', os.path.join(share, 'scenarios')),
-        *tree('../examples', os.path.join(share, 'examples')),
+        # The worlds, models, shipped scenarios and example nodes: links to the workspace's
+        # top-level folders (their source), so that the package built alone, a copy of its
+        # folder, installs them too; sim_bridge.common.paths finds them in a checkout or here.
+        *tree('worlds', os.path.join(share, 'worlds')),
+        *tree('models', os.path.join(share, 'models')),
+        *tree('scenarios', os.path.join(share, 'scenarios')),
+        *tree('examples', os.path.join(share, 'examples')),
     ],
-    install_requires=['setuptools', 'numpy', 'pybullet', 'rosbags>=0.11,<0.12', 'matplotlib',
+    install_requires=['setuptools', 'numpy>=1.26,<2', 'pybullet', 'mcap>=1.1', 'matplotlib',
                       'contourpy', 'PyYAML', 'trimesh', 'pycollada', 'shapely', 'pillow',
-                      'imageio-ffmpeg', 'lxml', 'xacro', 'urdfdom-py'],
+                      'imageio-ffmpeg', 'jinja2', 'pydantic>=2', 'rich', 'lxml', 'xacro',
+                      'urdfdom-py'],
     extras_require={
         'test': [
             'pytest',

@@ -26,12 +26,12 @@ from rosbags.typesys import get_typestore, Stores
 from rosgraph_msgs.msg import Clock
 from rosidl_parser import definition
 from sensor_msgs.msg import JointState, LaserScan, PointCloud2, PointField
+from sim_bridge.common.message_types import message_type_name
 from sim_bridge.runner.cdr_padding import PaddingZeroer
-from sim_bridge.runner.record import message_type_name
 from std_msgs.msg import Bool, ByteMultiArray, Empty, MultiArrayDimension, String
 
 TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
-ZERO_PADDING = PaddingZeroer(TYPESTORE)
+ZERO_PADDING = PaddingZeroer()
 #: Little-endian plain CDR, no options: what rclpy and rosbags write.
 HEADER = b'\x00\x01\x00\x00'
 GARBAGE = 0xAA
@@ -418,7 +418,7 @@ def test_every_installed_message_type_with_random_contents(type_name):
 
 
 def test_bytes_that_do_not_hold_the_type_raise_at_once():
-    zeroer = PaddingZeroer(get_typestore(Stores.ROS2_JAZZY))
+    zeroer = PaddingZeroer()
     with pytest.raises(ValueError, match='do not hold this type'):
         zeroer('geometry_msgs/msg/Polygon', b'\x00\x01\x00\x00\x00\x00\x00\x01')
     with pytest.raises(ValueError, match='too few'):

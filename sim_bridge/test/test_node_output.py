@@ -8,6 +8,8 @@ import sys
 import threading
 import time
 
+from rcl_interfaces.msg import Log
+from rclpy.serialization import deserialize_message
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import get_typestore, Stores
 from sim_bridge.runner.node_output import (
@@ -144,7 +146,8 @@ def test_a_stepped_run_keeps_log_and_print_lines_at_the_sim_time_of_their_callba
     out, err = capfd.readouterr()
     assert 'printed count 3\n' in out
     assert logged[-1]['line'] + '\n' in err
-    # And the recording has them on /rosout, stamped in sim time.
+    # And the recording has them on /rosout at their sim time, each a Log as rcl writes it:
+    # stamped with the wall clock (the time the console line shows, else when it was read).
     typestore = get_typestore(Stores.ROS2_JAZZY)
     with Reader(tmp_path / 'run') as bag:
         rosout = [(time, typestore.deserialize_cdr(raw, connection.msgtype))
@@ -152,10 +155,34 @@ def test_a_stepped_run_keeps_log_and_print_lines_at_the_sim_time_of_their_callba
                       [c for c in bag.connections if c.topic == '/rosout'])]
         assert {c.msgtype for c in bag.connections if c.topic == '/rosout'} == {
             'rcl_interfaces/msg/Log'}
-    assert [(time, msg.stamp.sec, msg.stamp.nanosec, msg.level, msg.name, msg.msg)
-            for time, msg in rosout] == [
-        (round(entry['t'] * 1e9), int(entry['t']), 0, 20, entry['node'], entry['text'])
+    assert [(time, msg.level, msg.name, msg.msg) for time, msg in rosout] == [
+        (round(entry['t'] * 1e9), 20, entry['node'], entry['text'])
         for entry in log]  # INFO and STDOUT are both Log.INFO
+    wall = [msg.stamp.sec + msg.stamp.nanosec * 1e-9 for _, msg in rosout]
+    assert wall == sorted(wall) and time.time() - 600 < wall[0] <= wall[-1] <= time.time()
+    for entry, (_, msg) in zip(log, rosout):
+        if entry['level'] == 'INFO':
+            assert f'[{msg.stamp.sec}.{msg.stamp.nanosec:09d}]' in entry['line']
+
+
+def test_rosout_messages_carry_the_console_line_s_time_file_function_and_line():
+    pattern = console_pattern('[{severity}] [{time}] [{name}] {file_name}:{function_name}:'
+                              '{line_number}: {message}')
+    log = NodeLog(pattern=pattern)
+    log.add(2_500_000_000, '', 'STDERR',
+            '[WARN] [1795726188.671792913] [wall_follow] /ws/wall_follow.py:on_scan:42: lost')
+    log.add(3_000_000_000, 'wall_follow', 'STDOUT', 'printed, no logger')
+    before = time.time_ns()
+    (logged_ns, logged), (printed_ns, printed) = [
+        (t_ns, deserialize_message(data, Log)) for t_ns, data in log.take_rosout()]
+    assert (logged_ns, printed_ns) == (2_500_000_000, 3_000_000_000)
+    assert (logged.stamp.sec, logged.stamp.nanosec) == (1795726188, 671792913)
+    assert (logged.level, logged.name, logged.msg) == (30, 'wall_follow', 'lost')
+    assert (logged.file, logged.function, logged.line) == ('/ws/wall_follow.py', 'on_scan', 42)
+    assert (printed.file, printed.function, printed.line, printed.msg) == (
+        '', '', 0, 'printed, no logger')
+    assert before - 10 ** 9 < printed.stamp.sec * 10 ** 9 + printed.stamp.nanosec <= before
+    assert not list(log.take_rosout())
 
 
 def test_a_node_error_s_traceback_is_among_the_node_s_lines_at_the_time_it_raised(tmp_path):

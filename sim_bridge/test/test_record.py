@@ -9,7 +9,7 @@ bytes stored are the ones given with their alignment padding zeroed (sim_bridge.
 tested in test_cdr_padding.py): the same bytes for the same message, whatever Fast CDR left.
 """
 
-import importlib
+import importlib.util
 import json
 import math
 import os
@@ -28,20 +28,27 @@ from rosbags.rosbag2 import Reader
 from rosbags.typesys import get_typestore, Stores
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import LaserScan
+from sim_bridge.common.message_types import message_type_name
 from sim_bridge.runner.cdr_padding import PaddingZeroer
-from sim_bridge.runner.record import BAG_VERSION, BagRecorder, DEFAULT_TOPICS, message_type_name
+from sim_bridge.runner.record import BAG_VERSION, BagRecorder, DEFAULT_TOPICS
 from sim_bridge.runner.run import run_simulation
 from std_msgs.msg import String
 from std_srvs.srv import SetBool
 import yaml
 
 TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
-ZERO_PADDING = PaddingZeroer(TYPESTORE)
+ZERO_PADDING = PaddingZeroer()
+#: TF is recorded where tf2_msgs is installed (a ROS 2 machine; PyPI has no wheel of it), as
+#: the bridge publishes it only there.
+TF = importlib.util.find_spec('tf2_msgs') is not None
 RUN_TOPICS = {'/tf_static': 1, '/clock': 100, '/odom': 50, '/tf': 50, '/scan': 10,
               '/cmd_vel': 10}
 RUN_TYPES = {'/tf_static': 'tf2_msgs/msg/TFMessage', '/clock': 'rosgraph_msgs/msg/Clock',
              '/odom': 'nav_msgs/msg/Odometry', '/tf': 'tf2_msgs/msg/TFMessage',
              '/scan': 'sensor_msgs/msg/LaserScan', '/cmd_vel': 'geometry_msgs/msg/Twist'}
+if not TF:
+    RUN_TOPICS = {topic: count for topic, count in RUN_TOPICS.items() if '/tf' not in topic}
+    RUN_TYPES = {topic: name for topic, name in RUN_TYPES.items() if '/tf' not in topic}
 # A scan's last beams: no return, too close, invalid (REP-117).
 SPECIAL_RANGES = [math.inf, -math.inf, math.nan]
 
@@ -50,23 +57,15 @@ def stamp_of(msg, t_ns):
     msg.sec, msg.nanosec = divmod(t_ns, 10 ** 9)
 
 
-def tf_bytes(t_ns, parent, child, x):
-    """
-    Return the CDR bytes of a tf2_msgs/msg/TFMessage of one transform, x in m.
-
-    tf2_msgs has no PyPI wheel, so rosbags serialises it here; on a ROS machine the bridge
-    records rclpy's bytes of it like any other message.
-    """
-    types = TYPESTORE.types
-    sec, nanosec = divmod(t_ns, 10 ** 9)
-    header = types['std_msgs/msg/Header'](
-        stamp=types['builtin_interfaces/msg/Time'](sec=sec, nanosec=nanosec), frame_id=parent)
-    transform = types['geometry_msgs/msg/Transform'](
-        translation=types['geometry_msgs/msg/Vector3'](x=x, y=0.0, z=0.0),
-        rotation=types['geometry_msgs/msg/Quaternion'](x=0.0, y=0.0, z=0.0, w=1.0))
-    msg = types['tf2_msgs/msg/TFMessage'](transforms=[types['geometry_msgs/msg/TransformStamped'](
-        header=header, child_frame_id=child, transform=transform)])
-    return bytes(TYPESTORE.serialize_cdr(msg, 'tf2_msgs/msg/TFMessage'))
+def tf_message(t_ns, parent, child, x):
+    """Return a tf2_msgs/msg/TFMessage of one transform, x in m (tf2_msgs installed)."""
+    from geometry_msgs.msg import TransformStamped
+    from tf2_msgs.msg import TFMessage
+    transform = TransformStamped(child_frame_id=child)
+    transform.header.frame_id = parent
+    stamp_of(transform.header.stamp, t_ns)
+    transform.transform.translation.x, transform.transform.rotation.w = x, 1.0
+    return TFMessage(transforms=[transform])
 
 
 def scan_at(step, t_ns, beams=36):
@@ -85,14 +84,17 @@ def run_messages(seconds=1.0):
     Return [(topic, rclpy message or None, type name, CDR bytes, t_ns)] as a run publishes them.
 
     Per simulated second: 100 /clock, 50 /odom and /tf, 10 /scan and /cmd_vel, one /rosout
-    (not recorded by default); one /tf_static first. Each message is serialised once: rclpy's
-    bytes are not deterministic in their padding, so the bytes kept are the ones to compare.
+    (not recorded by default); one /tf_static first. TF only where tf2_msgs is installed. Each
+    message is serialised once: rclpy's bytes are not deterministic in their padding, so the
+    bytes kept are the ones to compare.
     """
-    messages = [('/tf_static', None, 'tf2_msgs/msg/TFMessage',
-                 tf_bytes(0, 'base_link', 'laser', 0.1), 0)]
+    messages = []
 
     def add(topic, msg, t_ns):
         messages.append((topic, msg, message_type_name(msg), serialize_message(msg), t_ns))
+
+    if TF:
+        add('/tf_static', tf_message(0, 'base_link', 'laser', 0.1), 0)
 
     for step in range(1, round(seconds * 100) + 1):
         t_ns = step * 10_000_000
@@ -108,8 +110,8 @@ def run_messages(seconds=1.0):
             odom.pose.covariance = np.arange(36, dtype=float) * 1e-3 * step
             odom.twist.twist.linear.x, odom.twist.twist.angular.z = 0.3, -0.02 * step
             add('/odom', odom, t_ns)
-            messages.append(('/tf', None, 'tf2_msgs/msg/TFMessage',
-                             tf_bytes(t_ns, 'odom', 'base_link', 0.003 * step), t_ns))
+            if TF:
+                add('/tf', tf_message(t_ns, 'odom', 'base_link', 0.003 * step), t_ns)
         if step % 10 == 0:
             add('/scan', scan_at(step, t_ns), t_ns)
             twist = Twist()
@@ -185,10 +187,10 @@ def test_a_run_reads_back_with_counts_types_times_bytes_and_contents(tmp_path):
     messages = run_messages()
     recorder = record(tmp_path / 'run', messages)
     assert recorder.counts == RUN_TOPICS
-    assert recorder.mcap_path == tmp_path / 'run' / 'run.mcap' and recorder.mcap_path.is_file()
+    assert recorder.mcap_path == tmp_path / 'run' / 'run_0.mcap' and recorder.mcap_path.is_file()
     read, connections = read_bag(tmp_path / 'run')
     recorded = [message for message in messages if message[0] != '/rosout_like']
-    # The bag holds the bytes rclpy (or rosbags, for TF) gave, in order, at their times, with
+    # The bag holds the bytes rclpy gave, in order, at their times, with
     # only their padding zeroed: each byte stored is the one given or a zero.
     assert read == [('/' + topic.lstrip('/'), type_name, t_ns, ZERO_PADDING(type_name, data))
                     for topic, _, type_name, data, t_ns in recorded]
@@ -206,10 +208,11 @@ def test_a_run_reads_back_with_counts_types_times_bytes_and_contents(tmp_path):
     assert scans[-1].ranges[-3] == math.inf and scans[-1].ranges[-2] == -math.inf
     assert math.isnan(scans[-1].ranges[-1])
     assert scans[-1].ranges[0] == np.float32(0.3 + 0.01 * 100)
-    transforms = [TYPESTORE.deserialize_cdr(data, 'tf2_msgs/msg/TFMessage').transforms[0]
-                  for topic, _, _, data in read if topic == '/tf']
-    assert transforms[-1].child_frame_id == 'base_link'
-    assert transforms[-1].transform.translation.x == pytest.approx(0.3)
+    if TF:
+        transforms = [TYPESTORE.deserialize_cdr(data, 'tf2_msgs/msg/TFMessage').transforms[0]
+                      for topic, _, _, data in read if topic == '/tf']
+        assert transforms[-1].child_frame_id == 'base_link'
+        assert transforms[-1].transform.translation.x == pytest.approx(0.3)
 
 
 def test_the_same_run_recorded_twice_gives_the_same_bag_byte_for_byte(tmp_path):
@@ -233,7 +236,7 @@ def test_the_same_run_recorded_twice_gives_the_same_bag_byte_for_byte(tmp_path):
     for messages in (first, second):
         record(tmp_path / 'run', messages, overwrite=True)
         bags.append([(tmp_path / 'run' / name).read_bytes()
-                     for name in ('run.mcap', 'metadata.yaml')])
+                     for name in ('run_0.mcap', 'metadata.yaml')])
     assert bags[0] == bags[1]
 
 
@@ -263,7 +266,7 @@ def test_connections_carry_the_type_hashes_of_the_installed_message_packages(tmp
                  if not type_name.startswith('tf2_msgs/')}
     if None in installed.values():
         pytest.skip('no rosidl type descriptions (share/<package>/msg/*.json) found')
-    assert len(installed) == 4
+    assert len(installed) == 4 and len(hashes) == 4 + 2 * TF
     assert installed == {type_name: hashes[type_name] for type_name in installed}
     assert all(value.startswith('RIHS01_') for value in hashes.values())
 
@@ -285,7 +288,7 @@ def test_the_independent_mcap_readers_decode_every_message_of_a_bag_as_jazzy_wri
     assert info['ros_distro'] == 'jazzy'
     hashes = {entry['topic_metadata']['name']: entry['topic_metadata']['type_description_hash']
               for entry in info['topics_with_message_count']}
-    with (tmp_path / 'run' / 'run.mcap').open('rb') as stream:
+    with (tmp_path / 'run' / 'run_0.mcap').open('rb') as stream:
         reader = make_reader(stream, decoder_factories=[DecoderFactory()])
         decoded = [(channel.topic, message.log_time, ros_msg)
                    for _, channel, message, ros_msg in reader.iter_decoded_messages()]
@@ -356,31 +359,74 @@ def test_a_stepped_runs_bag_has_its_clock_at_every_message_so_a_replay_never_lag
     assert len(odom_times) == 50
 
 
-def test_metadata_has_the_counts_times_and_qos_that_ros2_bag_play_uses(tmp_path):
-    record(tmp_path / 'run', run_messages(0.5))
+@pytest.fixture
+def graph(monkeypatch):
+    """
+    Yield an rclpy node whose graph has the publishers a run has, as the bridge offers them.
+
+    Real DDS in a context of its own, discovery off. /tf_static is latched (transient local),
+    /scan best effort (a sensor's), the others reliable and volatile.
+    """
+    monkeypatch.setenv('ROS_AUTOMATIC_DISCOVERY_RANGE', 'OFF')
+    import rclpy
+    from rclpy.qos import DurabilityPolicy, qos_profile_sensor_data, QoSProfile
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    node = rclpy.create_node('recorder_graph_test', context=context)
+    latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    for topic, msg_type in [('/clock', Clock), ('/odom', Odometry), ('/cmd_vel', Twist)]:
+        node.create_publisher(msg_type, topic, 10)
+    node.create_publisher(LaserScan, '/scan', qos_profile_sensor_data)
+    if TF:
+        from tf2_msgs.msg import TFMessage
+        node.create_publisher(TFMessage, '/tf', 10)
+        node.create_publisher(TFMessage, '/tf_static', latched)
+    yield node
+    node.destroy_node()
+    rclpy.try_shutdown(context=context)
+
+
+def test_metadata_has_the_counts_times_and_qos_that_ros2_bag_play_uses(tmp_path, graph):
+    """Each topic's QoS is its publishers' offer, read from the graph, infinite as Jazzy's."""
+    record(tmp_path / 'run', run_messages(0.5), graph=graph)
     info = yaml.safe_load((tmp_path / 'run' / 'metadata.yaml').read_text())
     info = info['rosbag2_bagfile_information']
     assert info['version'] == BAG_VERSION == 9 and info['storage_identifier'] == 'mcap'
-    assert info['relative_file_paths'] == ['run.mcap']
-    assert info['starting_time']['nanoseconds_since_epoch'] == 0
-    assert info['duration']['nanoseconds'] == 500_000_000
-    assert info['message_count'] == 1 + 50 + 25 + 25 + 5 + 5
+    assert info['relative_file_paths'] == ['run_0.mcap']
+    start_ns = 0 if TF else 10_000_000  # /tf_static at 0, else the first /clock
+    assert info['starting_time']['nanoseconds_since_epoch'] == start_ns
+    assert info['duration']['nanoseconds'] == 500_000_000 - start_ns
+    assert info['message_count'] == 50 + 25 + 5 + 5 + TF * (1 + 25)
     topics = {entry['topic_metadata']['name']: entry
               for entry in info['topics_with_message_count']}
     assert {name: entry['message_count'] for name, entry in topics.items()} == {
-        '/tf_static': 1, '/clock': 50, '/odom': 25, '/tf': 25, '/scan': 5, '/cmd_vel': 5}
+        '/clock': 50, '/odom': 25, '/scan': 5, '/cmd_vel': 5, **({'/tf_static': 1, '/tf': 25}
+                                                                 if TF else {})}
     profiles = {name: entry['topic_metadata']['offered_qos_profiles']
                 for name, entry in topics.items()}
-    assert profiles['/tf_static'][0]['durability'] == 'transient_local'
-    assert {profile[0]['durability'] for name, profile in profiles.items()
-            if name != '/tf_static'} == {'volatile'}
-    assert {profile[0]['reliability'] for profile in profiles.values()} == {'reliable'}
+    infinite = {'sec': 9223372036, 'nsec': 854775807}
+    assert profiles['/odom'] == [{
+        'history': 'unknown', 'depth': 0, 'reliability': 'reliable', 'durability': 'volatile',
+        'deadline': infinite, 'lifespan': infinite, 'liveliness': 'automatic',
+        'liveliness_lease_duration': infinite, 'avoid_ros_namespace_conventions': False}]
+    assert profiles['/scan'][0]['reliability'] == 'best_effort'
+    assert {profile[0]['durability'] for profile in profiles.values()} == \
+        {'volatile', 'transient_local'} if TF else {'volatile'}
     _, connections = read_bag(tmp_path / 'run')
-    static_qos = connections['/tf_static'].ext.offered_qos_profiles[0]
-    assert static_qos.durability == QosDurability.TRANSIENT_LOCAL
-    assert static_qos.reliability == QosReliability.RELIABLE
-    assert connections['/scan'].ext.offered_qos_profiles[0].durability == \
+    assert connections['/scan'].ext.offered_qos_profiles[0].reliability == \
+        QosReliability.BEST_EFFORT
+    assert connections['/odom'].ext.offered_qos_profiles[0].durability == \
         QosDurability.VOLATILE
+    if TF:
+        assert profiles['/tf_static'][0]['durability'] == 'transient_local'
+
+
+def test_a_topic_without_a_publisher_in_the_graph_has_no_offered_profile(tmp_path, graph):
+    with BagRecorder(tmp_path / 'run', ['/unpublished'], graph=graph) as recorder:
+        recorder.write('/unpublished', 'geometry_msgs/msg/Twist', serialize_message(Twist()), 1)
+    info = yaml.safe_load((tmp_path / 'run' / 'metadata.yaml').read_text())
+    (entry,) = info['rosbag2_bagfile_information']['topics_with_message_count']
+    assert entry['topic_metadata']['offered_qos_profiles'] == []
 
 
 def test_only_the_topics_asked_for_are_recorded(tmp_path):
@@ -483,14 +529,15 @@ def test_a_bag_closed_while_the_run_goes_on_is_readable_and_complete(tmp_path):
 
 def test_large_scans_spanning_several_mcap_chunks_read_back_in_order(tmp_path):
     messages = []
-    for step in range(400):  # about 4.4 kB a scan: rosbags closes a chunk past 1 MiB
+    for step in range(400):  # about 4.4 kB a scan: a chunk is closed past CHUNK_BYTES
         t_ns = step * 100_000_000
         scan = scan_at(step, t_ns, beams=1081)
         messages.append(('/scan', scan, 'sensor_msgs/msg/LaserScan', serialize_message(scan),
                          t_ns))
     recorder = record(tmp_path / 'run', messages)
     assert recorder.counts == {'/scan': 400}
-    assert recorder.mcap_path.stat().st_size > 1.5 * 2 ** 20
+    with recorder.mcap_path.open('rb') as stream:
+        assert make_reader(stream).get_summary().statistics.chunk_count > 10
     read, _ = read_bag(tmp_path / 'run')
     assert [(t_ns, data) for _, _, t_ns, data in read] == \
         [(t_ns, ZERO_PADDING(type_name, data)) for _, _, type_name, data, t_ns in messages]

@@ -89,6 +89,23 @@ def read_bag(path: Path) -> dict[str, list[tuple[int, object]]]:
     return messages
 
 
+def recorded(path: Path) -> list[tuple]:
+    """
+    Return what a run's bag holds that the run decides: (topic, t ns, bytes) in storage order.
+
+    A /rosout message is its fields but the stamp: rcl stamps it with the wall clock.
+    """
+    messages = []
+    with Reader(path) as reader:
+        for connection, timestamp, raw in reader.messages():
+            if connection.topic == '/rosout':
+                log = TYPESTORE.deserialize_cdr(raw, connection.msgtype)
+                raw = (log.level, log.name, log.msg, log.file, log.function, log.line)
+            messages.append((connection.topic, timestamp, bytes(raw) if
+                             isinstance(raw, memoryview) else raw))
+    return messages
+
+
 def stamp_ns(stamp) -> int:
     """Return a builtin_interfaces/Time as ns."""
     return stamp.sec * NANOSECONDS_PER_SECOND + stamp.nanosec
@@ -201,7 +218,7 @@ def test_run_writes_a_trajectory_plot(scan_ahead_run):
 def test_run_records_a_bag_rosbags_reads_back(scan_ahead_run):
     *_, out_dir = scan_ahead_run
     assert (out_dir / 'run' / 'metadata.yaml').is_file()
-    assert (out_dir / 'run' / 'run.mcap').is_file()
+    assert (out_dir / 'run' / 'run_0.mcap').is_file()
     messages = read_bag(out_dir / 'run')
     duration_s = 2
     counts = {topic: len(items) for topic, items in messages.items()}
@@ -680,9 +697,10 @@ def test_same_seed_gives_identical_metrics_and_recordings(wall_follow_runs):
                             for label in ('first', 'again'))
     assert {topic: len(items) for topic, items in first_bag.items()} == \
         {topic: len(items) for topic, items in again_bag.items()}
-    for label in ('run.mcap', 'metadata.yaml'):
-        assert (wall_follow_runs['first'] / 'run' / label).read_bytes() == \
-            (wall_follow_runs['again'] / 'run' / label).read_bytes(), label
+    assert recorded(wall_follow_runs['first'] / 'run') == \
+        recorded(wall_follow_runs['again'] / 'run')
+    assert (wall_follow_runs['first'] / 'run' / 'metadata.yaml').read_bytes() == \
+        (wall_follow_runs['again'] / 'run' / 'metadata.yaml').read_bytes()
 
 
 def test_wanderbot_same_seed_gives_identical_metrics_and_recordings(wanderbot_runs):
@@ -691,15 +709,14 @@ def test_wanderbot_same_seed_gives_identical_metrics_and_recordings(wanderbot_ru
         del first[varying], again[varying]
     assert first == again
     assert first['distance_m'] > 1.0 and first['turns_deg']
-    assert (wanderbot_runs[0] / 'run' / 'run.mcap').read_bytes() == \
-        (wanderbot_runs[1] / 'run' / 'run.mcap').read_bytes()
+    assert recorded(wanderbot_runs[0] / 'run') == recorded(wanderbot_runs[1] / 'run')
     # wanderbot's timer (20 Hz) gets /clock of its own between the messages it hears.
     assert len(read_bag(wanderbot_runs[0] / 'run')['/cmd_vel']) == 20 * 20
 
 
 def test_another_seed_gives_another_recording(wall_follow_runs):
-    assert (wall_follow_runs['first'] / 'run' / 'run.mcap').read_bytes() != \
-        (wall_follow_runs['other_seed'] / 'run' / 'run.mcap').read_bytes()
+    assert recorded(wall_follow_runs['first'] / 'run') != \
+        recorded(wall_follow_runs['other_seed'] / 'run')
 
 
 def test_param_reaches_the_node(tmp_path, run_main):
@@ -995,8 +1012,7 @@ def test_two_runs_at_once_and_a_live_bridge_beside_them_do_not_hear_each_other(t
     assert counts['/scan'] > 0 and counts['/cmd_vel'] == 0
     # Each run is byte for byte the run made alone: nothing reached it from the others.
     for name in ('one', 'two'):
-        assert (tmp_path / name / 'run' / 'run.mcap').read_bytes() == \
-            (alone / 'run' / 'run.mcap').read_bytes()
+        assert recorded(tmp_path / name / 'run') == recorded(alone / 'run')
 
 
 def test_ctrl_c_ends_a_run_with_its_outputs_written(tmp_path):
@@ -1007,7 +1023,7 @@ def test_ctrl_c_ends_a_run_with_its_outputs_written(tmp_path):
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         deadline = time.monotonic() + 60
-        while not (out_dir / 'run' / 'run.mcap').exists() and time.monotonic() < deadline:
+        while not (out_dir / 'run' / 'run_0.mcap').exists() and time.monotonic() < deadline:
             time.sleep(0.1)
         time.sleep(1.0)  # well into the run
         process.send_signal(signal.SIGINT)

@@ -365,3 +365,19 @@ def test_a_broken_model_is_reported_with_the_entry_that_places_it(tmp_path, monk
     assert message.startswith("test.yaml: obstacles[0] (odd): 'model': model 'bad_model' is "
                               'broken: ')
     assert '<geometry>/<mesh>' in message
+
+
+@pytest.mark.parametrize('text, entry, problem', [
+    ('colour: red\n', None, 'expected one of name, description, floor, robot, walls, '
+     'obstacles, target, bounds'),
+    ('robot: {model: lab_robot, speed: 1}\n', 'robot', 'expected one of model, pose'),
+    ('obstacles:\n- {name: b, type: sphere, radius: 1, pose: [3, 0], size: [1, 1, 1]}\n',
+     'obstacles[0] (b)', 'expected one of name, pose, z, type, radius'),
+])
+def test_an_unknown_key_is_named_with_the_keys_its_entry_may_have(
+        tmp_path, text, entry, problem):
+    path = tmp_path / 'keys.yaml'
+    path.write_text(text)
+    with pytest.raises(WorldError) as caught:
+        World.load(path)
+    assert caught.value.entry == entry and caught.value.problem == f'unknown key; {problem}'

@@ -195,14 +195,14 @@ def main() -> None:
                         for _ in range(args.repeats)),
                     GOALS[beams] if record else None)
         run_once(BEAMS[0], True, duration, folder / 'kept')
-        kept = (folder / 'kept' / 'run' / 'run.mcap').read_bytes()
+        kept = (folder / 'kept' / 'run' / 'run_0.mcap').read_bytes()
         for label, variant in (('36 beams: /clock every physics step', clock_every_step),
                                (f'36 beams: EventsExecutor, {EVENTS_SPINS_PER_STEP} spins a '
                                 'step', events_executor)):
             with variant():
                 walls = [run_once(BEAMS[0], True, duration, folder / name)
                          for name in ('variant', 'again')]
-            bags = [(folder / name / 'run' / 'run.mcap').read_bytes()
+            bags = [(folder / name / 'run' / 'run_0.mcap').read_bytes()
                     for name in ('variant', 'again')]
             note = ('same bag as kept, twice' if bags[0] == bags[1] == kept else
                     'repeatable, but not the kept bag' if bags[0] == bags[1] else

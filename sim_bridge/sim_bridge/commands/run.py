@@ -14,6 +14,7 @@ import sys
 import time
 from typing import Callable, Sequence
 
+from sim_bridge.common.console import text_table
 from sim_bridge.common.errors import RunError
 from sim_bridge.media.video import render_video, VideoError
 from sim_bridge.runner.node_output import LOG_FILE, to_terminal
@@ -48,8 +49,7 @@ def summary_table(metrics: dict) -> str:
     if 'run_mode' in metrics:
         mode = metrics['run_mode']
         rows.append(('run mode', f"{mode['mode']} ({mode['reason']})"))
-    width = max(len(name) for name, _ in rows)
-    return '\n'.join(f'  {name:<{width}}  {value}' for name, value in rows)
+    return '\n'.join(f'  {line}' for line in text_table([], rows).splitlines())
 
 
 def terminal_progress() -> Callable[[float, float], None]:

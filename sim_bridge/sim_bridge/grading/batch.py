@@ -27,6 +27,7 @@ import sys
 import time
 from typing import Any, TextIO
 
+from sim_bridge.common.console import ProgressBar, text_table
 from sim_bridge.common.text import (
     first_line, format_measured, one_line, PathNames, printable, reason)
 from sim_bridge.grading import marks
@@ -37,7 +38,6 @@ from sim_bridge.grading.scenario import ScenarioRun
 from sim_bridge.runner.targets import split_target
 from sim_bridge.simulation.world import World, WorldError
 
-BAR_WIDTH = 24
 #: The most characters of an error or warning in a row of the printed table.
 TABLE_TEXT_CHARS = 160
 #: Wall seconds between two looks at the running children.
@@ -58,9 +58,10 @@ class BatchProgress:
                  enabled: bool = True, clock: Callable[[], float] = time.monotonic) -> None:
         self.total = total
         self.total_sim_s = total_sim_s
-        self.stream = stream
         self.enabled = enabled
-        self.live = enabled and stream.isatty()
+        #: The bar (rich's, drawn on a terminal only) and the lines above it; None: unseen.
+        self.bar: ProgressBar | None = ProgressBar(stream, draw=enabled)
+        self.live = self.bar.live
         self.done = 0
         self.done_sim_s = 0.0
         self.resumed_sim_s = 0.0
@@ -108,7 +109,7 @@ class BatchProgress:
 
     def note(self, line: str) -> None:
         """Print a line above the bar (also when the progress is not shown: a warning)."""
-        self._write(('\r\033[K' if self.live else '') + printable(line) + '\n')
+        self._try(lambda bar: bar.write_line(printable(line)))
         self._draw()
 
     def time_left_s(self) -> float | None:
@@ -121,25 +122,27 @@ class BatchProgress:
         return max(remaining, 0.0) * elapsed / simulated
 
     def _draw(self) -> None:
-        if not self.live or self.done >= self.total:
+        if not self.live:
+            return
+        if self.done >= self.total:
+            self._try(ProgressBar.close)
             return
         done_sim = self.done_sim_s + sum(self.running.values())
         share = done_sim / self.total_sim_s if self.total_sim_s > 0 else self.done / self.total
-        filled = round(BAR_WIDTH * min(share, 1.0))
         left = self.time_left_s()
-        self._write(f"\r\033[K[{'#' * filled}{'.' * (BAR_WIDTH - filled)}] "
-                    f'{self.done}/{self.total} runs, {share:.0%} of the simulated time'
-                    + (f', about {format_duration(left)} left' if left is not None else '')
-                    + (f" (running: {', '.join(self.running)})" if self.running else ''))
+        status = (f'{self.done}/{self.total} runs, {min(share, 1.0):.0%} of the simulated time'
+                  + (f', about {format_duration(left)} left' if left is not None else '')
+                  + (f" (running: {', '.join(self.running)})" if self.running else ''))
+        self._try(lambda bar: bar.update(share, status))
 
-    def _write(self, text: str) -> None:
-        if self.stream is None:
+    def _try(self, draw: Callable[[ProgressBar], None]) -> None:
+        """Draw on the bar; once its stream is gone (piped into ``head``), nothing more."""
+        if self.bar is None:
             return
         try:
-            self.stream.write(text)
-            self.stream.flush()
+            draw(self.bar)
         except OSError:  # piped into `head`, which has exited: the batch goes on unseen
-            self.stream = None
+            self.bar = None
             self.live = False
 
 
@@ -317,11 +320,7 @@ def format_table(reports: Iterable[RunReport], *, failures_only: bool = False) -
             rows.append((name, result.criterion, format_measured(result.criterion, result.value),
                          verdict))
             name = ''
-    widths = [max(len(row[column]) for row in rows) for column in range(3)]
-    lines = [f'{row[0]:<{widths[0]}}  {row[1]:<{widths[1]}}  {row[2]:>{widths[2]}}  {row[3]}'
-             for row in rows]
-    lines.insert(1, '-' * len(lines[0]))
-    return '\n'.join(line.rstrip() for line in lines)
+    return text_table(rows[0], rows[1:], right=[2])
 
 
 def summary(reports: list[RunReport], tasks: list[marks.TaskMarks] | None = None) -> str:

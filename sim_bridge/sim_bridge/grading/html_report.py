@@ -11,79 +11,72 @@ output); paths in a run that are not absolute are relative to the ``root`` a pag
 and a text that is not valid UTF-8 (a lone surrogate) shows its bytes as ``\xNN``.
 """
 
-from html import escape
+from collections import Counter
 from html.parser import HTMLParser
 import json
 import os
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 from urllib.parse import quote, unquote_to_bytes, urlsplit
 
+from jinja2 import Environment, FileSystemLoader, StrictUndefined
 from sim_bridge.common.text import count_cell, format_measured, outcome, OUTCOME_LEGEND, printable
 from sim_bridge.grading.marks import format_marks, TaskMarks, total as marks_total
 
-STYLE = """
-body { font-family: sans-serif; margin: 2em; max-width: 70em; }
-table { border-collapse: collapse; margin: 1em 0; }
-th, td { border: 1px solid #bbb; padding: 0.25em 0.6em; text-align: left; }
-th { background: #eee; }
-.pass { background: #d7f5d7; color: #145214; }
-.fail { background: #f9d6d5; color: #8a1212; }
-.some, .warn { background: #fde9c4; color: #7a4a00; }
-td, p, li { overflow-wrap: anywhere; }
-pre { background: #f4f4f4; padding: 0.6em; white-space: pre-wrap; overflow-wrap: anywhere; }
-.why { display: block; font-size: 85%; }
-img, video { max-width: min(100%, 48em); border: 1px solid #ccc; }
-"""
+#: The folder of the pages' templates (package data of sim_bridge).
+TEMPLATE_DIR = Path(__file__).resolve().parent / 'templates'
+#: The pages' templates, every value autoescaped.
+TEMPLATES = Environment(loader=FileSystemLoader(TEMPLATE_DIR), autoescape=True,
+                        undefined=StrictUndefined, trim_blocks=True, lstrip_blocks=True,
+                        keep_trailing_newline=True)
+TEMPLATES.globals.update(marks_total=marks_total,
+                         fraction=lambda earned, maximum:
+                         f'{format_marks(earned)}/{format_marks(maximum)}')
 
 
-def _link(target: str | os.PathLike | None, folder: Path, text: str) -> str:
-    """Return an ``<a>`` to ``target`` relative to ``folder``, or '' when it does not exist."""
+class Link(NamedTuple):
+    """A link's text and its URL relative to the page ('' when its file does not exist)."""
+
+    href: str
+    text: str
+
+
+def _link(target: str | os.PathLike | None, folder: Path, text: str) -> Link:
+    """Return the link to ``target`` from a page in ``folder``; no href when it is missing."""
     if target is None or not os.path.exists(target):
-        return ''
-    return f'<a href="{_href(target, folder)}">{escape(text)}</a>'
+        return Link('', text)
+    return Link(_href(target, folder), text)
 
 
 def _href(target: str | os.PathLike, folder: Path) -> str:
-    """Return the URL of ``target`` relative to ``folder`` (a folder's ends in /), escaped."""
+    """Return the URL of ``target`` relative to ``folder`` (a folder's ends in /)."""
     # Bytes: a file name that is not UTF-8 is linked by its bytes, as the file system has it.
     url = quote(os.fsencode(Path(os.path.relpath(target, folder)).as_posix()))
-    return escape(url + '/' if os.path.isdir(target) else url)
+    return url + '/' if os.path.isdir(target) else url
 
 
 def _text(value: Any) -> str:
-    """Return ``value`` as escaped text: strings as they are, None as a dash, others as JSON."""
+    """Return ``value`` as text: strings as they are, None as a dash, others as JSON."""
     if value is None:
-        return '&mdash;'
-    return escape(value if isinstance(value, str) else json.dumps(value, default=str))
+        return '\u2014'
+    return value if isinstance(value, str) else json.dumps(value, default=str)
 
 
-def _verdict(passed: bool) -> str:
-    return '<span class="pass">passed</span>' if passed else '<span class="fail">FAIL</span>'
-
-
-def _page(path: Path, title: str, body: list[str], up: Path | None = None) -> Path:
-    """Write an HTML page at ``path`` (making its folder) and return ``path``."""
+def _page(path: Path, template: str, up: Path | None = None, **values: Any) -> Path:
+    """Write the page of ``template`` with ``values`` at ``path`` (making its folder)."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    back = [f'<p><a href="{_href(up, path.parent)}">&larr; index</a></p>'] if up else []
-    path.write_text(printable('\n'.join([
-        '<!DOCTYPE html>', '<html lang="en">', '<head>', '<meta charset="utf-8">',
-        f'<title>{escape(title)}</title>', f'<style>{STYLE}</style>', '</head>', '<body>',
-        *back, f'<h1>{escape(title)}</h1>', *body, '</body>', '</html>', ''])),
-        encoding='utf-8')
+    html = TEMPLATES.get_template(template).render(
+        up=_href(up, path.parent) if up else '', **values)
+    path.write_text(printable(html), encoding='utf-8')
     return path
 
 
-def _table(header: list[str], rows: list[str]) -> str:
-    head = [f"<tr>{''.join(f'<th>{escape(cell)}</th>' for cell in header)}</tr>"] if header else []
-    return '\n'.join(['<table>', *head, *rows, '</table>'])
-
-
-def _run_rows(index: int, run: dict[str, Any]) -> list[str]:
+def _run_rows(run: dict[str, Any]) -> list[dict[str, str]]:
     """
     Return the table rows of one run, as grade prints them.
 
-    Its error, node errors, warnings (which fail nothing) and criteria with measured values.
+    Its error, node errors and criteria with measured values; its warnings (which fail
+    nothing) are listed once for the page (:func:`_warnings`).
     """
     metrics = run['metrics'] or {}
     cells = []
@@ -91,22 +84,16 @@ def _run_rows(index: int, run: dict[str, Any]) -> list[str]:
         cells.append((f"error: {run['error']}", '', 'fail'))
     for node_error in metrics.get('node_errors', []):
         cells.append((f"node error: {node_error['node']}: {node_error['error']}", '', 'fail'))
-    cells += [(f'warning: {warning}', '', 'warn') for warning in metrics.get('warnings') or []]
     cells += [(result['criterion'], format_measured(result['criterion'], result['value']),
                'pass' if result['passed'] else 'fail') for result in run['criteria']]
     if not cells:
         cells.append(('(no criteria)', '', 'pass' if run['passed'] else 'fail'))
-    name = f'<a href="#run-{index}">{escape(run["run"])}</a>'
-    rows = []
-    for criterion, shown, verdict in cells:
-        rows.append(f'<tr><td>{name}</td><td>{escape(criterion)}</td><td>{escape(shown)}</td>'
-                    f'<td class="{verdict}">{"FAIL" if verdict == "fail" else verdict}</td></tr>')
-        name = ''
-    return rows
+    return [{'criterion': criterion, 'shown': shown, 'verdict': verdict}
+            for criterion, shown, verdict in cells]
 
 
-def _run_section(index: int, run: dict[str, Any], folder: Path, root: Path) -> str:
-    """Return one run's section: verdict, setup, plot, output links, errors and tracebacks."""
+def _run_view(index: int, run: dict[str, Any], folder: Path, root: Path) -> dict[str, Any]:
+    """Return what one run's section shows: verdict, setup, plot, outputs, errors."""
     out_dir = root / run['out_dir']
     metrics = run['metrics'] or {}
     sim_time = metrics.get('sim_time_s')
@@ -117,56 +104,27 @@ def _run_section(index: int, run: dict[str, Any], folder: Path, root: Path) -> s
              ('params', run['params']), ('start', run['start']),
              ('wall time', f"{run['wall_time_s']:.1f} s"
               + (' (reused from an earlier invocation)' if run.get('reused') else ''))]
-    parts = [f'<section id="run-{index}">',
-             f'<h2>{escape(run["run"])}: {_verdict(run["passed"])}</h2>',
-             _table([], [f'<tr><th>{escape(key)}</th><td>{_text(value)}</td></tr>'
-                         for key, value in facts])]
-    if run['error'] is not None:
-        parts.append(f'<p class="fail">error: {escape(run["error"])}</p>')
     video = out_dir / 'video.mp4'  # sim_bridge.media.video.VIDEO_NAME (grade --video)
-    if video.is_file():
-        # An instructor watches a failing run before reading its numbers: it comes first.
-        parts.append(f'<p><video controls preload="metadata" src="{_href(video, folder)}">'
-                     f'{_link(video, folder, "video.mp4")}</video></p>')
     plot = out_dir / 'trajectory.png'
-    parts.append(f'<p><img src="{_href(plot, folder)}" alt="trajectory of {escape(run["run"])}">'
-                 '</p>' if plot.is_file() else '<p>no plot</p>')
-    links = [_link(out_dir / 'metrics.json', folder, 'metrics.json'),
-             _link(out_dir / 'run', folder, 'recording run/'),
-             _link(video, folder, 'video.mp4'),
-             _link(root / run['log'] if run.get('log') else None, folder, 'log')]
-    parts.append(f"<p>outputs: {' | '.join(link for link in links if link) or 'none'}</p>")
-    if metrics.get('warnings'):
-        parts.append('<h3>warnings</h3>\n<ul class="warn">' + ''.join(
-            f'<li>{escape(warning)}</li>' for warning in metrics['warnings']) + '</ul>')
-    for node_error in metrics.get('node_errors', []):
-        parts.append(f'<h3>node error in {escape(node_error["node"])}</h3>'
-                     f'<pre>{escape(node_error["error"])}</pre>')
-        if node_error.get('traceback'):
-            parts.append(f'<pre>{escape(node_error["traceback"])}</pre>')
-    if run['traceback']:
-        parts.append(f'<h3>traceback</h3>\n<pre>{escape(run["traceback"])}</pre>')
-    return '\n'.join([*parts, '</section>'])
+    outputs = [_link(out_dir / 'metrics.json', folder, 'metrics.json'),
+               _link(out_dir / 'run', folder, 'recording run/'),
+               _link(video, folder, 'video.mp4'),
+               _link(root / run['log'] if run.get('log') else None, folder, 'log')]
+    return {'index': index, 'name': run['run'], 'passed': run['passed'],
+            'rows': _run_rows(run), 'error': run['error'], 'traceback': run['traceback'],
+            'facts': [(key, _text(value)) for key, value in facts],
+            'video': _link(video, folder, 'video.mp4'),
+            'plot': _href(plot, folder) if plot.is_file() else '',
+            'outputs': [output for output in outputs if output.href],
+            'warnings': _warnings([run]),
+            'node_errors': metrics.get('node_errors', [])}
 
 
-def _marks_table(tasks: list[TaskMarks]) -> list[str]:
-    """Return the marks line and table of a page: per task its runs passed and marks."""
-    marked = [task for task in tasks if task.marks is not None]
-    if not marked:
-        return []
-    earned, maximum = marks_total(marked)
-    rows = [f'<tr><td>{escape(task.title)}</td><td>{escape(", ".join(task.scenarios))}</td>'
-            f'<td>{task.passed}/{task.runs}</td>{_marks_cell(task.earned, task.marks)}'
-            f'<td>{escape(task.rule())}</td></tr>' for task in marked]
-    return [f'<p><b>marks {format_marks(earned)}/{format_marks(maximum)}</b></p>',
-            _table(['task', 'scenarios', 'runs passed', 'marks', 'how'], rows)]
-
-
-def _marks_cell(earned: float, maximum: float, bold: bool = False) -> str:
-    """Return a cell 'earned/maximum' marks: green when all, amber when some, red when none."""
-    colour = 'pass' if earned >= maximum else 'some' if earned > 0 else 'fail'
-    text = f'{format_marks(earned)}/{format_marks(maximum)}'
-    return f'<td class="{colour}">{f"<b>{text}</b>" if bold else text}</td>'
+def _warnings(runs: list[dict]) -> list[tuple[str, int]]:
+    """Return the runs' warnings, each once with the number of runs it was in."""
+    counts = Counter(warning for run in runs
+                     for warning in dict.fromkeys((run['metrics'] or {}).get('warnings') or []))
+    return list(counts.items())
 
 
 def write_runs_page(path: Path, title: str, runs: list[dict], *, up: Path | None = None,
@@ -175,33 +133,30 @@ def write_runs_page(path: Path, title: str, runs: list[dict], *, up: Path | None
     """
     Write one page of runs (a student's report, or one grading batch) and return its path.
 
-    The page holds a summary line, ``notes`` (e.g. runs reused from an earlier invocation), the
-    pass/fail table (a row per criterion of each run, the error of a run that did not complete)
-    and a section per run with its plot and outputs; ``marks`` (per task) add the marks earned
-    and how. ``up`` is the index page to link back to;
+    The page opens with the marks (``marks``, per task and point, with why marks were lost),
+    then a summary line, ``notes`` (e.g. runs reused from an earlier invocation), the runs'
+    warnings (each once, with the number of runs it was in), the pass/fail table (a row per
+    criterion of each run, the error of a run that did not complete) and a section per run
+    with its plot and outputs. ``up`` is the index page to link back to;
     it is linked even if not written yet. Relative paths in ``runs`` are relative to ``root``.
     """
-    folder = path.parent
     root = Path(root) if root is not None else Path()
-    passed = sum(bool(run['passed']) for run in runs)
-    rows = [row for index, run in enumerate(runs) for row in _run_rows(index, run)]
-    body = [f'<p>{passed} of {len(runs)} runs passed</p>',
-            *_marks_table(marks or []),
-            *(f'<p class="warn">{escape(note)}</p>' for note in notes),
-            _table(['run', 'criterion', 'measured', 'result'], rows),
-            *(_run_section(index, run, folder, root) for index, run in enumerate(runs))]
-    return _page(path, title, body, up)
+    return _page(path, 'runs.html', up, title=title, notes=list(notes),
+                 passed=sum(bool(run['passed']) for run in runs),
+                 marked=[task for task in marks or [] if task.marks is not None],
+                 warnings=_warnings(runs),
+                 runs=[_run_view(index, run, path.parent, root)
+                       for index, run in enumerate(runs)])
 
 
-def _count_cell(runs: list[dict]) -> str:
-    """Return a cell 'passed/total' and why the others failed; green, amber if some, red."""
-    count, why = count_cell(runs)
+def _count_cell(runs: list[dict]) -> dict[str, str] | None:
+    """Return a cell 'passed/total', why the others failed, green/amber/red; None if no runs."""
     if not runs:
-        return '<td>&mdash;</td>'
+        return None
+    count, why = count_cell(runs)
     passed = sum(outcome(run) == 'passed' for run in runs)
-    colour = 'pass' if passed == len(runs) else 'some' if passed else 'fail'
-    reason = f'<span class="why">{escape(why)}</span>' if why else ''
-    return f'<td class="{colour}">{count}{reason}</td>'
+    return {'count': count, 'why': why,
+            'colour': 'pass' if passed == len(runs) else 'some' if passed else 'fail'}
 
 
 def write_class_index(path: Path, title: str, students: dict[str, list[dict]],
@@ -210,34 +165,28 @@ def write_class_index(path: Path, title: str, students: dict[str, list[dict]],
     """
     Write the class index and return its path.
 
-    One row per student (sorted by name) with 'passed/total' runs per scenario and in all,
-    and the worst reason a run failed (see :data:`OUTCOME_LEGEND`, under the table), then,
-    with ``marks`` (each student's, per task), the marks per task and in all out of the
-    maximum; a student's name links to ``pages[student]`` when that page exists.
+    One row per student (sorted by name): with ``marks`` (each student's, per task), first the
+    marks in all and per task out of the maximum, with the points lost; then 'passed/total'
+    runs per scenario and in all, and the worst reason a run failed (see
+    :data:`OUTCOME_LEGEND`, under the table); a student's name links to ``pages[student]``
+    when that page exists.
     """
     marks = marks or {}
-    marked = [task for task in next(iter(marks.values()), []) if task.marks is not None]
-    header = ['student', *scenarios, 'runs', *(task.title for task in marked)]
     rows = []
     for student in sorted(students, key=lambda name: (name.casefold(), name)):
         runs = students[student]
-        name = _link(pages.get(student), path.parent, student) or escape(student)
-        cells = [_count_cell([run for run in runs if run['scenario'] == scenario])
-                 for scenario in scenarios]
-        tasks = [task for task in marks.get(student, []) if task.marks is not None]
-        cells += [_count_cell(runs), *(_marks_cell(task.earned, task.marks) for task in tasks)]
-        if tasks:
-            cells.append(_marks_cell(*marks_total(tasks), bold=True))
-        rows.append(f"<tr><td>{name}</td>{''.join(cells)}</tr>")
-    total = sum(len(runs) for runs in students.values())
-    passed = sum(bool(run['passed']) for runs in students.values() for run in runs)
-    rate = f', {passed} passed ({100.0 * passed / total:.0f} %)' if total else ''
-    body = [f'<p>{len(students)} students, {total} runs{rate}</p>',
-            _table(header + (['marks'] if marked else []), rows),
-            *(f'<p>{escape(task.rule())}</p>' for task in marked),
-            '<p>' + '<br>\n'.join(f'<b>{escape(name)}</b>: {escape(text)}'
-                                  for name, text in OUTCOME_LEGEND.items()) + '</p>']
-    return _page(path, title, body)
+        counts = [_count_cell([run for run in runs if run['scenario'] == scenario])
+                  for scenario in scenarios]
+        rows.append({'name': student, 'page': _link(pages.get(student), path.parent, student),
+                     'counts': counts + [_count_cell(runs)],
+                     'tasks': [task for task in marks.get(student, [])
+                               if task.marks is not None]})
+    return _page(path, 'class_index.html', title=title, students=rows, scenarios=scenarios,
+                 marked=[task for task in next(iter(marks.values()), [])
+                         if task.marks is not None],
+                 total=sum(len(runs) for runs in students.values()),
+                 passed=sum(bool(run['passed']) for runs in students.values() for run in runs),
+                 legend=OUTCOME_LEGEND)
 
 
 class _Links(HTMLParser):

@@ -11,6 +11,13 @@ A scenario is a YAML mapping; every key not listed here is an error::
     marks: 3                      # optional: the task's marks (> 0), shared by its scenarios
     marking: proportional         # optional: how runs become marks: 'all' (default: every run
                                   # of the task passes, or none) or 'proportional'
+    points: wall_follow           # optional: the handout's points of the task, each earning
+                                  # its share of the marks (sim_bridge.task_points): one of
+                                  # range_ahead, wander, regions, wall_follow, closest
+    direction: clockwise          # optional: the loop the start is set up for (the target on
+                                  # the robot's right: clockwise; on its left: counterclockwise)
+    directions: one               # optional, per task: 'one' (default: the student's choice,
+                                  # its better direction counts) or 'both' (every start counts)
     world: wall_follow_box        # a shipped world's name, or a world file's path
     nodes: [wall_follow]          # TARGETs run with the simulator: a console script, a module
                                   # or a file path.py[:ClassName]
@@ -41,6 +48,12 @@ A scenario is a YAML mapping; every key not listed here is an error::
 
 Relative paths (a world file, a node file) are relative to the scenario file. The scenario's
 name is the file name without ``.yaml``. A seed is an integer from 0 to MAX_SEED (2**63 - 1).
+
+With ``points:``, a task's marks are its points' (:mod:`sim_bridge.marks`), each point earning
+its share of the marks over the task's runs, whatever the criteria say; the criteria still say
+whether each run passed. A task whose scenarios state a ``direction:`` is marked on the runs of
+one direction, the one whose runs earn more (the handout lets the student choose), unless
+``directions: both``.
 
 ``marks:`` are the marks of the scenario's ``task:`` (default: a task of its own, named after
 the scenario): every scenario of a task states the same ``marks:`` and ``marking:``, and the
@@ -76,19 +89,21 @@ scenario's criteria name (``printed.<kind>.worst_error_m`` and the rest are metr
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
-import math
 import os
 from pathlib import Path
 import re
 from typing import Any, Callable
 
-from sim_bridge.common.values import described, is_number_not_nan
+from sim_bridge.common.values import described
 from sim_bridge.common.yaml_loader import load_yaml, read_text
 from sim_bridge.grading.criteria import (
     Criterion, CriterionResult, format_value, parse_criterion, parse_printed_criterion,
     PrintedCriterion)
+from sim_bridge.grading.scenario_file import (  # noqa: F401 - the file format's names
+    MARKINGS, MAX_DURATION_S, ScenarioError, SETPOINTS, validate_scenario_file)
+from sim_bridge.grading.task_points import POINT_SETS
 from sim_bridge.ros.drive import DriveError, parse_drive, Segment
-from sim_bridge.runner.options import EVERY_NODE, is_seed, MAX_SEED, remap_problem
+from sim_bridge.runner.options import EVERY_NODE, remap_problem
 from sim_bridge.runner.targets import split_target, target_name
 from sim_bridge.scoring.printed_values import KINDS as PRINTED_KINDS
 import yaml
@@ -96,22 +111,11 @@ import yaml
 SCENARIO_SUFFIX = '.yaml'
 #: A parameter value replaced by each run's seed, so a node's own randomness follows it.
 SEED_PLACEHOLDER = '$seed'
-#: The longest simulated run (s): a day. A lab's run lasts minutes; ``duration: 1e9`` (a typo,
-#: or milliseconds) would hold a batch for months of wall time.
-MAX_DURATION_S = 86400.0
 #: What a NODE of ``--node-override NODE=TARGET`` can be: a node's name, no path.
 _OVERRIDE_NODE = re.compile(r'[\w.-]+')
-_KEYS = ('description', 'world', 'nodes', 'params', 'duration', 'seed', 'seeds', 'start',
-         'robot', 'remap', 'setpoint', 'drive', 'criteria', 'task', 'marks', 'marking')
-#: How a task's runs become marks: all must pass for its marks, or marks in proportion.
-MARKINGS = ('all', 'proportional')
-#: What a scenario's ``setpoint:`` can set, and the unit of each.
-SETPOINTS = {'wall_distance_m': 'm'}
-_REQUIRED = ('world', 'nodes', 'duration', 'criteria')
-
-
-class ScenarioError(ValueError):
-    """A scenario file that cannot be used; the message names the file and the field."""
+#: The loops a wall-following start is set up for, and which of them a task marks.
+LOOP_DIRECTIONS = ('clockwise', 'counterclockwise')
+DIRECTION_CHOICES = ('one', 'both')
 
 
 #: Makes the error of one field of a scenario: fail(FIELD or None, PROBLEM).
@@ -149,7 +153,9 @@ class Scenario:
     of SETPOINTS to the value (m) they measure against; ``drive`` the segments the runner's
     teleop drives the robot by (sim_bridge.ros.drive), none when empty; ``task`` the lab task it
     grades (None: a task of its own), ``marks`` that task's marks (None: no marks) and
-    ``marking`` one of MARKINGS.
+    ``marking`` one of MARKINGS; ``points`` the task's point set (task_points.POINT_SETS) or
+    None, ``direction`` the loop its start is for (LOOP_DIRECTIONS) or None, ``directions``
+    one of DIRECTION_CHOICES.
     """
 
     name: str
@@ -169,6 +175,9 @@ class Scenario:
     task: str | None = None
     marks: float | None = None
     marking: str = MARKINGS[0]
+    points: str | None = None
+    direction: str | None = None
+    directions: str = DIRECTION_CHOICES[0]
 
     @property
     def task_name(self) -> str:
@@ -299,105 +308,30 @@ def scenario_from_dict(data: Any, name: str, path: Path | None = None) -> Scenar
     def fail(field_name: str | None, problem: str) -> ScenarioError:
         return ScenarioError(': '.join(part for part in (label, field_name, problem) if part))
 
-    if not isinstance(data, Mapping):
-        raise fail(None, f'must be a mapping of keys, got {described(data)}')
-    for key in data:
-        if key not in _KEYS:
-            raise fail(str(key), f"unknown key; expected one of {', '.join(_KEYS)}")
-    for key in _REQUIRED:
-        if key not in data:
-            raise fail(key, 'missing')
-    if 'seed' in data and 'seeds' in data:
-        raise fail('seeds', "give either 'seed' or 'seeds', not both")
-    world, nodes = _world_and_nodes(data, fail)
-    params = _params(data, fail)
-    setpoint = _setpoint(data, fail)
-    description, task, marks, marking = _grading(data, fail)
-    return Scenario(name=name, path=path,
-                    world=_resolve(world, base, SCENARIO_SUFFIX),
-                    nodes=tuple(_resolve(node, base, '.py') for node in nodes),
-                    duration_s=_duration(data, fail), criteria=_criteria(data, fail),
-                    seeds=_seeds(data, fail),
-                    params={str(node): dict(values) for node, values in params.items()},
-                    start=_start(data, fail), description=description,
-                    robot=_robot(data, fail), remap=_remap(data, fail),
-                    setpoint={str(metric): float(value) for metric, value in setpoint.items()},
-                    drive=_drive(data, fail), task=str(task).strip() if task is not None else None,
-                    marks=float(marks) if marks is not None else None, marking=marking)
-
-
-def _world_and_nodes(data: Mapping[Any, Any], fail: Fail) -> tuple[str, list[str]]:
-    """Return the scenario's world and its list of TARGETs."""
-    world = data['world']
-    if not isinstance(world, str) or not world:
-        raise fail('world', f'must be a world name or path, got {described(world)}')
-    nodes = data['nodes']
-    if isinstance(nodes, str):
-        nodes = [nodes]
-    if not isinstance(nodes, list) or not nodes:
-        raise fail('nodes', f'must be a non-empty list of TARGETs, got {described(nodes)}')
-    for index, node in enumerate(nodes):
-        if not isinstance(node, str) or not node:
-            raise fail(f'nodes[{index}]', f'must be a TARGET text, got {described(node)}')
-    return world, nodes
-
-
-def _duration(data: Mapping[Any, Any], fail: Fail) -> float:
-    """Return the run length (s of simulated time)."""
-    duration = data['duration']
-    if not is_number_not_nan(duration) or not 0 < duration <= MAX_DURATION_S:
-        raise fail('duration', f'must be a positive number of seconds, at most '
-                   f'{MAX_DURATION_S:g} (a day), got {duration!r}')
-    return float(duration)
-
-
-def _seeds(data: Mapping[Any, Any], fail: Fail) -> tuple[int, ...]:
-    """Return the runs' seeds (``seed:`` or ``seeds:``, default 0)."""
-    seeds = data.get('seeds', [data.get('seed', 0)])
-    if not isinstance(seeds, list) or not seeds:
-        raise fail('seeds', f'must be a non-empty list of integers, got {described(seeds)}')
-    for index, seed in enumerate(seeds):
-        if not is_seed(seed):
-            field_name = f'seeds[{index}]' if 'seeds' in data else 'seed'
-            raise fail(field_name, f'must be a non-negative integer up to {MAX_SEED} (a ROS '
-                       f'integer parameter is int64), got {seed!r}')
+    spec = validate_scenario_file(data, label)
+    seeds = spec.seeds if spec.seeds is not None else [0 if spec.seed is None else spec.seed]
     if len(set(seeds)) != len(seeds):
         raise fail('seeds', f'has repeated seeds: {seeds}')
-    return tuple(seeds)
+    if 'marking' in data and spec.marks is None:
+        raise fail('marking', 'says how runs become marks, but the scenario has no marks:')
+    for index, rule in enumerate(spec.remap):
+        problem = remap_problem(rule)
+        if problem is not None:
+            raise fail(f'remap[{index}]', problem)
+    return Scenario(name=name, path=path,
+                    world=_resolve(spec.world, base, SCENARIO_SUFFIX),
+                    nodes=tuple(_resolve(node, base, '.py') for node in spec.nodes),
+                    duration_s=spec.duration, criteria=_criteria(spec.criteria, fail),
+                    seeds=tuple(seeds), params={node: dict(values)
+                                                for node, values in spec.params.items()},
+                    start=spec.start, description=spec.description, robot=spec.robot,
+                    remap=tuple(spec.remap), setpoint=dict(spec.setpoint),
+                    drive=_drive(spec.drive, fail), task=spec.task, marks=spec.marks,
+                    marking=spec.marking, **_points(data, fail))
 
 
-def _params(data: Mapping[Any, Any], fail: Fail) -> Mapping[Any, Any]:
-    """Return the parameters per node name."""
-    params = data.get('params') or {}
-    if not isinstance(params, Mapping):
-        raise fail('params', f'must map node names to parameters, got {described(params)}')
-    for node, values in params.items():
-        if not isinstance(values, Mapping):
-            raise fail(f'params.{node}', f'must map parameter names to values, '
-                       f'got {described(values)}')
-        for parameter, value in values.items():
-            if not _is_parameter_value(value):
-                raise fail(f'params.{node}.{parameter}', 'must be a bool, number, text or a '
-                           f'list of one of them, got {described(value)}')
-    return params
-
-
-def _start(data: Mapping[Any, Any], fail: Fail) -> Any:
-    """Return the robot's start: None, 'mirrored' or (x m, y m, yaw rad)."""
-    start = data.get('start')
-    if start is not None and start != 'mirrored':
-        if not (isinstance(start, list) and len(start) == 3
-                and all(map(is_number_not_nan, start))):
-            raise fail('start', f"must be 'mirrored' or [x, y, yaw], got {start!r}")
-        start = tuple(float(value) for value in start)
-    return start
-
-
-def _criteria(data: Mapping[Any, Any], fail: Fail) -> tuple[Any, ...]:
+def _criteria(criteria: list[Any], fail: Fail) -> tuple[Any, ...]:
     """Return the scenario's criteria, each parsed."""
-    criteria = data['criteria']
-    if not isinstance(criteria, list) or not criteria:
-        raise fail('criteria', f'must be a non-empty list of criteria, got {described(criteria)}')
     parsed = []
     for index, text in enumerate(criteria):
         try:
@@ -408,75 +342,22 @@ def _criteria(data: Mapping[Any, Any], fail: Fail) -> tuple[Any, ...]:
     return tuple(parsed)
 
 
-def _robot(data: Mapping[Any, Any], fail: Fail) -> str | None:
-    """Return the robot model spawned instead of the world's, or None."""
-    robot = data.get('robot')
-    if robot is not None and not (isinstance(robot, str) and robot):
-        raise fail('robot', f'must be a robot model name, got {described(robot)}')
-    return robot
-
-
-def _remap(data: Mapping[Any, Any], fail: Fail) -> tuple[str, ...]:
-    """Return the ROS remapping rules for the target nodes."""
-    remap = data.get('remap') or []
-    if isinstance(remap, str):
-        remap = [remap]
-    if not isinstance(remap, list):
-        raise fail('remap', f'must be a list of remapping rules, got {described(remap)}')
-    for index, rule in enumerate(remap):
-        problem = remap_problem(rule)
-        if problem is not None:
-            raise fail(f'remap[{index}]', problem)
-    return tuple(remap)
-
-
-def _setpoint(data: Mapping[Any, Any], fail: Fail) -> Mapping[Any, Any]:
-    """Return the setpoints per metric (in their units)."""
-    setpoint = data.get('setpoint') or {}
-    if not isinstance(setpoint, Mapping):
-        raise fail('setpoint', f'must map metrics to values, e.g. wall_distance_m: 0.5, got '
-                   f'{described(setpoint)}')
-    for metric, value in setpoint.items():
-        if metric not in SETPOINTS:
-            raise fail(f'setpoint.{metric}', f"unknown; setpoints are {', '.join(SETPOINTS)}")
-        if not is_number_not_nan(value) or not math.isfinite(value):
-            raise fail(f'setpoint.{metric}', f'must be a number ({SETPOINTS[metric]}), got '
-                       f'{described(value)}')
-    return setpoint
-
-
-def _drive(data: Mapping[Any, Any], fail: Fail) -> tuple[Segment, ...]:
+def _drive(drive: Any, fail: Fail) -> tuple[Segment, ...]:
     """Return the teleop's drive segments (empty: no driving)."""
-    drive = ()
-    if data.get('drive') is not None:
-        try:
-            drive = parse_drive(data['drive'])
-        except DriveError as error:
-            raise fail(None, str(error)) from None
-    return drive
+    try:
+        return () if drive is None else parse_drive(drive)
+    except DriveError as error:
+        raise fail(None, str(error)) from None
 
 
-def _grading(data: Mapping[Any, Any], fail: Fail) -> tuple[str, Any, Any, str]:
-    """Return the description, task, marks and marking."""
-    description = data.get('description', '')
-    if not isinstance(description, str):
-        raise fail('description', f'must be text, got {described(description)}')
-    task = data.get('task')
-    if task is not None and not (isinstance(task, (int, str)) and not isinstance(task, bool)
-                                 and str(task).strip()):
-        raise fail('task', f'must be a task number or label, e.g. 1 or wall_follow, got '
-                   f'{described(task)}')
-    marks = data.get('marks')
-    if marks is not None and not (is_number_not_nan(marks) and 0 < marks < float('inf')):
-        raise fail('marks', f'must be a positive number, got {described(marks)}')
-    marking = data.get('marking', MARKINGS[0])
-    if marking not in MARKINGS:
-        raise fail('marking', f"must be one of {', '.join(MARKINGS)} (all: every run passes for "
-                   'the marks; proportional: marks x runs passed / runs), '
-                   f'got {described(marking)}')
-    if 'marking' in data and marks is None:
-        raise fail('marking', 'says how runs become marks, but the scenario has no marks:')
-    return description, task, marks, marking
+def _points(data: Mapping[Any, Any], fail: Fail) -> dict[str, Any]:
+    """Return the points, the start's direction and the directions marked (Scenario's keys)."""
+    for key, allowed in (('points', POINT_SETS), ('direction', LOOP_DIRECTIONS),
+                         ('directions', DIRECTION_CHOICES)):
+        if data.get(key) is not None and data[key] not in allowed:
+            raise fail(key, f"must be one of {', '.join(allowed)}, got {described(data[key])}")
+    return {'points': data.get('points'), 'direction': data.get('direction'),
+            'directions': data.get('directions') or DIRECTION_CHOICES[0]}
 
 
 def load_scenarios(paths: list[str | os.PathLike]) -> list[Scenario]:
@@ -513,7 +394,7 @@ def check_tasks(scenarios: list[Scenario]) -> None:
     first: dict[str, Scenario] = {}
     for scenario in scenarios:
         other = first.setdefault(scenario.task_name, scenario)
-        for key in ('marks', 'marking'):
+        for key in ('marks', 'marking', 'points', 'directions'):
             mine, theirs = getattr(scenario, key), getattr(other, key)
             if mine != theirs:
                 raise ScenarioError(
@@ -533,10 +414,3 @@ def _resolve(reference: str, base: Path | None, suffix: str) -> str:
     if base is None or not (where.endswith(suffix) or '/' in where) or Path(where).is_absolute():
         return reference
     return str(base / where) + (f':{class_name}' if class_name else '')
-
-
-def _is_parameter_value(value: Any) -> bool:
-    scalar = (bool, int, float, str)
-    if isinstance(value, list):
-        return all(isinstance(item, scalar) for item in value)
-    return isinstance(value, scalar)

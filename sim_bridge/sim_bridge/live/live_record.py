@@ -20,11 +20,11 @@ import time
 from typing import Mapping, Sequence
 
 from sim_bridge.common.errors import UserInterrupt
+from sim_bridge.common.message_types import message_type_name
 from sim_bridge.common.run_environment import environment_set
-from sim_bridge.runner.node_output import NodeLog, rosout_message, ROSOUT_TOPIC, ROSOUT_TYPE
+from sim_bridge.runner.node_output import NodeLog, ROSOUT_TOPIC, ROSOUT_TYPE
 from sim_bridge.runner.options import load_world, write_params_file
 from sim_bridge.runner.outputs import open_outputs, write_outputs
-from sim_bridge.runner.record import message_type_name
 from sim_bridge.scoring.run_trace import CollisionEvent, Trace
 from sim_bridge.simulation.robot import pose_in_world
 
@@ -91,6 +91,7 @@ class LiveRecorder:
         with environment_set(self.env):
             rclpy.init(context=self.context, signal_handler_options=SignalHandlerOptions.NO)
         node = self.node()
+        self.bag.graph = node  # the live processes' offered QoS, as DDS discovery reports it
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(node)
         self.spinner = threading.Thread(target=self.executor.spin, name='live-recorder',
@@ -140,8 +141,8 @@ class LiveRecorder:
 
     def write_log(self) -> None:
         """Record the console lines not yet recorded, on /rosout at their sim time."""
-        for t_ns, entry in self.log.take_pending():
-            self.bag.write(ROSOUT_TOPIC, ROSOUT_TYPE, rosout_message(entry, t_ns), t_ns)
+        for t_ns, data in self.log.take_rosout():
+            self.bag.write(ROSOUT_TOPIC, ROSOUT_TYPE, data, t_ns)
 
     def on_collision(self, msg) -> None:
         """Keep a contact the simulator reports (where in odom, when; not with what)."""

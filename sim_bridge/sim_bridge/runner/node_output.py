@@ -13,8 +13,10 @@ stderr) or ``print`` (anything on stdout or stderr), becomes one entry::
 ``line`` the line as the console showed it (colour codes removed). ``node`` is the logger's
 name for a logger line; for any other line, the node whose code was running when it was
 written where the runner knows it (a stepped run), else ''. The run writes them to
-``log.jsonl`` (one JSON object a line) and to its recording as ``/rosout``
-(rcl_interfaces/msg/Log stamped with that simulated time).
+``log.jsonl`` (one JSON object a line) and to its recording as ``/rosout``, received at that
+simulated time, each an rcl_interfaces/msg/Log as rcl fills it: stamped with the wall clock
+(rcutils' own time of the line when the console format shows it, else when the line was read),
+with the file, function and line of the logging call when the format shows them.
 
 Logger lines are read from the console text, not from /rosout, so that nothing a node writes
 is missed (a logger of no node, ``RCUTILS_LOGGING_USE_STDOUT``, a C library's printf) and the
@@ -42,6 +44,7 @@ import selectors
 import sys
 import termios
 import threading
+import time
 from typing import Callable, ContextManager, Iterable
 
 from sim_bridge.common.run_environment import environment_set
@@ -70,6 +73,10 @@ CHUNK_BYTES = 2 ** 16
 PIPE_BYTES = 2 ** 20
 F_SETPIPE_SZ = 1031  # fcntl.F_SETPIPE_SZ, Linux only, named in Python 3.10+ on Linux only
 
+#: What rcutils prints for the console format's tokens the recording reads back.
+_TOKEN_PATTERNS = {'name': '.*?', 'message': '.*', 'time': r'-?\d+\.\d+',
+                   'time_as_nanoseconds': r'-?\d+', 'file_name': '.*?',
+                   'function_name': '.*?', 'line_number': r'\d+'}
 _ANSI = re.compile(r'\x1b\[[0-9;]*[A-Za-z]')
 _TOKEN = re.compile(r'\{(\w+)\}')
 
@@ -91,8 +98,10 @@ def console_pattern(console_format: str | None = None) -> re.Pattern | None:
     Return a regex matching a logger line of rcutils' console format, or None.
 
     ``console_format`` defaults to RCUTILS_CONSOLE_OUTPUT_FORMAT or rcutils' default. The
-    groups ``severity``, ``message`` and (when the format has it) ``name`` are the line's;
-    None when the format lacks ``{severity}`` or ``{message}`` (no line can be read back).
+    groups ``severity``, ``message`` and (when the format has them) ``name``, ``time``,
+    ``time_as_nanoseconds``, ``file_name``, ``function_name`` and ``line_number`` are the
+    line's; None when the format lacks ``{severity}`` or ``{message}`` (no line can be read
+    back).
     """
     if console_format is None:
         console_format = os.environ.get(FORMAT_VARIABLE) or DEFAULT_CONSOLE_FORMAT
@@ -100,10 +109,12 @@ def console_pattern(console_format: str | None = None) -> re.Pattern | None:
     for token in _TOKEN.finditer(console_format):
         parts.append(re.escape(console_format[position:token.start()]))
         name = token.group(1)
-        if name == 'severity' and name not in seen:
+        if name in seen:
+            parts.append('.*?')
+        elif name == 'severity':
             parts.append(f"(?P<severity>{'|'.join(SEVERITIES)})")
-        elif name in ('name', 'message') and name not in seen:
-            parts.append(f'(?P<{name}>.*)' if name == 'message' else f'(?P<{name}>.*?)')
+        elif name in _TOKEN_PATTERNS:
+            parts.append(f'(?P<{name}>{_TOKEN_PATTERNS[name]})')
         else:
             parts.append('.*?')
         seen.add(name)
@@ -136,8 +147,9 @@ class NodeLog:
     """
     The entries of a run, in the order written; thread-safe.
 
-    ``pending`` holds the entries (with their time in ns) not yet written to the recording,
-    when ``record``. At most MAX_LINES entries are kept; ``dropped`` counts the rest.
+    ``pending`` holds the entries not yet written to the recording, when ``record``, with their
+    sim time and the wall clock time they were read at (ns). At most MAX_LINES entries are
+    kept; ``dropped`` counts the rest.
     """
 
     def __init__(self, record: bool = True, pattern: re.Pattern | None = None):
@@ -157,15 +169,23 @@ class NodeLog:
                 return
             self.entries.append(entry)
         if self.record:
-            self.pending.append((t_ns, entry))
+            self.pending.append((t_ns, entry, time.time_ns()))
 
-    def take_pending(self) -> Iterable[tuple[int, dict]]:
-        """Yield (and forget) the entries not yet recorded, oldest first, with their time (ns)."""
+    def take_rosout(self) -> Iterable[tuple[int, bytes]]:
+        """
+        Yield (and forget) the entries not yet recorded, oldest first, as /rosout messages.
+
+        Each is its sim time (ns) and the CDR bytes of its rcl_interfaces/msg/Log.
+        """
         while True:
             try:
-                yield self.pending.popleft()
+                t_ns, entry, read_ns = self.pending.popleft()
             except IndexError:
                 return
+            match = None
+            if entry['level'] in SEVERITIES and self.pattern is not None:
+                match = self.pattern.match(entry['line'])
+            yield t_ns, rosout_message(entry, read_ns, match.groupdict() if match else {})
 
     def warning(self) -> str | None:
         """Say how many lines were not kept, or None."""
@@ -175,16 +195,36 @@ class NodeLog:
                 f'{self.dropped} more were not kept')
 
 
-def rosout_message(entry: dict, t_ns: int) -> bytes:
-    """Return the CDR bytes of ``entry`` as a rcl_interfaces/msg/Log stamped ``t_ns`` (ns)."""
+def rosout_message(entry: dict, read_ns: int, fields: dict[str, str | None]) -> bytes:
+    """
+    Return the CDR bytes of ``entry`` as the rcl_interfaces/msg/Log rcl publishes on /rosout.
+
+    ``fields`` are the console line's tokens (console_pattern's groups): the stamp is rcutils'
+    wall clock time of the line (``time`` or ``time_as_nanoseconds``) when given, else
+    ``read_ns`` (the wall clock, ns, when the line was read); ``file_name``,
+    ``function_name`` and ``line_number`` when given.
+    """
     from rcl_interfaces.msg import Log
     from rclpy.serialization import serialize_message
     msg = Log()
-    msg.stamp.sec, msg.stamp.nanosec = divmod(t_ns, 1_000_000_000)
+    msg.stamp.sec, msg.stamp.nanosec = divmod(_wall_ns(fields) or read_ns, 1_000_000_000)
     msg.level = SEVERITIES.get(entry['level']) or STREAM_LEVELS[entry['level']]
     msg.name = entry['node']
     msg.msg = entry['text']
+    msg.file = fields.get('file_name') or ''
+    msg.function = fields.get('function_name') or ''
+    msg.line = int(fields.get('line_number') or 0)
     return serialize_message(msg)
+
+
+def _wall_ns(fields: dict[str, str | None]) -> int | None:
+    """Return the wall clock time (ns) a console line shows, None if it shows none."""
+    if fields.get('time_as_nanoseconds'):
+        return max(0, int(fields['time_as_nanoseconds']))
+    if fields.get('time'):
+        seconds, _, fraction = fields['time'].lstrip('-').partition('.')
+        return int(seconds) * 1_000_000_000 + int(fraction[:9].ljust(9, '0'))
+    return None
 
 
 def write_log(path: Path, entries: Iterable[dict]) -> None:

@@ -16,11 +16,12 @@ import numpy as np
 from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.serialization import serialize_message
 from sim_bridge.common.errors import RunError, RunStopped, UserInterrupt
+from sim_bridge.common.message_types import message_type_name
 from sim_bridge.media.plot import plot_trajectory
 from sim_bridge.runner.node_output import (
-    LOG_FILE, NodeLog, rosout_message, ROSOUT_TOPIC, ROSOUT_TYPE, to_terminal, write_log)
+    LOG_FILE, NodeLog, ROSOUT_TOPIC, ROSOUT_TYPE, to_terminal, write_log)
 from sim_bridge.runner.options import BRIDGE_NODE, RunResult
-from sim_bridge.runner.record import BagRecorder, DEFAULT_TOPICS, message_type_name
+from sim_bridge.runner.record import BagRecorder, DEFAULT_TOPICS
 from sim_bridge.runner.ros_graph import RunGraph, Teleop, TELEOP_NODE
 from sim_bridge.scoring.metrics import compute_metrics
 from sim_bridge.scoring.run_trace import CollisionEvent, ScanSnapshot, Trace
@@ -96,9 +97,11 @@ class RunRecorder:
         self.type_names: dict[type, str] = {}
         bridge = run.bridge
         bridge.on_publish = self.on_bridge_message
+        self.node = None
         if not record:
             return
-        node = run.node('sim_bridge_recorder')
+        # Its view of the run's graph gives the bag each topic's offered QoS.
+        self.node = node = run.node('sim_bridge_recorder')
         bridge_topics = {publisher.topic_name for publisher in bridge.publishers}
         subscribed = {sub.topic_name: sub.msg_type for sub in bridge.subscriptions
                       if sub is not bridge.command_subscription}
@@ -152,8 +155,8 @@ class RunRecorder:
 
     def write_log(self) -> None:
         """Write (or hold) the nodes' lines not yet recorded, on /rosout at their own times."""
-        for t_ns, entry in self.log.take_pending():
-            self.store(ROSOUT_TOPIC, ROSOUT_TYPE, rosout_message(entry, t_ns), t_ns)
+        for t_ns, data in self.log.take_rosout():
+            self.store(ROSOUT_TOPIC, ROSOUT_TYPE, data, t_ns)
 
     def store(self, topic: str, type_name: str, data: bytes, t_ns: int) -> None:
         """Write (or hold) one message's CDR bytes at ``t_ns`` (ns)."""
@@ -166,6 +169,7 @@ class RunRecorder:
         """Write the held messages to ``bag`` and everything sent from now on."""
         self.write_log()
         if bag is not None:
+            bag.graph = self.node
             for message in self.held:
                 bag.write(*message)
         self.bag, self.held = bag, None

@@ -23,6 +23,7 @@ import shapely
 from shapely.geometry.base import BaseGeometry
 from sim_bridge.simulation.mesh_slice import clip_triangles, mesh_slice
 import trimesh
+from trimesh import transformations
 
 SHAPE_KINDS = ('box', 'cylinder', 'sphere', 'capsule', 'ellipsoid', 'mesh')
 FOOTPRINT_KINDS = ('circle', 'box', 'polygon')
@@ -334,11 +335,11 @@ class Shape:
     def placed(self, x: float, y: float, z: float, yaw: float, roll: float = 0.0,
                pitch: float = 0.0) -> 'Shape':
         """Return this shape, given in a parent frame, moved by the parent's pose (m, rad)."""
-        parent = rotation_matrix(roll, pitch, yaw)
-        position = parent @ (self.x, self.y, self.z) + (x, y, z)
-        roll, pitch, yaw = euler_from_matrix(parent @ self.rotation())
-        return replace(self, x=float(position[0]), y=float(position[1]),
-                       z=float(position[2]), roll=roll, pitch=pitch, yaw=yaw)
+        placed = pose_matrix(x, y, z, roll, pitch, yaw) @ pose_matrix(
+            self.x, self.y, self.z, self.roll, self.pitch, self.yaw)
+        roll, pitch, yaw = euler_from_matrix(placed)
+        return replace(self, x=float(placed[0, 3]), y=float(placed[1, 3]),
+                       z=float(placed[2, 3]), roll=roll, pitch=pitch, yaw=yaw)
 
     def footprint(self) -> Footprint:
         """
@@ -361,26 +362,23 @@ class Shape:
                                process=False)
 
 
+def pose_matrix(x: float, y: float, z: float, roll: float, pitch: float,
+                yaw: float) -> np.ndarray:
+    """Return the 4x4 transform of a pose: position (m), fixed-axis roll, pitch, yaw (rad)."""
+    matrix = transformations.euler_matrix(roll, pitch, yaw, 'sxyz')
+    matrix[:3, 3] = (x, y, z)
+    return matrix
+
+
 def rotation_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
     """Return the 3x3 rotation Rz(yaw) @ Ry(pitch) @ Rx(roll) of fixed-axis angles (rad)."""
-    cr, sr = math.cos(roll), math.sin(roll)
-    cp, sp = math.cos(pitch), math.sin(pitch)
-    cy, sy = math.cos(yaw), math.sin(yaw)
-    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-                     [-sp, cp * sr, cp * cr]])
+    return transformations.euler_matrix(roll, pitch, yaw, 'sxyz')[:3, :3]
 
 
 def euler_from_matrix(rotation: np.ndarray) -> tuple[float, float, float]:
-    """Return fixed-axis (roll, pitch, yaw) in rad of a 3x3 rotation (see rotation_matrix)."""
-    pitch = math.asin(max(-1.0, min(1.0, -float(rotation[2, 0]))))
-    if abs(float(rotation[2, 0])) < 1.0 - 1e-12:
-        roll = math.atan2(float(rotation[2, 1]), float(rotation[2, 2]))
-        yaw = math.atan2(float(rotation[1, 0]), float(rotation[0, 0]))
-    else:  # gimbal lock: the yaw carries the whole rotation about the vertical
-        roll = 0.0
-        yaw = math.atan2(-float(rotation[0, 1]), float(rotation[1, 1]))
-    return (roll + 0.0, pitch + 0.0, wrap_angle(yaw) + 0.0)
+    """Return fixed-axis (roll, pitch, yaw) in rad of a 3x3 or 4x4 rotation, yaw wrapped."""
+    roll, pitch, yaw = transformations.euler_from_matrix(rotation, 'sxyz')
+    return (float(roll) + 0.0, float(pitch) + 0.0, wrap_angle(float(yaw)) + 0.0)
 
 
 def triangulate(shape: Shape, tolerance: float = MESH_TOLERANCE

@@ -47,7 +47,7 @@ import xml.etree.ElementTree as ElementTree
 import numpy as np
 from sim_bridge.common import paths
 from sim_bridge.simulation.geometry import (
-    euler_from_matrix, Footprint, Mesh, rotation_matrix, Shape, triangulate)
+    euler_from_matrix, Footprint, Mesh, pose_matrix, rotation_matrix, Shape, triangulate)
 from sim_bridge.simulation.meshes import cone, extrude, load_mesh, MeshError
 from sim_bridge.simulation.robot import DiffDriveConfig
 from sim_bridge.simulation.sdf_drive import DriveReading, NO_SPEED_LIMIT, plugin_kind  # noqa: F401
@@ -74,10 +74,9 @@ class SdfError(ValueError):
 
 def compose(parent: Pose6, child: Pose6) -> Pose6:
     """Return the pose of ``child``, given in ``parent``'s frame, in parent's parent (m, rad)."""
-    rotation = rotation_matrix(*parent[3:])
-    position = rotation @ np.asarray(child[:3], dtype=float) + parent[:3]
-    roll, pitch, yaw = euler_from_matrix(rotation @ rotation_matrix(*child[3:]))
-    return (float(position[0]), float(position[1]), float(position[2]), roll, pitch, yaw)
+    matrix = pose_matrix(*parent) @ pose_matrix(*child)
+    return (float(matrix[0, 3]), float(matrix[1, 3]), float(matrix[2, 3]),
+            *euler_from_matrix(matrix))
 
 
 def relative_pose(parent: Pose6, child: Pose6) -> Pose6:

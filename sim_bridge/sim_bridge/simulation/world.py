@@ -81,7 +81,7 @@ ball, its widest section below the robot's top). "The robot must start clear" me
 that slice.
 """
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from functools import cached_property
 import math
@@ -90,51 +90,23 @@ from pathlib import Path
 from typing import Any
 
 from sim_bridge.common import paths
-from sim_bridge.common.values import is_finite_number, with_type
+from sim_bridge.common.values import with_type
 from sim_bridge.common.yaml_loader import load_yaml, read_text
+from sim_bridge.simulation import world_file
 from sim_bridge.simulation.floor_slice import FloorSlice
 from sim_bridge.simulation.geometry import Footprint, Shape, triangulate, wrap_angle
 from sim_bridge.simulation.sdf import (
     describe_ignored, Ignored, is_sdf_text, load_model, Model, MODEL_FILE_SUFFIXES, parse_world,
     place, SdfError)
+from sim_bridge.simulation.world_file import (  # noqa: F401 - the world file's names
+    DEFAULT_ROBOT_MODEL, MAX_COORDINATE_M, MAX_SIZE_M, OBSTACLE_TYPES, validate_world_file,
+    WorldError)
 import yaml
 
-DEFAULT_ROBOT_MODEL = 'lab_robot'
 #: The largest world file read (bytes): an SDF world of a whole house is a few hundred KiB.
 WORLD_FILE_LIMIT_BYTES = 16 * 2 ** 20
-DEFAULT_WALL_THICKNESS = 0.15
-DEFAULT_WALL_HEIGHT = 1.0
 #: Margin (m) around obstacles and robot start for the default bounds of a world without walls.
 BOUNDS_MARGIN = 1.0
-#: Largest size, radius, length or height (m) a world file may give: a lab, not a continent.
-MAX_SIZE_M = 1000.0
-#: Largest distance (m) from the origin of a position, along x, y or z, a world file may give.
-MAX_COORDINATE_M = 1000.0
-OBSTACLE_TYPES = ('cube', 'cylinder', 'sphere', 'model')
-
-_TOP_KEYS = ('name', 'description', 'floor', 'robot', 'walls', 'obstacles', 'target', 'bounds')
-_FLOOR_KEYS = ('size',)
-_ROBOT_KEYS = ('model', 'pose')
-_WALL_KEYS = ('name', 'start', 'end', 'room', 'center', 'thickness', 'height')
-_OBSTACLE_KEYS = {
-    'cube': ('name', 'type', 'pose', 'z', 'size'),
-    'cylinder': ('name', 'type', 'pose', 'z', 'radius', 'length'),
-    'sphere': ('name', 'type', 'pose', 'z', 'radius'),
-    'model': ('name', 'type', 'pose', 'z', 'model'),
-}
-
-
-class WorldError(ValueError):
-    """A world file that cannot be used; says which file, entry and field, and why."""
-
-    def __init__(self, file: str, entry: str | None, field_name: str | None,
-                 problem: str) -> None:
-        self.file = file
-        self.entry = entry
-        self.field = field_name
-        self.problem = problem
-        parts = [file, entry, repr(field_name) if field_name else None, problem]
-        super().__init__(': '.join(part for part in parts if part))
 
 
 @dataclass(frozen=True)
@@ -379,64 +351,38 @@ class _Parser:
         return WorldError(self.label, entry, field_name, problem)
 
     def world(self, data: Any, path: Path | None) -> World:
-        if data is None:
-            data = {}
-        if not isinstance(data, Mapping):
-            raise self.fail(None, None, f'must be a mapping of keys, got {with_type(data)}')
-        self.check_keys(data, _TOP_KEYS, None)
-        name = data.get('name', path.stem if path is not None else self.label)
-        if not isinstance(name, str) or not name:
-            raise self.fail(None, 'name', f'must be a non-empty text, got {name!r}')
-        description = data.get('description', '')
-        if not isinstance(description, str):
-            raise self.fail(None, 'description', f'must be text, got {with_type(description)}')
-        floor_size = self.floor(data.get('floor'))
-        robot_model, robot, robot_start = self.robot(data.get('robot'))
+        spec = validate_world_file(data, self.label)
+        name = spec.name or (path.stem if path is not None else self.label)
+        robot_model, robot, robot_start = self.robot(spec.robot or world_file.Robot())
         obstacles = []
         declared = {}
-        for index, entry in enumerate(self.entries(data, 'walls')):
-            where, walls = self.walls(entry, index)
+        for index, wall in enumerate(spec.walls or []):
+            where, walls = self.walls(wall, index)
             self.add_unique(declared, walls, where)
             obstacles += walls
-        for index, entry in enumerate(self.entries(data, 'obstacles')):
-            where, obstacle = self.obstacle(entry, index)
+        for index, entry in enumerate(spec.obstacles or []):
+            where = world_file.entry_label('obstacles', index, {'name': entry.name})
+            obstacle = self.obstacle(entry, where)
             self.add_unique(declared, [obstacle], where)
             obstacles.append(obstacle)
-        target = data.get('target')
-        if target is not None:
-            names = [obstacle.name for obstacle in obstacles]
-            if not isinstance(target, str):
-                raise self.fail(None, 'target',
-                                f'must be an obstacle name, got {with_type(target)}')
-            if target not in names:
-                raise self.fail(None, 'target', f"names no obstacle ('{target}'); obstacles: "
-                                f"{', '.join(names) or 'none'}")
+        names = [obstacle.name for obstacle in obstacles]
+        if spec.target is not None and spec.target not in names:
+            raise self.fail(None, 'target', f"names no obstacle ('{spec.target}'); obstacles: "
+                            f"{', '.join(names) or 'none'}")
         _check_robot_clear(self.label, robot_start,
                            _floor_slice(self.label, robot, tuple(obstacles)), robot.name)
-        if 'bounds' in data:
-            bounds = self.bounds(data['bounds'])
-        else:
+        bounds = spec.bounds
+        if bounds is None:
             bounds = _default_bounds(obstacles, robot_start, robot.radius)
+        elif bounds[0] >= bounds[2] or bounds[1] >= bounds[3]:
+            raise self.fail(None, 'bounds', f'must be [xmin, ymin, xmax, ymax] with xmin < xmax '
+                            f'and ymin < ymax, got {list(bounds)}')
         files_read = ([path] if path is not None else []) + self.model_files
         return World(name=name, path=path, obstacles=tuple(obstacles), robot_start=robot_start,
-                     robot_model=robot_model, robot=robot, target=target, bounds=bounds,
-                     floor_size=floor_size, description=description,
-                     sources=tuple(dict.fromkeys(files_read)),
+                     robot_model=robot_model, robot=robot, target=spec.target, bounds=bounds,
+                     floor_size=spec.floor.size if spec.floor else None,
+                     description=spec.description, sources=tuple(dict.fromkeys(files_read)),
                      ignored=_ignored_line(robot.not_simulated))
-
-    def entries(self, data: Mapping, key: str) -> list:
-        value = data.get(key)
-        if value is None:
-            return []
-        if not isinstance(value, list):
-            raise self.fail(None, key, f'must be a list of entries, got {with_type(value)}')
-        return value
-
-    def check_keys(self, entry: Mapping, allowed: tuple[str, ...], where: str | None) -> None:
-        for key in entry:
-            if key not in allowed:
-                raise self.fail(where, str(key),
-                                f"unknown key; expected one of {', '.join(allowed)}")
 
     def add_unique(self, declared: dict[str, str], obstacles: list[Obstacle],
                    where: str) -> None:
@@ -447,29 +393,13 @@ class _Parser:
                                 f'by {declared[obstacle.name]})')
             declared[obstacle.name] = where
 
-    def floor(self, value: Any) -> tuple[float, float] | None:
-        if value is None:
-            return None
-        if not isinstance(value, Mapping):
-            raise self.fail('floor', None, f'must be a mapping, got {with_type(value)}')
-        self.check_keys(value, _FLOOR_KEYS, 'floor')
-        if 'size' not in value:
-            return None
-        return self.positives(value['size'], 'floor', 'size', 2)
-
-    def robot(self, value: Any) -> tuple[str, Model, tuple[float, float, float]]:
-        if value is None:
-            value = {}
-        if not isinstance(value, Mapping):
-            raise self.fail('robot', None, f'must be a mapping, got {with_type(value)}')
-        self.check_keys(value, _ROBOT_KEYS, 'robot')
-        name = value.get('model', DEFAULT_ROBOT_MODEL)
-        model = self.model(name, 'robot', self.folder)
+    def robot(self, spec: world_file.Robot) -> tuple[str, Model, tuple[float, float, float]]:
+        model = self.model(spec.model, 'robot', self.folder)
         if not model.shapes:
-            raise self.fail('robot', 'model', f"model '{name}' has no collision shape to give "
-                            'the robot a footprint')
-        pose = self.pose(value.get('pose', [0.0, 0.0, 0.0]), 'robot')
-        return name, model, pose
+            raise self.fail('robot', 'model', f"model '{spec.model}' has no collision shape to "
+                            'give the robot a footprint')
+        x, y, yaw = spec.pose
+        return spec.model, model, (x, y, wrap_angle(yaw))
 
     def model(self, name: Any, where: str, folder: Path | None = None,
               lidar: str | None = None) -> Model:
@@ -488,25 +418,18 @@ class _Parser:
         self.model_files += model.sources or [model.path]
         return model
 
-    def walls(self, entry: Any, index: int) -> tuple[str, list[Obstacle]]:
-        if not isinstance(entry, Mapping):
-            raise self.fail(f'walls[{index}]', None, f'must be a mapping, got {with_type(entry)}')
-        name = entry.get('name', f'wall_{index}')
+    def walls(self, spec: world_file.Wall, index: int) -> tuple[str, list[Obstacle]]:
+        """Return the label of wall entry ``index`` and its walls: one, or a room's four."""
+        name = spec.name or f'wall_{index}'
         where = f'walls[{index}] ({name})'
-        if not isinstance(name, str) or not name:
-            raise self.fail(f'walls[{index}]', 'name', f'must be a non-empty text, got {name!r}')
-        self.check_keys(entry, _WALL_KEYS, where)
-        thickness = self.positive(entry.get('thickness', DEFAULT_WALL_THICKNESS), where,
-                                  'thickness')
-        height = self.positive(entry.get('height', DEFAULT_WALL_HEIGHT), where, 'height')
-        if 'room' in entry:
+        thickness, height = spec.thickness, spec.height
+        if spec.room is not None:
             for key in ('start', 'end'):
-                if key in entry:
+                if getattr(spec, key) is not None:
                     raise self.fail(where, key, "a wall entry has either 'room' or "
                                     "'start' and 'end', not both")
-            size_x, size_y = self.positives(entry['room'], where, 'room', 2)
-            center_x, center_y = self.numbers(entry.get('center', [0.0, 0.0]), where,
-                                              'center', 2)
+            size_x, size_y = spec.room
+            center_x, center_y = spec.center or (0.0, 0.0)
             half_x = 0.5 * size_x + 0.5 * thickness
             half_y = 0.5 * size_y + 0.5 * thickness
             outer_x = size_x + 2.0 * thickness
@@ -516,14 +439,13 @@ class _Parser:
                                  0.0 if side in ('north', 'south') else 0.5 * math.pi,
                                  length, thickness, height)
                            for side, dx, dy, length in sides]
-        if 'center' in entry:
+        if spec.center is not None:
             raise self.fail(where, 'center', "only a 'room' wall entry has a center")
         for key in ('start', 'end'):
-            if key not in entry:
+            if getattr(spec, key) is None:
                 raise self.fail(where, key, "missing; a wall needs 'start' and 'end' (or "
                                 "'room')")
-        start = self.numbers(entry['start'], where, 'start', 2)
-        end = self.numbers(entry['end'], where, 'end', 2)
+        start, end = spec.start, spec.end
         length = math.hypot(end[0] - start[0], end[1] - start[1])
         if length <= 0.0:
             raise self.fail(where, 'end', 'must differ from start')
@@ -531,113 +453,24 @@ class _Parser:
                              math.atan2(end[1] - start[1], end[0] - start[0]), length,
                              thickness, height)]
 
-    def obstacle(self, entry: Any, index: int) -> tuple[str, Obstacle]:
-        if not isinstance(entry, Mapping):
-            raise self.fail(f'obstacles[{index}]', None,
-                            f'must be a mapping, got {with_type(entry)}')
-        name = entry.get('name')
-        if not isinstance(name, str) or not name:
-            raise self.fail(f'obstacles[{index}]', 'name',
-                            'missing' if name is None else f'must be text, got {with_type(name)}')
-        where = f'obstacles[{index}] ({name})'
-        kind = entry.get('type')
-        if kind not in OBSTACLE_TYPES:
-            problem = 'missing' if kind is None else f'unknown type {kind!r}'
-            raise self.fail(where, 'type', f"{problem}; use one of {', '.join(OBSTACLE_TYPES)}")
-        self.check_keys(entry, _OBSTACLE_KEYS[kind], where)
-        if 'pose' not in entry:
-            raise self.fail(where, 'pose', 'missing; give [x, y] or [x, y, yaw]')
-        x, y, yaw = self.pose(entry['pose'], where)
-        z = self.number(entry['z'], where, 'z') if 'z' in entry else None
-        if kind == 'model':
-            if 'model' not in entry:
-                raise self.fail(where, 'model', 'missing; name a model folder')
-            model = self.model(entry['model'], where, self.folder)
+    def obstacle(self, spec: world_file.Obstacle, where: str) -> Obstacle:
+        """Return the obstacle of entry ``where``: its shapes placed at its pose."""
+        x, y, yaw = spec.pose
+        yaw = wrap_angle(yaw)
+        if spec.type == 'model':
+            model = self.model(spec.model, where, self.folder)
             if not model.shapes:
-                raise self.fail(where, 'model', f"model '{entry['model']}' has no collision "
-                                'shapes')
-            shapes = tuple(shape.placed(x, y, z or 0.0, yaw) for shape in model.shapes)
-            return where, Obstacle(name, 'model', shapes, (x, y, yaw), model=entry['model'])
-        if kind == 'cube':
-            shape = Shape('box', size=self.positives(self.required(entry, 'size', where), where,
-                                                     'size', 3))
-        elif kind == 'cylinder':
-            shape = Shape('cylinder',
-                          radius=self.positive(self.required(entry, 'radius', where), where,
-                                               'radius'),
-                          length=self.positive(self.required(entry, 'length', where), where,
-                                               'length'))
+                raise self.fail(where, 'model', f"model '{spec.model}' has no collision shapes")
+            shapes = tuple(shape.placed(x, y, spec.z or 0.0, yaw) for shape in model.shapes)
+            return Obstacle(spec.name, 'model', shapes, (x, y, yaw), model=spec.model)
+        if spec.type == 'cube':
+            shape = Shape('box', size=spec.size)
+        elif spec.type == 'cylinder':
+            shape = Shape('cylinder', radius=spec.radius, length=spec.length)
         else:
-            shape = Shape('sphere', radius=self.positive(self.required(entry, 'radius', where),
-                                                         where, 'radius'))
-        centre_z = 0.5 * shape.height if z is None else z
-        return where, Obstacle(name, kind, (shape.placed(x, y, centre_z, yaw),), (x, y, yaw))
-
-    def required(self, entry: Mapping, key: str, where: str) -> Any:
-        if key not in entry:
-            raise self.fail(where, key, f"missing; a {entry['type']} needs it")
-        return entry[key]
-
-    def bounds(self, value: Any) -> tuple[float, float, float, float]:
-        xmin, ymin, xmax, ymax = self.numbers(value, None, 'bounds', 4)
-        if xmin >= xmax or ymin >= ymax:
-            raise self.fail(None, 'bounds', f'must be [xmin, ymin, xmax, ymax] with xmin < xmax '
-                            f'and ymin < ymax, got {value}')
-        return xmin, ymin, xmax, ymax
-
-    def pose(self, value: Any, where: str) -> tuple[float, float, float]:
-        if not isinstance(value, list) or len(value) not in (2, 3):
-            raise self.fail(where, 'pose', f'must be [x, y] or [x, y, yaw], got {value!r}')
-        numbers = self.numbers(value, where, 'pose', len(value), positions=2)
-        return (numbers[0], numbers[1], wrap_angle(numbers[2]) if len(numbers) == 3 else 0.0)
-
-    def numbers(self, value: Any, where: str | None, key: str, count: int,
-                positions: int | None = None) -> tuple[float, ...]:
-        """
-        Return ``count`` finite numbers, the first ``positions`` (all by default) positions (m).
-
-        A position is within ±MAX_COORDINATE_M of the origin.
-        """
-        if not isinstance(value, list) or len(value) != count \
-                or not all(is_finite_number(item) for item in value):
-            raise self.fail(where, key, f'must be {count} finite numbers, got {value!r}')
-        self.within_limit(value[:positions], value, where, key)
-        return tuple(float(item) for item in value)
-
-    def positives(self, value: Any, where: str | None, key: str,
-                  count: int) -> tuple[float, ...]:
-        """Return ``count`` sizes (m), each positive and at most MAX_SIZE_M."""
-        if not isinstance(value, list) or len(value) != count \
-                or not all(is_finite_number(item) and item > 0 for item in value):
-            raise self.fail(where, key, f'must be {count} positive finite numbers, got {value!r}')
-        self.within_limit(value, value, where, key, sizes=True)
-        return tuple(float(item) for item in value)
-
-    def number(self, value: Any, where: str | None, key: str, position: bool = True) -> float:
-        """Return a finite number: a position (m) within ±MAX_COORDINATE_M unless not one."""
-        if not is_finite_number(value):
-            raise self.fail(where, key, f'must be a finite number, got {value!r}')
-        if position:
-            self.within_limit([value], value, where, key)
-        return float(value)
-
-    def positive(self, value: Any, where: str | None, key: str) -> float:
-        """Return a size (m): positive and at most MAX_SIZE_M."""
-        number = self.number(value, where, key, position=False)
-        if number <= 0.0:
-            raise self.fail(where, key, f'must be a positive number, got {value!r}')
-        self.within_limit([number], value, where, key, sizes=True)
-        return number
-
-    def within_limit(self, numbers: list, value: Any, where: str | None, key: str,
-                     sizes: bool = False) -> None:
-        """Fail unless every number is a lab's: a size or a position in metres (module doc)."""
-        if sizes and any(number > MAX_SIZE_M for number in numbers):
-            raise self.fail(where, key, f'must be at most {MAX_SIZE_M:g} m (sizes are in '
-                            f'metres), got {value!r}')
-        if not sizes and any(abs(number) > MAX_COORDINATE_M for number in numbers):
-            raise self.fail(where, key, f'must be within ±{MAX_COORDINATE_M:g} m of the origin '
-                            f'(positions are in metres), got {value!r}')
+            shape = Shape('sphere', radius=spec.radius)
+        centre_z = 0.5 * shape.height if spec.z is None else spec.z
+        return Obstacle(spec.name, spec.type, (shape.placed(x, y, centre_z, yaw),), (x, y, yaw))
 
 
 def _wall(name: str, x: float, y: float, yaw: float, length: float, thickness: float,
