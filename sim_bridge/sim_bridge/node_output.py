@@ -145,6 +145,8 @@ class NodeLog:
         self.pending: collections.deque = collections.deque()
         self.record = record
         self.dropped = 0
+        #: What the run's output capture says it could not keep, if anything.
+        self.output_warning: str | None = None
         self.pattern = console_pattern() if pattern is None else pattern
         self._lock = threading.Lock()
 
@@ -168,9 +170,9 @@ class NodeLog:
                 return
 
     def warning(self) -> str | None:
-        """Say how many lines were not kept, or None."""
+        """Say how many lines (or bytes of output) were not kept, or None."""
         if not self.dropped:
-            return None
+            return self.output_warning
         return (f'{LOG_FILE} keeps the first {MAX_LINES} lines the nodes wrote; '
                 f'{self.dropped} more were not kept')
 
@@ -402,6 +404,74 @@ class OutputCapture:
             os.close(stream.saved)
         self._console = None
         OutputCapture.active = None
+
+
+class StreamLines:
+    """
+    What a node process wrote on its stdout and stderr, cut into lines on the trusted side.
+
+    The bytes arrive from the process's pipes (:meth:`take`); :meth:`cut` (at the sync frames
+    of sim_bridge.agent) turns what arrived so far into lines stamped with the sim time and
+    node given: a line's stamp is that of the cut that saw its first byte. Whole lines are
+    shown on this process's terminal as they are cut (when ``quiet``, all but the loggers'
+    lines, as ``--disable-stdout-logs`` would). At most ``cap_bytes`` are kept; the rest are
+    counted and dropped. ``tail`` keeps the last lines, to read a traceback from.
+    """
+
+    def __init__(self, log: NodeLog, *, quiet: bool = False, cap_bytes: int = 8 * 2 ** 20):
+        self.log = log
+        self.quiet = quiet
+        self.cap_bytes = cap_bytes
+        self.kept = self.dropped = 0
+        self.tail: collections.deque[str] = collections.deque(maxlen=400)
+        self.arrived = {'STDOUT': [], 'STDERR': []}
+        self.partial = {'STDOUT': b'', 'STDERR': b''}
+        self.partial_stamp: dict[str, tuple[int, str] | None] = {'STDOUT': None, 'STDERR': None}
+
+    def take(self, stream: str, data: bytes) -> None:
+        """Keep ``data`` that arrived on ``stream`` ('STDOUT' or 'STDERR'), within the cap."""
+        room = max(0, self.cap_bytes - self.kept)
+        self.dropped += max(0, len(data) - room)
+        if room:
+            self.arrived[stream].append(data[:room])
+            self.kept += min(room, len(data))
+
+    def cut(self, t_ns: int, node: str) -> None:
+        """Cut what arrived since the last cut into lines stamped ``t_ns`` (ns) and ``node``."""
+        for stream, chunks in self.arrived.items():
+            if not chunks:
+                continue
+            *lines, rest = (self.partial[stream] + b''.join(chunks)).split(b'\n')
+            chunks.clear()
+            for line in lines:
+                self._line(stream, line, self.partial_stamp[stream] or (t_ns, node))
+                self.partial_stamp[stream] = None
+            self.partial[stream] = rest
+            if rest and self.partial_stamp[stream] is None:
+                self.partial_stamp[stream] = (t_ns, node)
+
+    def _line(self, stream: str, line: bytes, stamp: tuple[int, str]) -> None:
+        text = line.decode('utf-8', errors='replace')
+        self.tail.append(text)
+        self.log.add(stamp[0], stamp[1], stream, text)
+        if not (self.quiet and self.log.pattern is not None
+                and self.log.pattern.match(_ANSI.sub('', text).rstrip('\r'))):
+            OutputCapture._copy(1 if stream == 'STDOUT' else 2, line + b'\n')
+
+    def close(self, t_ns: int) -> None:
+        """Cut what is left, the last line without its newline, at ``t_ns`` (ns)."""
+        self.cut(t_ns, '')
+        for stream, rest in self.partial.items():
+            if rest:
+                self._line(stream, rest, self.partial_stamp[stream] or (t_ns, ''))
+                self.partial[stream] = b''
+
+    def warning(self) -> str | None:
+        """Say how many bytes of output were not kept, or None."""
+        if not self.dropped:
+            return None
+        return (f'the nodes wrote {self.kept + self.dropped} bytes of output; the first '
+                f'{self.kept} were kept, {self.dropped} were not')
 
 
 def to_terminal(text: str) -> None:

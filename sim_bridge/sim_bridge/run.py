@@ -80,6 +80,9 @@ TELEOP_RATE_HZ = 20.0
 #: simulator, may be printing about a scan it had queued this long (s) before.
 PROCESS_LINE_LATENESS_S = 0.5
 NANOSECONDS_PER_SECOND = 10 ** 9
+#: How every run runs its target nodes (sim_bridge.stepped_run).
+STEPPED_REASON = ('its main() runs as ros2 run starts it, in a process of its own, in lockstep '
+                  'with the simulator')
 #: Longest wait (wall s) for a node run as a process to list its parameters.
 PARAMETER_ANSWER_S = 2.0
 
@@ -867,46 +870,21 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
     node_params = node_parameters(world_model, params, seed=seed, gui=gui, start=start,
                                   robot=robot)
     out_dir = Path(out_dir) if out_dir is not None else default_out_dir(world_model, targets)
-    modes = [run_mode(target) for target in targets]
-    process = [(t, mode) for t, mode in zip(targets, modes) if not mode.steppable]
-    if process:
-        target, mode = process[0]
-        if len(targets) > 1:
-            raise RunError(f'{target}: {mode.reason}, so it runs as its own process; a process '
-                           'run takes one node file: run it alone')
-        result = run_as_process(
-            world_model, target, mode, node_params, duration_s=duration_s, out_dir=out_dir,
-            remap=remap, ros_args=ros_args, setpoint=setpoint, printed=printed, quiet=quiet,
-            record=record, plot=plot, field_checks=field_checks, segments=segments,
-            progress=progress)
-        # The run's rclpy objects (its context, executor and nodes hold one another) are freed
-        # now, not by a later collection: in a process forked from this one (a multiprocessing
-        # pool's worker) that would free them without their DDS threads, and crash it.
-        gc.collect()
-        return result
-    run_modes = {'mode': 'stepped', 'reason': '; '.join(mode.reason for mode in modes)}
+    run_modes = {'mode': 'stepped', 'reason': STEPPED_REASON}
 
     node_errors, warnings, ended_by = [], [], None
     wall_start = time.perf_counter()
     with run_environment(field_checks), terminal_colours(), \
             tempfile.TemporaryDirectory() as scratch:
-        from rclpy.node import Node
         from sim_bridge.bridge import SimBridge
-        try:
-            classes = [load_node_class(target, Node) for target in targets]
-        except TargetError as error:
-            failure = import_failure(error)
-            if not quiet and failure.traceback:
-                to_terminal(failure.traceback)  # what `python3 node.py` would print
-            raise failure from None
-        code = StudentCode.of(inspect.getfile(node_class) for node_class in classes)
+        from sim_bridge.stepped_run import AgentFailure, LockstepRun, node_error
         params_file = Path(scratch) / 'params.yaml'
         write_params_file(params_file, node_params)
         # The bridge reads its own entry alone: EVERY_NODE's parameters are the targets'.
         bridge_params_file = Path(scratch) / f'{BRIDGE_NODE}.yaml'
         write_params_file(bridge_params_file, {BRIDGE_NODE: node_params[BRIDGE_NODE]})
-        run = SteppedRun(params_file, quiet, code, bridge_params_file=bridge_params_file,
-                         remap=remap, ros_args=ros_args)
+        run = LockstepRun(params_file, quiet, bridge_params_file=bridge_params_file,
+                          remap=remap, ros_args=ros_args)
         bag, interrupt, outputs_open, teleop = None, UserInterrupt(), False, None
         recorder: RunRecorder | None = None
         log = NodeLog(record)
@@ -916,7 +894,7 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
             recorder = RunRecorder(run, observer, record, log)
             teleop = Teleop(run, bridge, world_model, segments) if segments else None
             with run.capture_output(log):
-                start_failure = run.start_nodes(zip(targets, classes), node_params)
+                start_failure = run.start_nodes(targets, node_params)
                 if start_failure is None:
                     warnings += run.parameter_warnings(node_params)
                     for warning in warnings:
@@ -937,6 +915,17 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
             if not interrupt.pressed:
                 raise
             # Ctrl-C outside the nodes' code: the outputs are written, then it goes on.
+        except AgentFailure as failure:
+            if failure.returned:
+                ended_by = str(failure)
+                warnings.append(ended_by)
+                to_terminal(f'warning: {ended_by}\n')
+            elif not interrupt.pressed:
+                node_errors.append(json_safe(node_error(failure, bridge.sim.lidar_config)))
+                for line in failure.traceback.splitlines():
+                    log.add(bridge.now_ns, failure.node, 'STDERR', line)
+                if not quiet:
+                    to_terminal(failure.traceback or f'{failure}\n')
         except NodeEnded as end:
             ended_by = str(end)
             warnings.append(f'{end}: the run ended at {bridge.now_ns / NANOSECONDS_PER_SECOND:g} '

@@ -1,0 +1,203 @@
+"""
+A stepped run's trusted side: the simulator and the runner's nodes, the targets' processes.
+
+The SimBridge node, the recorder and the teleop run here on real rclpy, stepped (every ready
+callback runs before physics advances, see sim_bridge.stepping); each target node file runs in
+a process of its own (sim_bridge.agent) in lockstep with them (sim_bridge.boundary), with the
+command line its process would get (``--ros-args --params-file <params.yaml> -p
+use_sim_time:=true -r FROM:=TO ...``). This process never imports a target's code.
+"""
+
+from contextlib import contextmanager
+import os
+from typing import Any, Callable, Iterable, Iterator, Sequence
+
+from sim_bridge.boundary import (
+    Agent, agent_environment, AgentFailure, Lockstep)
+from sim_bridge.node_output import NodeLog, StreamLines
+from sim_bridge.run import (
+    BRIDGE_NODE, NO_TYPE_DESCRIPTION_SERVICE, parameter_warnings, Params, RunError,
+    runner_node, unconnected_topics)
+from sim_bridge.stepping import describe, next_timer_ns, spin_until_idle, SteppedExecutor
+
+
+class GraphView:
+    """
+    The ROS graph as the runner's warnings read it: the bridge's ends, the processes' nodes.
+
+    The node processes' nodes are known from what they said they are (sim_bridge.agent); the
+    counts are this process's graph, where the boundary's taps and publishers stand for them.
+    """
+
+    def __init__(self, bridge, agents: Sequence[Agent]):
+        self.bridge = bridge
+        self.publishers = bridge.publishers
+        self.subscriptions = bridge.subscriptions
+        self.entries = {(entry['name'], entry['namespace']): entry
+                        for agent in agents for entry in agent.graph}
+        self.count_publishers = bridge.count_publishers
+        self.count_subscribers = bridge.count_subscribers
+
+    def get_subscriber_names_and_types_by_node(self, name: str, namespace: str) -> list:
+        return [(topic, [kind]) for topic, kind in self.entries[name, namespace]['subscribes']]
+
+    def get_publisher_names_and_types_by_node(self, name: str, namespace: str) -> list:
+        return [(topic, [kind]) for topic, kind in self.entries[name, namespace]['publishes']]
+
+
+class LockstepRun:
+    """
+    The SimBridge node and the runner's nodes here, the targets in their processes, stepped.
+
+    The bridge reads only ``bridge_params_file``; the targets get ``node_arguments``. RunError
+    when rcl cannot read the arguments (a remapping rule it refuses).
+    """
+
+    def __init__(self, params_file, quiet: bool, *, bridge_params_file=None,
+                 remap: Sequence[str] = (), ros_args: Sequence[str] = ()):
+        import rclpy
+        from rclpy.impl.implementation_singleton import rclpy_implementation
+        from rclpy.signals import SignalHandlerOptions
+        self.rclpy = rclpy
+        self.quiet = quiet
+        self.node_arguments = ['--ros-args', '--params-file', str(params_file),
+                               '-p', 'use_sim_time:=true',
+                               *(argument for rule in remap for argument in ('-r', rule)),
+                               *ros_args]
+        self.bridge_arguments = ['--ros-args', '--params-file',
+                                 str(bridge_params_file or params_file)]
+        try:  # rcl reads the nodes' arguments here first: a bad one is the run's error
+            rclpy.init(args=self.node_arguments, signal_handler_options=SignalHandlerOptions.NO)
+        except rclpy_implementation.RCLError as error:
+            why = str(error).partition(': ')[2].split(', at ')[0].split('. Error:')[0]
+            raise RunError(f"rcl cannot read the nodes' arguments: {why}") from None
+        self.context = rclpy.utilities.get_default_context()
+        self.executor = SteppedExecutor(self.context)
+        self.boundary_node = runner_node('sim_bridge_boundary', self.context, False)
+        self.agents: list[Agent] = []
+        self.lockstep = Lockstep(self.agents, lambda: spin_until_idle(self.executor))
+        self.bridge = None
+        self.lines: StreamLines | None = None
+
+    def node(self, name: str, sim_time: bool = False):
+        """Create one of the runner's own nodes: no services or /rosout; on sim time if asked."""
+        node = runner_node(name, self.context, sim_time)
+        self.executor.add_node(node)
+        self.executor.own_nodes.add(node)
+        return node
+
+    @contextmanager
+    def capture_output(self, log: NodeLog) -> Iterator[StreamLines]:
+        """Keep what the node processes write in the block in ``log``, at the sim time of it."""
+        self.lines = StreamLines(log, quiet=self.quiet)
+        try:
+            yield self.lines
+        finally:
+            for agent in self.agents:
+                agent.close()
+            self.lines.close(self.bridge.now_ns if self.bridge is not None else 0)
+            log.output_warning = self.lines.warning()
+
+    def start_simulator(self, bridge_class: type):
+        """Start the SimBridge node, stepped, and return it; RunError when it cannot start."""
+        try:
+            self.bridge = bridge_class(
+                stepped=True, use_global_arguments=False, cli_args=self.bridge_arguments,
+                start_parameter_services=False, enable_rosout=False,
+                parameter_overrides=[NO_TYPE_DESCRIPTION_SERVICE])
+        except self.rclpy.exceptions.InvalidParameterTypeException as error:
+            raise RunError(f'{BRIDGE_NODE}: {error}') from None
+        except Exception as error:  # noqa: B902 a bad parameter, a world it cannot load
+            raise RunError(f'{BRIDGE_NODE}: {describe(error)}') from None
+        self.executor.add_node(self.bridge)
+        self.executor.own_nodes.add(self.bridge)
+        return self.bridge
+
+    def start_nodes(self, targets: Iterable[str], params: Params) -> AgentFailure | None:
+        """Start a process for each TARGET; return the failure of one that did not start."""
+        env = agent_environment(dict(os.environ))
+        try:
+            for target in targets:
+                agent = Agent(target, self.node_arguments, env,
+                              self.boundary_node, self.lines, lambda: self.bridge.now_ns)
+                self.agents.append(agent)
+                agent.start()
+        except AgentFailure as failure:
+            return failure
+        return None
+
+    def target_nodes(self) -> list[dict]:
+        """Return what the target processes said their nodes are (sim_bridge.agent)."""
+        return [entry for agent in self.agents for entry in agent.graph]
+
+    def parameter_warnings(self, params: Params) -> list[str]:
+        """Return a warning for each node in ``params`` not running, and each not declared."""
+        declared = {entry['name']: set(entry['parameters']) for entry in self.target_nodes()}
+        targets = list(declared)
+        declared[BRIDGE_NODE] = set(self.bridge.list_parameters([], 0).names)
+        return parameter_warnings(params, declared, targets)
+
+    def unconnected_topics(self) -> list[str]:
+        """Return a warning for each topic a target node uses with nothing at its other end."""
+        return unconnected_topics(GraphView(self.bridge, self.agents),
+                                  [(e['name'], e['namespace']) for e in self.target_nodes()])
+
+    def parameter(self, name: str) -> Any:
+        """Return the number a target node's parameter ``name`` was, if one declared it."""
+        for entry in self.target_nodes():
+            value = entry.get('values', {}).get(name)
+            if type(value) in (int, float):
+                return float(value)
+        return None
+
+    def advance(self, end_ns: int, step_ns: int, on_step: Callable[[int], None]) -> None:
+        """
+        Step physics to ``end_ns``, each step's due callbacks and exchanges done after it.
+
+        /clock goes out with every message the bridge sends, and on its own only when a
+        timer of the runner's nodes or a node process's wake time falls due;
+        ``on_step(now_ns)`` is called every ``step_ns`` of sim time.
+        """
+        bridge, executor, lockstep = self.bridge, self.executor, self.lockstep
+        own = [node for node in executor.own_nodes if node is not bridge]
+        if bridge.now_ns == 0:
+            bridge.publish(bridge.clock_pub, bridge.clock)
+        spin_until_idle(executor)
+        lockstep.exchange_due(bridge.now_ns, force=True)
+        timer_due = next_timer_ns(own)
+        next_call_ns = bridge.now_ns + step_ns
+        physics_ns = bridge.step_ns
+        while bridge.now_ns < end_ns:
+            wakes = [wake for wake in (timer_due, lockstep.next_wake_ns()) if wake is not None]
+            clock_due = bool(wakes) and min(wakes) <= bridge.now_ns + physics_ns
+            if bridge.step(clock_due):
+                spin_until_idle(executor)
+                timer_due = next_timer_ns(own)
+            lockstep.exchange_due(bridge.now_ns)
+            if bridge.now_ns >= next_call_ns:
+                on_step(bridge.now_ns)
+                next_call_ns += step_ns
+
+    def close(self) -> None:
+        """Destroy every node (the bridge last) and shut this run's rclpy context down."""
+        nodes = [node for node in self.executor.get_nodes() if node is not self.bridge]
+        self.executor.shutdown()
+        for node in nodes + [self.boundary_node] + ([self.bridge] if self.bridge else []):
+            node.destroy_node()
+        self.rclpy.try_shutdown()
+
+
+def node_error(failure: AgentFailure, lidar: Any) -> dict:
+    """Return the ``node_errors`` entry of a node process that failed, with a hint."""
+    from sim_bridge.hints import printed_scan_hint, ros_module_hint
+    from sim_bridge.process_run import last_traceback, printed_error
+    printed = last_traceback(failure.traceback.splitlines())
+    code_line = printed[0][-1].line if printed and printed[0] else ''
+    error_line = printed[1] if printed else failure.error_line
+    hint = (ros_module_hint(printed_error(error_line))
+            or printed_scan_hint(error_line, code_line or '', lidar))
+    entry = {'node': failure.node or '', 'error': str(failure) + (f' ({hint})' if hint else '')}
+    if failure.traceback:
+        entry['traceback'] = failure.traceback
+    return entry
+
