@@ -95,15 +95,15 @@ class Agent:
     subscribes to; publishers: what it publishes, republished here); ``lines`` its output.
     """
 
-    def __init__(self, label: str, node_arguments: Sequence[str], env: dict[str, str], node,
-                 lines: StreamLines, clock_ns: Callable[[], int]):
+    def __init__(self, target: str, label: str, node_arguments: Sequence[str],
+                 env: dict[str, str], node, lines: StreamLines, clock_ns: Callable[[], int]):
         self.label = label
         self.node = node
         self.lines = lines
         self.clock_ns = clock_ns
         to_agent, self.to_fd = os.pipe()
         self.from_fd, from_agent = os.pipe()
-        argv = agent_command(label, to_agent, from_agent, node_arguments)
+        argv = agent_command(target, to_agent, from_agent, node_arguments)
         try:
             self.process = start_process(argv, env, (to_agent, from_agent))
         finally:

@@ -18,6 +18,7 @@ from sim_bridge.node_output import NodeLog, StreamLines
 from sim_bridge.run import (
     BRIDGE_NODE, NO_TYPE_DESCRIPTION_SERVICE, parameter_warnings, Params, RunError,
     runner_node, unconnected_topics)
+from sim_bridge.scenario import target_name
 from sim_bridge.stepping import describe, next_timer_ns, spin_until_idle, SteppedExecutor
 
 
@@ -118,7 +119,7 @@ class LockstepRun:
         env = agent_environment(dict(os.environ))
         try:
             for target in targets:
-                agent = Agent(target, self.node_arguments, env,
+                agent = Agent(target, target_name(target), self.node_arguments, env,
                               self.boundary_node, self.lines, lambda: self.bridge.now_ns)
                 self.agents.append(agent)
                 agent.start()
