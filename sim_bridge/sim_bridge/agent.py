@@ -22,12 +22,14 @@ hear only this process.
 
 import argparse
 import ctypes
+import faulthandler
 from importlib import import_module
 from importlib.metadata import entry_points
 import os
 from pathlib import Path
 import re
 import runpy
+import signal
 import sys
 import threading
 import time
@@ -415,6 +417,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv[:split])
     os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'OFF'
     sys.stdout.reconfigure(line_buffering=True)
+    # A node stuck in a callback: the trusted side asks where (sim_bridge.boundary).
+    faulthandler.register(signal.SIGUSR1, all_threads=False)
     run(args.target, argv[split:], Link(args.in_fd, args.out_fd))
     sys.stdout.flush()
     os._exit(0)  # whatever threads the nodes left running

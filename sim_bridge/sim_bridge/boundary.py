@@ -18,6 +18,7 @@ nothing crosses. The same seed gives the same messages in the same order.
 import math
 import os
 from pathlib import Path
+import re
 import selectors
 import signal
 import subprocess
@@ -43,6 +44,11 @@ EXCHANGE_TIMEOUT_S = 30.0
 #: Exchanges in one sim step before the nodes are taken to be in a loop of messages.
 MAX_EXCHANGES_PER_STEP = 1000
 READ_BYTES = 2 ** 16
+#: Bytes of a run's output kept (its nodes' stdout and stderr); the rest are counted.
+OUTPUT_CAP_BYTES = 8 * 2 ** 20
+#: Wall seconds a stuck node process gets to dump its stack; a line of that dump.
+STACK_DUMP_S = 2.0
+STACK_LINE = re.compile(r'\s*File "(?P<file>[^"]+)", line (?P<line>\d+) in (?P<name>\S+)')
 #: Wall seconds a node process gets to end when told to, before it is killed.
 STOP_GRACE_S = 1.0
 NANOSECONDS_PER_SECOND = 10 ** 9
@@ -164,17 +170,44 @@ class Agent:
                 raise self.ended_without_word()
             left = deadline - time.monotonic()
             if left <= 0:
-                where = f" (node '{self.running}' was in a callback)" if self.running else ''
                 raise self.failure(f'did not finish its step within {timeout_s:g} s of wall '
-                                   f'time{where}: a callback that does not return?')
+                                   f'time: a callback that does not return?{self.stuck_at()}')
             for key, _ in self.selector.select(min(left, 1.0)):
                 self._drain(key)
+
+    def stuck_at(self) -> str:
+        """
+        Return ' It was at FILE:LINE in FUNCTION' of the node's code the process is stuck in.
+
+        The process dumps its main thread's stack on SIGUSR1 (Python's faulthandler, on its
+        stderr); '' when it does not within STACK_DUMP_S.
+        """
+        from sim_bridge.targets import is_library_frame
+        self.lines.cut(self.clock_ns(), self.running)
+        before = len(self.lines.tail)
+        try:
+            self.process.send_signal(signal.SIGUSR1)
+        except OSError:
+            return ''
+        deadline = time.monotonic() + STACK_DUMP_S
+        while time.monotonic() < deadline and self.process.poll() is None:
+            for key, _ in self.selector.select(deadline - time.monotonic()):
+                if key.data is not None:
+                    self._drain(key)
+            self.lines.cut(self.clock_ns(), self.running)
+            dump = list(self.lines.tail)[before:]
+            frames = [match for line in dump if (match := STACK_LINE.match(line))]
+            own = [match for match in frames if not is_library_frame(match['file'])]
+            if own:
+                match = own[0]  # faulthandler prints the innermost call first
+                return f" It was at {match['file']}:{match['line']} in {match['name']}."
+        return ''
 
     def failure(self, what: str) -> AgentFailure:
         """Return the failure of this process that ``what`` says, at the run's sim time."""
         self.kill()
-        return AgentFailure(f'{self.label}: the node process {what}, at '
-                            f'{self.clock_ns() / NANOSECONDS_PER_SECOND:g} s', self.running)
+        return AgentFailure(f'{self.label}: at {self.clock_ns() / NANOSECONDS_PER_SECOND:g} s '
+                            f'of sim time, the node process {what}', self.running)
 
     def ended_without_word(self) -> AgentFailure:
         """Return the failure of a process whose protocol pipe closed: it exited or crashed."""

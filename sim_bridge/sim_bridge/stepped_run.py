@@ -12,6 +12,7 @@ from contextlib import contextmanager
 import os
 from typing import Any, Callable, Iterable, Iterator, Sequence
 
+from sim_bridge import boundary
 from sim_bridge.boundary import (
     Agent, agent_environment, AgentFailure, Lockstep)
 from sim_bridge.node_output import NodeLog, StreamLines
@@ -90,7 +91,7 @@ class LockstepRun:
     @contextmanager
     def capture_output(self, log: NodeLog) -> Iterator[StreamLines]:
         """Keep what the node processes write in the block in ``log``, at the sim time of it."""
-        self.lines = StreamLines(log, quiet=self.quiet)
+        self.lines = StreamLines(log, quiet=self.quiet, cap_bytes=boundary.OUTPUT_CAP_BYTES)
         try:
             yield self.lines
         finally:
