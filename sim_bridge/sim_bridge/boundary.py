@@ -373,7 +373,7 @@ class Agent:
 def agent_command(target: str, in_fd: int, out_fd: int,
                   node_arguments: Sequence[str]) -> list[str]:
     """Return the command line of the process that runs TARGET with ``node_arguments``."""
-    return [sys.executable, *(['/tmp/prof_agent.py'] if os.environ.get('PROF') else ['-m', 'sim_bridge.agent']), '--in', str(in_fd), '--out', str(out_fd),
+    return [sys.executable, '-m', 'sim_bridge.agent', '--in', str(in_fd), '--out', str(out_fd),
             '--', str(target), *node_arguments]
 
 
