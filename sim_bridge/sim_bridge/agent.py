@@ -27,13 +27,12 @@ from importlib import import_module
 from importlib.metadata import entry_points
 import os
 from pathlib import Path
-import re
-import runpy
 import signal
 import sys
 import threading
 import time
 import traceback
+from types import ModuleType
 from typing import Any, Callable
 
 from sim_bridge.frames import encode, FrameDecoder, Message
@@ -113,6 +112,7 @@ class Lockstep:
         self.running: tuple[str, str] | None = None
         self.failed_in: tuple[str, str] | None = None
         self.shutdown_where = ''
+        self.shutdown_in: tuple[str, str] | None = None
         self.time_passed = threading.Condition()
         #: Writes of the nodes' streams and loggers since the last sync.
         self.printed = 0
@@ -262,6 +262,9 @@ class TracedCallback:
         lockstep.running = (self.node, self.place)
         try:
             self.task()
+        except BaseException:  # noqa: B902 sys.exit(), KeyboardInterrupt: not kept by the task
+            lockstep.failed_in = (self.node, self.place)
+            raise
         finally:
             lockstep.running = None
             if self.task.exception() is not None:
@@ -346,68 +349,113 @@ def install(lockstep: Lockstep) -> None:
 
     def note_shutdown() -> None:
         lockstep.shutdown_where = lockstep.code.stack_origin(traceback.extract_stack()[:-1])
+        lockstep.shutdown_in = lockstep.running
     lockstep.note_shutdown = note_shutdown  # the context keeps a weak reference to methods
     rclpy.utilities.get_default_context().on_shutdown(note_shutdown)
 
 
-def entry_point(target: str) -> tuple[Callable[[], Any], str | None]:
+def _file_main(path: str) -> Callable[[], Any]:
     """
-    Return how ``ros2 run`` / ``python3`` would start TARGET, and its file.
+    Run the node file's module code now, as ``python3 FILE`` does; return what starts it.
 
-    A file: its ``__main__`` block, else its ``main()``; a console script: its entry point; a
-    module: its ``main()``. ``FILE:Class``, or a file of Node classes alone: the class, spun by
-    a canonical main (``rclpy.init``, ``rclpy.spin``).
+    Its ``if __name__ == '__main__'`` block (run with what follows it), else its ``main()``;
+    None when it has neither.
     """
+    import ast
     from sim_bridge.node_styles import has_main_guard
-    from sim_bridge.targets import module_file, split_target
+    source = Path(path).read_bytes()
+    tree = ast.parse(source, path)
+    guards = [index for index, statement in enumerate(tree.body)
+              if has_main_guard(ast.unparse(statement))]
+    if not guards and not any(isinstance(statement, ast.FunctionDef) and statement.name == 'main'
+                              for statement in tree.body):
+        return None  # a module of Node classes: the class is loaded and spun
+    module = ModuleType('__main__' if guards else 'node_file')
+    module.__file__ = path
+    sys.modules[module.__name__] = module
+    split = guards[0] if guards else len(tree.body)
+    exec(compile(ast.Module(tree.body[:split], []), path, 'exec'), vars(module))
+    if guards:
+        rest = compile(ast.Module(tree.body[split:], []), path, 'exec')
+        return lambda: exec(rest, vars(module))
+    return getattr(module, 'main', None)
+
+
+def prepare(target: str) -> tuple[Callable[[], Any], str | None]:
+    """
+    Import TARGET as ``ros2 run`` / ``python3`` would; return what starts it, and its file.
+
+    A file: its module code runs now, then its ``__main__`` block or ``main()``; a console
+    script: its entry point; a module: its ``main()``. ``FILE:Class``, or a file of Node
+    classes alone: the class, spun by a canonical main (``rclpy.init``, ``rclpy.spin``).
+    """
+    from sim_bridge.targets import (
+        load_module, load_node_class, module_file, split_target, TargetError)
     where, class_name = split_target(target)
     path = module_file(where)
-    if class_name is None and path and (where.endswith('.py') or '/' in where
-                                        or Path(where).is_file()):
-        source = Path(path).read_text(encoding='utf-8')
-        if has_main_guard(source):
-            return lambda: runpy.run_path(path, run_name='__main__'), path
-        if re.search(r'^def main\(', source, re.MULTILINE):
-            return lambda: runpy.run_path(path, run_name='node_file')['main'](), path
+    start = None
+    if class_name is None and (where.endswith('.py') or '/' in where or Path(where).is_file()):
+        if path is None or not Path(path).is_file():
+            raise TargetError(f'node file not found: {where}')
+        sys.path.insert(0, str(Path(path).resolve().parent))
+        start = _file_main(path)
     elif class_name is None:
         scripts = entry_points(group='console_scripts', name=where)
-        if scripts:
-            return next(iter(scripts)).load(), path
-        module = import_module(where)
-        if callable(getattr(module, 'main', None)):
-            return module.main, path
-
-    def spin_class() -> None:
-        import rclpy
+        start = next(iter(scripts)).load() if scripts else getattr(
+            load_module(where), 'main', None)
+    if start is None:
         from rclpy.node import Node
-        from sim_bridge.targets import load_node_class
         node_class = load_node_class(target, Node)
-        rclpy.init()
-        rclpy.spin(node_class())
-    return spin_class, path
+
+        def start() -> None:
+            import rclpy
+            rclpy.init()
+            rclpy.spin(node_class())
+    return start, path
+
+
+def start_failure(target: str, error: BaseException, code) -> dict:
+    """Return the ended frame's fields of TARGET failing to start: RunError on the trusted side."""
+    from sim_bridge.targets import describe, split_target, TargetError
+    cause = error.__cause__ if isinstance(error, TargetError) else error
+    if isinstance(error, TargetError):  # load_node_class's own words
+        message = str(error)
+    else:
+        message = f"'{split_target(target)[0]}' fails to import: {describe(error, code)}"
+    if cause is None:
+        return {'status': 'start', 'error': message}
+    return {'status': 'start', 'error': message,
+            'traceback': code.traceback(cause)[-MAX_TRACEBACK_CHARS:]}
 
 
 def run(target: str, ros_args: list[str], link: Link) -> None:
     """Run TARGET's main() in lockstep; say on ``link`` how it ended."""
-    from sim_bridge.targets import describe, StudentCode
+    from rclpy.exceptions import InvalidParameterTypeException
+    from sim_bridge.targets import describe, module_file, split_target, StudentCode
     lockstep = Lockstep(link)
-    start, path = entry_point(target)
+    path = module_file(split_target(target)[0])
     lockstep.code = code = StudentCode.of([path] if path else [])
     install(lockstep)
     sys.argv = [path or target, *ros_args]
-    if path:
-        sys.path.insert(0, str(Path(path).resolve().parent))
     link.send('hello', pid=os.getpid())
     try:
+        start, path = prepare(target)
+    except BaseException as error:  # noqa: B902 SystemExit at import, a syntax error
+        link.send('ended', **start_failure(target, error, code))
+        return
+    try:
         start()
+    except InvalidParameterTypeException as error:
+        link.send('ended', status='start', error=str(error), parameter=True)
     except BaseException as error:  # noqa: B902 the node's process would have died of it
         node, place = lockstep.failed_in or lockstep.running or ('', 'its main()')
         link.send('ended', status='error', node=node, place=place,
                   error=describe(error, code)[:MAX_TRACEBACK_CHARS],
                   traceback=code.traceback(error)[-MAX_TRACEBACK_CHARS:], t_ns=lockstep.now_ns)
-        return
-    link.send('ended', status='returned', where=lockstep.shutdown_where[:1000],
-              t_ns=lockstep.now_ns)
+    else:
+        node, place = lockstep.shutdown_in or ('', 'its main()')
+        link.send('ended', status='returned', where=lockstep.shutdown_where[:1000],
+                  node=node, place=place, t_ns=lockstep.now_ns)
 
 
 def main(argv: list[str] | None = None) -> int:

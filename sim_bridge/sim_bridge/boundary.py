@@ -44,6 +44,7 @@ EXCHANGE_TIMEOUT_S = 30.0
 #: Exchanges in one sim step before the nodes are taken to be in a loop of messages.
 MAX_EXCHANGES_PER_STEP = 1000
 READ_BYTES = 2 ** 16
+READS_AT_ONCE = 16
 #: Bytes of a run's output kept (its nodes' stdout and stderr); the rest are counted.
 OUTPUT_CAP_BYTES = 8 * 2 ** 20
 #: Wall seconds a stuck node process gets to dump its stack; a line of that dump.
@@ -63,12 +64,21 @@ class AgentFailure(Exception):
     """
 
     def __init__(self, message: str, node: str = '', traceback: str = '',
-                 returned: bool = False, error_line: str = ''):
+                 returned: bool = False, error_line: str = '', place: str = ''):
         super().__init__(message)
         self.node = node
+        self.place = place
         self.traceback = traceback
         self.returned = returned
         self.error_line = error_line
+
+
+class AgentStartError(Exception):
+    """A TARGET whose process could not start its nodes; ``traceback`` is the node's part."""
+
+    def __init__(self, message: str, traceback: str = ''):
+        super().__init__(message)
+        self.traceback = traceback
 
 
 def start_process(argv: Sequence[str], env: dict[str, str],
@@ -131,9 +141,9 @@ class Agent:
     # Reading
 
     def _drain(self, key) -> bool:
-        """Read what one pipe holds now; return False at its end."""
+        """Read what one pipe holds now (READS_AT_ONCE reads at most); False at its end."""
         fd = key.fd
-        while True:
+        for _ in range(READS_AT_ONCE):
             try:
                 data = os.read(fd, READ_BYTES)
             except BlockingIOError:
@@ -148,6 +158,7 @@ class Agent:
                     raise self.failure(f'sent a malformed frame ({error})') from None
                 return True
             self.lines.take(key.data, data)
+        return True
 
     def _drain_output(self) -> None:
         for key in list(self.selector.get_map().values()):
@@ -211,10 +222,8 @@ class Agent:
 
     def ended_without_word(self) -> AgentFailure:
         """Return the failure of a process whose protocol pipe closed: it exited or crashed."""
-        try:
-            status = self.process.wait(timeout=5.0)
-        except subprocess.TimeoutExpired:
-            status = None
+        self.wait_for_end(STOP_GRACE_S)
+        status = self.process.poll()
         self._drain_output()
         failure = self.failure(f'ended (exit status {status})' if status is not None
                                else 'closed its pipe')
@@ -243,20 +252,31 @@ class Agent:
             self.update_taps()
         return frame.messages
 
-    def ended(self, frame: Frame) -> AgentFailure:
-        """Return what an ended frame says: the node's error, or its main() returning."""
+    def ended(self, frame: Frame) -> Exception:
+        """
+        Return what an ended frame says: a start error, the node's error, or main() returning.
+
+        A start error (TARGET that does not import, names no Node class, a parameter of the
+        wrong type) is an AgentStartError, the run's error, not the node's.
+        """
         self.kill()
-        at = f'{self.clock_ns() / NANOSECONDS_PER_SECOND:g} s'
-        if frame.text('status', 16) == 'returned':
-            where = frame.text('where', 1000, '')
-            what = f'shut ROS down (rclpy.shutdown()){where}' if where else 'returned'
-            return AgentFailure(f'{self.label}: its main() ended at {at}: {what}',
-                                returned=True)
+        status = frame.text('status', 16)
+        if status == 'start':
+            error = frame.text('error', 40_000)
+            if frame.fields.get('parameter') is True:
+                error = f'{self.label}: {error}'
+            return AgentStartError(error, frame.text('traceback', 40_000, ''))
         node = frame.text('node', default='') or self.label
+        place = frame.text('place', default='its main()')
+        if status == 'returned':
+            where = frame.text('where', 1000, '')
+            what = (f"node '{node}' shut ROS down (rclpy.shutdown()) in {place}{where}" if where
+                    else f'{self.label}: its main() returned')
+            return AgentFailure(what, returned=True)
         error = frame.text('error', 40_000)
-        return AgentFailure(f"node '{node}' raised {error} in {frame.text('place')}", node,
+        return AgentFailure(f"node '{node}' raised {error}", node,
                             frame.text('traceback', 40_000, ''),
-                            error_line=error.partition(' at ')[0])
+                            error_line=error.partition(' at ')[0], place=place)
 
     def exchange(self, messages: Sequence[Message]) -> list[Message]:
         """Send the step (sim time now and ``messages``); return what the nodes published."""
@@ -353,14 +373,24 @@ class Agent:
             self.process.kill()
         self.process.wait()
 
+    def wait_for_end(self, timeout_s: float) -> None:
+        """Read the process's pipes until they all end (it exited), for ``timeout_s`` at most."""
+        deadline = time.monotonic() + timeout_s
+        while self.selector.get_map() and time.monotonic() < deadline:
+            for key, _ in self.selector.select(deadline - time.monotonic()):
+                try:
+                    self._drain(key)
+                except AgentFailure:
+                    self.selector.unregister(key.fd)
+
     def close(self) -> None:
         """Tell the process to end (killed after STOP_GRACE_S); close its pipes."""
         if self.process.poll() is None:
             try:
                 os.write(self.to_fd, encode('stop'))
-                self.process.wait(STOP_GRACE_S)
-            except (OSError, subprocess.TimeoutExpired):
+            except OSError:
                 pass
+            self.wait_for_end(STOP_GRACE_S)
         self.kill()
         self._drain_output()
         self.selector.close()

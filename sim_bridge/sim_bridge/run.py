@@ -918,8 +918,10 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
         except AgentFailure as failure:
             if failure.returned:
                 ended_by = str(failure)
-                warnings.append(ended_by)
-                to_terminal(f'warning: {ended_by}\n')
+                warnings.append(f'{failure}: the run ended at '
+                                f'{bridge.now_ns / NANOSECONDS_PER_SECOND:g} s of its '
+                                f'{duration_s:g} s')
+                to_terminal(f'warning: {warnings[-1]}\n')
             elif not interrupt.pressed:
                 node_errors.append(json_safe(node_error(failure, bridge.sim.lidar_config)))
                 for line in failure.traceback.splitlines():
@@ -1329,4 +1331,6 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 if __name__ == '__main__':
-    sys.exit(main())
+    # The runner's modules import this one as sim_bridge.run: one RunError for them all.
+    from sim_bridge.run import main as package_main
+    sys.exit(package_main())

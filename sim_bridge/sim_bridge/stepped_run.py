@@ -14,8 +14,8 @@ from typing import Any, Callable, Iterable, Iterator, Sequence
 
 from sim_bridge import boundary
 from sim_bridge.boundary import (
-    Agent, agent_environment, AgentFailure, Lockstep)
-from sim_bridge.node_output import NodeLog, StreamLines
+    Agent, agent_environment, AgentFailure, AgentStartError, Lockstep)
+from sim_bridge.node_output import NodeLog, StreamLines, to_terminal
 from sim_bridge.run import (
     BRIDGE_NODE, NO_TYPE_DESCRIPTION_SERVICE, parameter_warnings, Params, RunError,
     runner_node, unconnected_topics)
@@ -116,7 +116,12 @@ class LockstepRun:
         return self.bridge
 
     def start_nodes(self, targets: Iterable[str], params: Params) -> AgentFailure | None:
-        """Start a process for each TARGET; return the failure of one that did not start."""
+        """
+        Start a process for each TARGET; return the failure of a node that did not start.
+
+        RunError when a TARGET cannot start: it does not import, it names no Node class, a
+        parameter is of the wrong type (see :func:`start_error`).
+        """
         env = agent_environment(dict(os.environ))
         try:
             for target in targets:
@@ -126,6 +131,10 @@ class LockstepRun:
                 agent.start()
         except AgentFailure as failure:
             return failure
+        except AgentStartError as error:
+            if not self.quiet and error.traceback:
+                to_terminal(error.traceback)  # what `python3 node.py` would print
+            raise start_error(error, target) from None
         return None
 
     def target_nodes(self) -> list[dict]:
@@ -134,9 +143,10 @@ class LockstepRun:
 
     def parameter_warnings(self, params: Params) -> list[str]:
         """Return a warning for each node in ``params`` not running, and each not declared."""
-        declared = {entry['name']: set(entry['parameters']) for entry in self.target_nodes()}
-        targets = list(declared)
-        declared[BRIDGE_NODE] = set(self.bridge.list_parameters([], 0).names)
+        declared = {BRIDGE_NODE: set(self.bridge.list_parameters([], 0).names)}
+        declared.update((entry['name'], set(entry['parameters']))
+                        for entry in self.target_nodes())
+        targets = [name for name in declared if name != BRIDGE_NODE]
         return parameter_warnings(params, declared, targets)
 
     def unconnected_topics(self) -> list[str]:
@@ -189,6 +199,27 @@ class LockstepRun:
         self.rclpy.try_shutdown()
 
 
+def start_error(error: AgentStartError, target: str) -> RunError:
+    """
+    Return the RunError of TARGET that could not start, with the node's part of the traceback.
+
+    A MemoryError names the run's memory limit and the file; a module of a ROS installation
+    says so (hints.ros_module_hint).
+    """
+    from sim_bridge.hints import ros_module_hint
+    from sim_bridge.process_run import printed_error
+    from sim_bridge.run import memory_limit
+    from sim_bridge.targets import module_file, split_target
+    message = str(error)
+    raised = message.partition(' fails to import: ')[2].partition(' at ')[0]
+    if raised == 'MemoryError' and memory_limit() is not None:
+        message += (f' (memory limit {memory_limit()} reached while importing '
+                    f'{module_file(split_target(target)[0])})')
+    elif ros_module_hint(printed_error(raised)):
+        message += f' ({ros_module_hint(printed_error(raised))})'
+    return RunError(message, error.traceback or None)
+
+
 def node_error(failure: AgentFailure, lidar: Any) -> dict:
     """Return the ``node_errors`` entry of a node process that failed, with a hint."""
     from sim_bridge.hints import printed_scan_hint, ros_module_hint
@@ -196,8 +227,15 @@ def node_error(failure: AgentFailure, lidar: Any) -> dict:
     printed = last_traceback(failure.traceback.splitlines())
     code_line = printed[0][-1].line if printed and printed[0] else ''
     error_line = printed[1] if printed else failure.error_line
-    hint = (ros_module_hint(printed_error(error_line))
-            or printed_scan_hint(error_line, code_line or '', lidar))
+    from sim_bridge.run import memory_limit
+    from sim_bridge.run_environment import FIELD_CHECK_HINT
+    if error_line.startswith('AssertionError') and 'field must be' in error_line:
+        hint = FIELD_CHECK_HINT
+    elif error_line.startswith('MemoryError') and memory_limit() is not None:
+        hint = f'memory limit {memory_limit()} reached in {failure.place}'
+    else:
+        hint = (ros_module_hint(printed_error(error_line))
+                or printed_scan_hint(error_line, code_line or '', lidar))
     entry = {'node': failure.node or '', 'error': str(failure) + (f' ({hint})' if hint else '')}
     if failure.traceback:
         entry['traceback'] = failure.traceback
