@@ -35,11 +35,8 @@ import traceback
 from types import ModuleType
 from typing import Any, Callable
 
-from sim_bridge.frames import encode, FrameDecoder, Message
+from sim_bridge.frames import encode, FrameDecoder, Message, TRUSTED_KINDS
 
-#: Frames the agent sends and reads.
-AGENT_KINDS = ('hello', 'sync', 'idle', 'ended')
-TRUSTED_KINDS = ('advance', 'stop')
 #: ROS's own topics of every node: not forwarded (the run records the nodes' lines itself).
 OWN_TOPICS = ('/rosout', '/parameter_events')
 #: Longest traceback text (characters) sent with a node's error.
@@ -138,7 +135,7 @@ class Lockstep:
         self.link.send('idle', self._taken(), **fields)
         frame = self.link.receive()
         if frame.kind == 'stop':
-            os._exit(0)
+            self.stop()
         with self.time_passed:
             self.now_ns = max(self.now_ns, frame.integer('t_ns'))
             self.time_passed.notify_all()
@@ -146,6 +143,17 @@ class Lockstep:
             publisher = self._publisher(message)
             if publisher is not None:
                 publisher.publish(message.data)
+
+    def stop(self) -> None:
+        """End this process at the run's end, naming the threads the nodes left running."""
+        self.link.send('ended', status='stopped', warnings=thread_warnings()[:20])
+        os._exit(0)
+
+    def report_stuck(self, signum: int, frame) -> None:
+        """Say where the nodes' code is (a signal from the trusted side: it waited too long)."""
+        node, place = self.running or ('', 'its main()')
+        where = self.code.stack_origin(traceback.extract_stack(frame))
+        self.link.send('stuck', node=node, place=place, where=where[:1000])
 
     def sleep_until(self, deadline_ns: int, context=None) -> None:
         """Exchange until sim time reaches ``deadline_ns`` (ns); other threads just wait."""
@@ -230,6 +238,30 @@ class Lockstep:
                     durability=DurabilityPolicy.TRANSIENT_LOCAL if latched
                     else DurabilityPolicy.VOLATILE))
         return self.publishers[message.topic]
+
+
+def thread_warnings() -> list[str]:
+    """
+    Name each thread a node left running (not a daemon), where it is, in one line each.
+
+    The run ends without waiting for them, as the process of a node would not.
+    """
+    import sysconfig
+    frames = sys._current_frames()
+    stdlib = sysconfig.get_paths()['stdlib'] + os.sep
+    warnings = []
+    for thread in threading.enumerate():
+        if thread is threading.main_thread() or thread.daemon or not thread.is_alive():
+            continue
+        stack = traceback.extract_stack(frames[thread.ident]) if thread.ident in frames else []
+        own = [frame for frame in stack if not frame.filename.startswith(stdlib)
+               or 'packages' + os.sep in frame.filename]
+        where = (f', in {own[-1].name} at {os.path.basename(own[-1].filename)}:'
+                 f'{own[-1].lineno}' if own else '')
+        warnings.append(f"node thread '{thread.name}'{where} was still running when the run "
+                        'ended; it was stopped (a node should join its threads, or make them '
+                        'daemons, before it returns)')
+    return warnings
 
 
 class CountedStream:
@@ -436,6 +468,7 @@ def run(target: str, ros_args: list[str], link: Link) -> None:
     path = module_file(split_target(target)[0])
     lockstep.code = code = StudentCode.of([path] if path else [])
     install(lockstep)
+    signal.signal(signal.SIGUSR1, lockstep.report_stuck)
     sys.argv = [path or target, *ros_args]
     link.send('hello', pid=os.getpid())
     try:
@@ -450,6 +483,7 @@ def run(target: str, ros_args: list[str], link: Link) -> None:
     except BaseException as error:  # noqa: B902 the node's process would have died of it
         node, place = lockstep.failed_in or lockstep.running or ('', 'its main()')
         link.send('ended', status='error', node=node, place=place,
+                  memory=isinstance(error, MemoryError),
                   error=describe(error, code)[:MAX_TRACEBACK_CHARS],
                   traceback=code.traceback(error)[-MAX_TRACEBACK_CHARS:], t_ns=lockstep.now_ns)
     else:
@@ -471,8 +505,9 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv[:split])
     os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'OFF'
     sys.stdout.reconfigure(line_buffering=True)
-    # A node stuck in a callback: the trusted side asks where (sim_bridge.boundary).
-    faulthandler.register(signal.SIGUSR1, all_threads=False)
+    # A node stuck in its code: the trusted side asks where (sim_bridge.boundary); in C code,
+    # where Python's handler cannot run, faulthandler says (SIGUSR2).
+    faulthandler.register(signal.SIGUSR2, all_threads=False)
     run(args.target, argv[split:], Link(args.in_fd, args.out_fd))
     sys.stdout.flush()
     os._exit(0)  # whatever threads the nodes left running

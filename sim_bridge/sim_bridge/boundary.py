@@ -26,11 +26,10 @@ import sys
 import time
 from typing import Any, Callable, Iterable, Sequence
 
-from sim_bridge.frames import encode, Frame, FrameDecoder, FrameError, Message
+from sim_bridge.frames import AGENT_KINDS, encode, Frame, FrameDecoder, FrameError, Message
 from sim_bridge.node_output import StreamLines
+from sim_bridge.targets import is_library_frame
 
-#: Frames from a node process.
-AGENT_KINDS = ('hello', 'sync', 'idle', 'ended')
 #: The message packages whose types may cross the boundary: the ones a lab's nodes use.
 INTERFACE_PACKAGES = frozenset((
     'std_msgs', 'geometry_msgs', 'sensor_msgs', 'nav_msgs', 'tf2_msgs', 'rosgraph_msgs',
@@ -49,6 +48,8 @@ READS_AT_ONCE = 16
 OUTPUT_CAP_BYTES = 8 * 2 ** 20
 #: Wall seconds a stuck node process gets to dump its stack; a line of that dump.
 STACK_DUMP_S = 2.0
+#: Lines of a crashed process's output kept as its failure's traceback.
+LAST_LINES = 40
 STACK_LINE = re.compile(r'\s*File "(?P<file>[^"]+)", line (?P<line>\d+) in (?P<name>\S+)')
 #: Wall seconds a node process gets to end when told to, before it is killed.
 STOP_GRACE_S = 1.0
@@ -68,6 +69,8 @@ class AgentFailure(Exception):
         super().__init__(message)
         self.node = node
         self.place = place
+        #: The node ran out of memory (its process's limit).
+        self.memory = False
         self.traceback = traceback
         self.returned = returned
         self.error_line = error_line
@@ -174,59 +177,77 @@ class Agent:
                 self._drain_output()
                 node = frame.text('node', default='')
                 self.lines.cut(self.clock_ns(), node)
-                if frame.kind != 'sync':
+                if frame.kind not in ('sync', 'stuck'):
                     return frame
-                self.running = frame.text('running', default='')
             if self.from_fd not in {key.fd for key in self.selector.get_map().values()}:
                 raise self.ended_without_word()
             left = deadline - time.monotonic()
             if left <= 0:
-                raise self.failure(f'did not finish its step within {timeout_s:g} s of wall '
-                                   f'time: a callback that does not return?{self.stuck_at()}')
+                raise AgentFailure(f'no reply for {timeout_s:g} s: {self.where_stuck()}',
+                                   self.running)
             for key, _ in self.selector.select(min(left, 1.0)):
                 self._drain(key)
 
-    def stuck_at(self) -> str:
+    def where_stuck(self) -> str:
         """
-        Return ' It was at FILE:LINE in FUNCTION' of the node's code the process is stuck in.
+        Say which node's code the process is stuck in, and where; then end the process.
 
-        The process dumps its main thread's stack on SIGUSR1 (Python's faulthandler, on its
-        stderr); '' when it does not within STACK_DUMP_S.
+        Asked with SIGUSR1 (sim_bridge.agent answers with a stuck frame); code in C, where
+        Python's handler cannot run, is asked with SIGUSR2 (Python's faulthandler prints the
+        stack on stderr). Each gets STACK_DUMP_S.
         """
-        from sim_bridge.targets import is_library_frame
-        self.lines.cut(self.clock_ns(), self.running)
+        self.lines.cut(self.clock_ns(), '')
         before = len(self.lines.tail)
-        try:
-            self.process.send_signal(signal.SIGUSR1)
-        except OSError:
-            return ''
-        deadline = time.monotonic() + STACK_DUMP_S
-        while time.monotonic() < deadline and self.process.poll() is None:
-            for key, _ in self.selector.select(deadline - time.monotonic()):
-                if key.data is not None:
+        for asked in (signal.SIGUSR1, signal.SIGUSR2):
+            try:
+                self.process.send_signal(asked)
+            except OSError:
+                break
+            deadline = time.monotonic() + STACK_DUMP_S
+            while time.monotonic() < deadline and self.process.poll() is None:
+                for key, _ in self.selector.select(deadline - time.monotonic()):
                     self._drain(key)
-            self.lines.cut(self.clock_ns(), self.running)
-            dump = list(self.lines.tail)[before:]
-            frames = [match for line in dump if (match := STACK_LINE.match(line))]
-            own = [match for match in frames if not is_library_frame(match['file'])]
-            if own:
-                match = own[0]  # faulthandler prints the innermost call first
-                return f" It was at {match['file']}:{match['line']} in {match['name']}."
-        return ''
+                stuck = [frame for frame in self.frames if frame.kind == 'stuck']
+                if stuck:
+                    self.kill()
+                    self.running = stuck[0].text('node') or self.label
+                    return (f"node '{self.running}' did not return from "
+                            f"{stuck[0].text('place')}{stuck[0].text('where', 1000)}")
+                self.lines.cut(self.clock_ns(), '')
+                dumped = [match for line in list(self.lines.tail)[before:]
+                          if (match := STACK_LINE.match(line))
+                          and not is_library_frame(match['file'])]
+                if dumped:  # faulthandler prints the innermost call first
+                    self.kill()
+                    return (f"{self.label} did not return from its code at "
+                            f"{dumped[0]['file']}:{dumped[0]['line']} in {dumped[0]['name']}")
+        self.kill()
+        return f'{self.label} did not return from its code'
 
     def failure(self, what: str) -> AgentFailure:
         """Return the failure of this process that ``what`` says, at the run's sim time."""
         self.kill()
         return AgentFailure(f'{self.label}: at {self.clock_ns() / NANOSECONDS_PER_SECOND:g} s '
-                            f'of sim time, the node process {what}', self.running)
+                            f'of sim time, the node process {what}', self.running or self.label)
 
     def ended_without_word(self) -> AgentFailure:
-        """Return the failure of a process whose protocol pipe closed: it exited or crashed."""
+        """
+        Return the failure of a process whose protocol pipe closed: it exited or crashed.
+
+        Its last lines (a segfault's stack from faulthandler, a C library's message) are the
+        failure's traceback.
+        """
         self.wait_for_end(STOP_GRACE_S)
         status = self.process.poll()
-        self._drain_output()
-        failure = self.failure(f'ended (exit status {status})' if status is not None
-                               else 'closed its pipe')
+        self.lines.cut(self.clock_ns(), '')
+        if status is None:
+            what = 'closed its pipe'
+        elif status < 0:
+            what = f'was killed by {signal.Signals(-status).name}'
+        else:
+            what = f'ended (exit status {status})'
+        failure = self.failure(what)
+        failure.traceback = '\n'.join(list(self.lines.tail)[-LAST_LINES:])
         failure.error_line = next((line for line in reversed(self.lines.tail)
                                    if line.strip()), '')
         return failure
@@ -274,9 +295,11 @@ class Agent:
                     else f'{self.label}: its main() returned')
             return AgentFailure(what, returned=True)
         error = frame.text('error', 40_000)
-        return AgentFailure(f"node '{node}' raised {error}", node,
-                            frame.text('traceback', 40_000, ''),
-                            error_line=error.partition(' at ')[0], place=place)
+        failure = AgentFailure(f"node '{node}' raised {error}", node,
+                               frame.text('traceback', 40_000, ''),
+                               error_line=error.partition(' at ')[0], place=place)
+        failure.memory = frame.fields.get('memory') is True
+        return failure
 
     def exchange(self, messages: Sequence[Message]) -> list[Message]:
         """Send the step (sim time now and ``messages``); return what the nodes published."""
@@ -383,8 +406,12 @@ class Agent:
                 except AgentFailure:
                     self.selector.unregister(key.fd)
 
-    def close(self) -> None:
-        """Tell the process to end (killed after STOP_GRACE_S); close its pipes."""
+    def close(self) -> list[str]:
+        """
+        Tell the process to end (killed after STOP_GRACE_S); close its pipes.
+
+        Return its warnings: the threads its nodes left running.
+        """
         if self.process.poll() is None:
             try:
                 os.write(self.to_fd, encode('stop'))
@@ -392,12 +419,19 @@ class Agent:
                 pass
             self.wait_for_end(STOP_GRACE_S)
         self.kill()
+        warnings = []
+        for frame in self.frames:
+            if frame.kind == 'ended' and frame.fields.get('status') == 'stopped':
+                listed = frame.fields.get('warnings')
+                warnings += [str(text)[:1000] for text in listed[:20]] \
+                    if isinstance(listed, list) else []
         self._drain_output()
         self.selector.close()
         for fd in (self.to_fd, self.from_fd):
             os.close(fd)
         self.process.stdout.close()
         self.process.stderr.close()
+        return warnings
 
 
 def agent_command(target: str, in_fd: int, out_fd: int,
@@ -430,6 +464,8 @@ class Lockstep:
         self.agents = agents
         self.spin = spin
         self.exchanges = 0
+        #: The process being exchanged with, while it is.
+        self.current: Agent | None = None
 
     def next_wake_ns(self) -> int | None:
         """Return the earliest ROS time (ns) a node process asked to wake at, or None."""
@@ -444,7 +480,9 @@ class Lockstep:
                 messages = agent.taken()
                 if messages or force or (agent.wake_ns is not None
                                          and agent.wake_ns <= now_ns):
+                    self.current = agent
                     published = agent.exchange(messages)
+                    self.current = None
                     self.exchanges += 1
                     exchanged = True
                     if published:

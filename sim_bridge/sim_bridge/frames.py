@@ -33,6 +33,11 @@ MAX_TOPIC_CHARS = 256
 TYPE_NAME = re.compile(r'[a-z][a-z0-9_]*/msg/[A-Z][A-Za-z0-9]*')
 
 
+#: The frames a node process (sim_bridge.agent) sends, and those the trusted side sends it.
+AGENT_KINDS = ('hello', 'sync', 'idle', 'stuck', 'ended')
+TRUSTED_KINDS = ('advance', 'stop')
+
+
 class FrameError(ValueError):
     """Bytes that are not a frame of this protocol; the text says why, in one line."""
 

@@ -415,7 +415,8 @@ class StreamLines:
     node given: a line's stamp is that of the cut that saw its first byte. Whole lines are
     shown on this process's terminal as they are cut (when ``quiet``, all but the loggers'
     lines, as ``--disable-stdout-logs`` would). At most ``cap_bytes`` are kept; the rest are
-    counted and dropped. ``tail`` keeps the last lines, to read a traceback from.
+    shown, counted, not kept. ``tail`` keeps the last lines (their first 1000 characters), to
+    read a traceback or a crash's stack from.
     """
 
     def __init__(self, log: NodeLog, *, quiet: bool = False, cap_bytes: int = 8 * 2 ** 20):
@@ -429,9 +430,16 @@ class StreamLines:
         self.partial_stamp: dict[str, tuple[int, str] | None] = {'STDOUT': None, 'STDERR': None}
 
     def take(self, stream: str, data: bytes) -> None:
-        """Keep ``data`` that arrived on ``stream`` ('STDOUT' or 'STDERR'), within the cap."""
+        """
+        Keep ``data`` that arrived on ``stream`` ('STDOUT' or 'STDERR'), within the cap.
+
+        Past the cap, bytes are still shown (a grader's log keeps their head and tail) but
+        neither kept nor cut into lines.
+        """
         room = max(0, self.cap_bytes - self.kept)
-        self.dropped += max(0, len(data) - room)
+        if len(data) > room:
+            self.dropped += len(data) - room
+            OutputCapture._copy(1 if stream == 'STDOUT' else 2, data[room:])
         if room:
             self.arrived[stream].append(data[:room])
             self.kept += min(room, len(data))
@@ -452,7 +460,7 @@ class StreamLines:
 
     def _line(self, stream: str, line: bytes, stamp: tuple[int, str]) -> None:
         text = line.decode('utf-8', errors='replace')
-        self.tail.append(text)
+        self.tail.append(text[:1000])
         self.log.add(stamp[0], stamp[1], stream, text)
         if not (self.quiet and self.log.pattern is not None
                 and self.log.pattern.match(_ANSI.sub('', text).rstrip('\r'))):

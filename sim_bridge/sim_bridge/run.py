@@ -955,6 +955,7 @@ def run_simulation(world: str, targets: Sequence[str], *, duration_s: float = 60
                 for warning in run.unconnected_topics():
                     warnings.append(warning)
                     to_terminal(f'warning: {warning}\n')
+            warnings += run.stop_warnings
             close_outputs(warnings, log, teleop, recorder, bag)
             run.close()
     return write_outputs(

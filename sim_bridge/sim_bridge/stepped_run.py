@@ -18,7 +18,7 @@ from sim_bridge.boundary import (
 from sim_bridge.node_output import NodeLog, StreamLines, to_terminal
 from sim_bridge.run import (
     BRIDGE_NODE, NO_TYPE_DESCRIPTION_SERVICE, parameter_warnings, Params, RunError,
-    runner_node, unconnected_topics)
+    RunStopped, runner_node, unconnected_topics)
 from sim_bridge.scenario import target_name
 from sim_bridge.stepping import describe, next_timer_ns, spin_until_idle, SteppedExecutor
 
@@ -80,6 +80,8 @@ class LockstepRun:
         self.lockstep = Lockstep(self.agents, lambda: spin_until_idle(self.executor))
         self.bridge = None
         self.lines: StreamLines | None = None
+        #: What the node processes said as they were stopped: threads left running.
+        self.stop_warnings: list[str] = []
 
     def node(self, name: str, sim_time: bool = False):
         """Create one of the runner's own nodes: no services or /rosout; on sim time if asked."""
@@ -96,7 +98,7 @@ class LockstepRun:
             yield self.lines
         finally:
             for agent in self.agents:
-                agent.close()
+                self.stop_warnings += agent.close()
             self.lines.close(self.bridge.now_ns if self.bridge is not None else 0)
             log.output_warning = self.lines.warning()
 
@@ -131,6 +133,9 @@ class LockstepRun:
                 agent.start()
         except AgentFailure as failure:
             return failure
+        except RunStopped as stop:  # the grader's watchdog: the node is stuck as it starts
+            return AgentFailure(f'{stop}: {self.agents[-1].where_stuck()}',
+                                self.agents[-1].running)
         except AgentStartError as error:
             if not self.quiet and error.traceback:
                 to_terminal(error.traceback)  # what `python3 node.py` would print
@@ -170,11 +175,22 @@ class LockstepRun:
         timer of the runner's nodes or a node process's wake time falls due;
         ``on_step(now_ns)`` is called every ``step_ns`` of sim time.
         """
-        bridge, executor, lockstep = self.bridge, self.executor, self.lockstep
-        own = [node for node in executor.own_nodes if node is not bridge]
+        bridge, lockstep = self.bridge, self.lockstep
         if bridge.now_ns == 0:
             bridge.publish(bridge.clock_pub, bridge.clock)
-        spin_until_idle(executor)
+        spin_until_idle(self.executor)
+        try:
+            self.step_to(end_ns, step_ns, on_step)
+        except RunStopped as stop:  # the grader's watchdog: a node's code, if it was its turn
+            if lockstep.current is None:
+                raise
+            raise AgentFailure(f'{stop}: {lockstep.current.where_stuck()}',
+                               lockstep.current.running) from None
+
+    def step_to(self, end_ns: int, step_ns: int, on_step: Callable[[int], None]) -> None:
+        """Step physics to ``end_ns``: see :meth:`advance`."""
+        bridge, executor, lockstep = self.bridge, self.executor, self.lockstep
+        own = [node for node in executor.own_nodes if node is not bridge]
         lockstep.exchange_due(bridge.now_ns, force=True)
         timer_due = next_timer_ns(own)
         next_call_ns = bridge.now_ns + step_ns
@@ -182,10 +198,10 @@ class LockstepRun:
         while bridge.now_ns < end_ns:
             wakes = [wake for wake in (timer_due, lockstep.next_wake_ns()) if wake is not None]
             clock_due = bool(wakes) and min(wakes) <= bridge.now_ns + physics_ns
-            if bridge.step(clock_due):
+            if bridge.step(clock_due):  # something was sent: to the runner's or the targets'
                 spin_until_idle(executor)
                 timer_due = next_timer_ns(own)
-            lockstep.exchange_due(bridge.now_ns)
+                lockstep.exchange_due(bridge.now_ns)  # a wake time due sends /clock: heard
             if bridge.now_ns >= next_call_ns:
                 on_step(bridge.now_ns)
                 next_call_ns += step_ns
@@ -231,7 +247,7 @@ def node_error(failure: AgentFailure, lidar: Any) -> dict:
     from sim_bridge.run_environment import FIELD_CHECK_HINT
     if error_line.startswith('AssertionError') and 'field must be' in error_line:
         hint = FIELD_CHECK_HINT
-    elif error_line.startswith('MemoryError') and memory_limit() is not None:
+    elif failure.memory and memory_limit() is not None:
         hint = f'memory limit {memory_limit()} reached in {failure.place}'
     else:
         hint = (ros_module_hint(printed_error(error_line))
