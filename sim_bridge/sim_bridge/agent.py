@@ -111,25 +111,52 @@ class Lockstep:
         self.shutdown_where = ''
         self.shutdown_in: tuple[str, str] | None = None
         self.time_passed = threading.Condition()
-        #: Writes of the nodes' streams and loggers since the last sync.
+        #: Writes of the nodes' streams and loggers since the last sync, the last one's stream.
         self.printed = 0
+        self.last_stream = ''
 
     def sync(self, node: str) -> None:
         """
         Say that what the nodes printed since the last sync was printed by ``node``'s code.
 
-        ('' for none.) Only when they printed: Python's streams and rclpy's loggers count what
-        they write (a C library's printf is cut at the next sync, the time still right).
+        ('' for none: the process's one node if it has one.) Only when they printed: Python's
+        streams and rclpy's loggers count what they write (a C library's printf is cut at the
+        next sync, the time still right). The trusted side answers once it has cut the bytes
+        written before the sync, so no byte written after it is cut with them.
         """
         if self.printed:
             self.printed = 0
-            self.link.send('sync', node=node)
+            self.link.send('sync', node=node or self.only_node())
+            if self.link.receive().kind != 'ack':  # the bytes before it are cut: go on
+                self.stop()
+
+    def only_node(self) -> str:
+        """Return the name of the process's one node, whose program main() is; else ''."""
+        if len(self.nodes) != 1:
+            return ''
+        try:
+            return self.nodes[0].get_name()
+        except Exception:  # noqa: B902 a destroyed node
+            return ''
+
+    def note_write(self, stream: str) -> None:
+        """
+        Count a write to ``stream`` ('STDOUT', 'STDERR'): a sync first when it changes.
+
+        So that the trusted side, which reads the two pipes as their bytes come, keeps the
+        lines in the order they were written.
+        """
+        if self.printed and stream != self.last_stream:
+            self.sync(self.running[0] if self.running else '')
+        self.last_stream = stream
+        self.printed += 1
 
     def exchange(self, wake_ns: int | None, context=None) -> None:
         """Report idle (next wake ``wake_ns``), take the trusted side's step, deliver it."""
         self._start_proxy(context)
         graph = self._graph()
-        fields = {'wake_ns': wake_ns, 'node': ''}
+        fields = {'wake_ns': wake_ns, 'node': self.only_node() if self.printed else ''}
+        self.printed = 0
         if graph != self.graph:
             self.graph = fields['graph'] = graph
         self.link.send('idle', self._taken(), **fields)
@@ -246,16 +273,14 @@ def thread_warnings() -> list[str]:
 
     The run ends without waiting for them, as the process of a node would not.
     """
-    import sysconfig
+    from sim_bridge.targets import is_library_frame
     frames = sys._current_frames()
-    stdlib = sysconfig.get_paths()['stdlib'] + os.sep
     warnings = []
     for thread in threading.enumerate():
         if thread is threading.main_thread() or thread.daemon or not thread.is_alive():
             continue
         stack = traceback.extract_stack(frames[thread.ident]) if thread.ident in frames else []
-        own = [frame for frame in stack if not frame.filename.startswith(stdlib)
-               or 'packages' + os.sep in frame.filename]
+        own = [frame for frame in stack if not is_library_frame(frame.filename)]
         where = (f', in {own[-1].name} at {os.path.basename(own[-1].filename)}:'
                  f'{own[-1].lineno}' if own else '')
         warnings.append(f"node thread '{thread.name}'{where} was still running when the run "
@@ -267,12 +292,13 @@ def thread_warnings() -> list[str]:
 class CountedStream:
     """A text stream whose writes are counted for the sync frames (see Lockstep.sync)."""
 
-    def __init__(self, stream, lockstep: Lockstep):
+    def __init__(self, stream, lockstep: Lockstep, name: str):
         self._stream = stream
         self._lockstep = lockstep
+        self._name = name
 
     def write(self, text: str) -> int:
-        self._lockstep.printed += 1
+        self._lockstep.note_write(self._name)
         return self._stream.write(text)
 
     def __getattr__(self, name: str) -> Any:
@@ -367,13 +393,13 @@ def install(lockstep: Lockstep) -> None:
     original_log = RcutilsLogger.log
 
     def counted_log(logger, *args, **kwargs):
-        lockstep.printed += 1
+        lockstep.note_write('STDERR')  # rcutils' console output
         return original_log(logger, *args, **kwargs)
 
     Node.__init__ = track
     RcutilsLogger.log = counted_log
-    sys.stdout = CountedStream(sys.stdout, lockstep)
-    sys.stderr = CountedStream(sys.stderr, lockstep)
+    sys.stdout = CountedStream(sys.stdout, lockstep, 'STDOUT')
+    sys.stderr = CountedStream(sys.stderr, lockstep, 'STDERR')
     executors.Executor.wait_for_ready_callbacks = stepped_wait
     executors.MultiThreadedExecutor = LockstepMultiThreadedExecutor
     timer.Rate.sleep = rate_sleep

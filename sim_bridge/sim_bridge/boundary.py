@@ -179,6 +179,8 @@ class Agent:
                 self.lines.cut(self.clock_ns(), node)
                 if frame.kind not in ('sync', 'stuck'):
                     return frame
+                if frame.kind == 'sync':
+                    self.send(encode('ack'))
             if self.from_fd not in {key.fd for key in self.selector.get_map().values()}:
                 raise self.ended_without_word()
             left = deadline - time.monotonic()
@@ -303,13 +305,16 @@ class Agent:
 
     def exchange(self, messages: Sequence[Message]) -> list[Message]:
         """Send the step (sim time now and ``messages``); return what the nodes published."""
-        data = encode('advance', messages, t_ns=self.clock_ns())
+        self.send(encode('advance', messages, t_ns=self.clock_ns()))
+        return self.take_idle(self.next_frame(EXCHANGE_TIMEOUT_S))
+
+    def send(self, data: bytes) -> None:
+        """Write a frame to the process; its failure if it is gone."""
         try:
             while data:
                 data = data[os.write(self.to_fd, data):]
         except OSError:  # the process is gone: its last words say why
             raise self.ended_without_word() from None
-        return self.take_idle(self.next_frame(EXCHANGE_TIMEOUT_S))
 
     def checked_graph(self, graph: Any) -> list[dict]:
         """Return the process's graph if it is well formed; else fail the run."""

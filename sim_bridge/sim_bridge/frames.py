@@ -35,7 +35,7 @@ TYPE_NAME = re.compile(r'[a-z][a-z0-9_]*/msg/[A-Z][A-Za-z0-9]*')
 
 #: The frames a node process (sim_bridge.agent) sends, and those the trusted side sends it.
 AGENT_KINDS = ('hello', 'sync', 'idle', 'stuck', 'ended')
-TRUSTED_KINDS = ('advance', 'stop')
+TRUSTED_KINDS = ('advance', 'ack', 'stop')
 
 
 class FrameError(ValueError):
