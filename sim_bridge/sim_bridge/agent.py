@@ -534,6 +534,7 @@ def main(argv: list[str] | None = None) -> int:
     # A node stuck in its code: the trusted side asks where (sim_bridge.boundary); in C code,
     # where Python's handler cannot run, faulthandler says (SIGUSR2).
     faulthandler.register(signal.SIGUSR2, all_threads=False)
+    faulthandler.enable()  # a crash's stack, as the trusted side reads it from stderr
     run(args.target, argv[split:], Link(args.in_fd, args.out_fd))
     sys.stdout.flush()
     os._exit(0)  # whatever threads the nodes left running

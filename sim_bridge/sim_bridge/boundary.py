@@ -51,6 +51,8 @@ STACK_DUMP_S = 2.0
 #: Lines of a crashed process's output kept as its failure's traceback.
 LAST_LINES = 40
 STACK_LINE = re.compile(r'\s*File "(?P<file>[^"]+)", line (?P<line>\d+) in (?P<name>\S+)')
+#: Wall seconds a node process that closed its pipe gets to end (its output read meanwhile).
+END_GRACE_S = 10.0
 #: Wall seconds a node process gets to end when told to, before it is killed.
 STOP_GRACE_S = 1.0
 NANOSECONDS_PER_SECOND = 10 ** 9
@@ -239,9 +241,9 @@ class Agent:
         Its last lines (a segfault's stack from faulthandler, a C library's message) are the
         failure's traceback.
         """
-        self.wait_for_end(STOP_GRACE_S)
+        self.wait_for_end(END_GRACE_S)
         status = self.process.poll()
-        self.lines.cut(self.clock_ns(), '')
+        self.lines.close(self.clock_ns())  # its last line is whole: nothing more comes
         if status is None:
             what = 'closed its pipe'
         elif status < 0:

@@ -428,6 +428,7 @@ class StreamLines:
         self.arrived = {'STDOUT': [], 'STDERR': []}
         self.partial = {'STDOUT': b'', 'STDERR': b''}
         self.partial_stamp: dict[str, tuple[int, str] | None] = {'STDOUT': None, 'STDERR': None}
+        self.last_stamp = (0, '')
 
     def take(self, stream: str, data: bytes) -> None:
         """
@@ -437,15 +438,18 @@ class StreamLines:
         neither kept nor cut into lines.
         """
         room = max(0, self.cap_bytes - self.kept)
-        if len(data) > room:
-            self.dropped += len(data) - room
-            OutputCapture._copy(1 if stream == 'STDOUT' else 2, data[room:])
         if room:
             self.arrived[stream].append(data[:room])
             self.kept += min(room, len(data))
+        if len(data) > room:
+            if not self.dropped:  # the kept lines are shown first, in order
+                self.cut(*self.last_stamp)
+            self.dropped += len(data) - room
+            OutputCapture._copy(1 if stream == 'STDOUT' else 2, data[room:])
 
     def cut(self, t_ns: int, node: str) -> None:
         """Cut what arrived since the last cut into lines stamped ``t_ns`` (ns) and ``node``."""
+        self.last_stamp = (t_ns, node)
         for stream, chunks in self.arrived.items():
             if not chunks:
                 continue

@@ -155,7 +155,7 @@ def test_a_node_that_hangs_while_starting_is_stopped_naming_its_constructor(tmp_
     [error] = report.metrics['node_errors']
     # Before its constructor returns, a node is known by its TARGET.
     assert error['error'] == ("no reply for 3 s: node 'misbehaving_node' did not return from "
-                              f'its main() at {MISBEHAVING}:29: pass')
+                              f"its main() at {MISBEHAVING}:28: while self.how == 'hang_at_start':")
     assert report.metrics['sim_time_s'] == 0.0
     assert (report.out_dir / 'metrics.json').is_file()
 
