@@ -35,7 +35,7 @@ import traceback
 from types import ModuleType
 from typing import Any, Callable
 
-from sim_bridge.frames import encode, FrameDecoder, Message, TRUSTED_KINDS
+from sim_bridge.frames import encode, FrameDecoder, Message, TRUSTED_KINDS, type_name
 
 #: ROS's own topics of every node: not forwarded (the run records the nodes' lines itself).
 OWN_TOPICS = ('/rosout', '/parameter_events')
@@ -44,11 +44,6 @@ MAX_TRACEBACK_CHARS = 32_000
 #: Messages the proxy keeps per topic between two exchanges.
 PROXY_DEPTH = 1000
 NANOSECONDS_PER_SECOND = 10 ** 9
-
-
-def type_name(msg_type: type) -> str:
-    """Return the ROS name of a message class: ``geometry_msgs/msg/Twist``."""
-    return f"{msg_type.__module__.split('.')[0]}/msg/{msg_type.__name__}"
 
 
 def message_class(name: str) -> type:

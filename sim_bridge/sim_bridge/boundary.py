@@ -1,6 +1,8 @@
 """
-The trusted side of a run: the simulator and the runner's nodes here, each student node file
-in a process of its own (sim_bridge.agent), in lockstep over pipes.
+The trust boundary: each student node file in a process of its own, in lockstep over pipes.
+
+The simulator and the runner's nodes run here (sim_bridge.stepped_run); each target node file
+runs in a process of its own (sim_bridge.agent).
 
 Nothing of the node's process runs here and nothing it sends is code: frames
 (sim_bridge.frames) carrying the CDR bytes of its nodes' messages, the ROS time it wakes at, and
@@ -26,7 +28,9 @@ import sys
 import time
 from typing import Any, Callable, Iterable, Sequence
 
-from sim_bridge.frames import AGENT_KINDS, encode, Frame, FrameDecoder, FrameError, Message
+from sim_bridge.frames import (
+    AGENT_KINDS, encode, Frame, FrameDecoder, FrameError, Message, type_name, valid_topic,
+    valid_type)
 from sim_bridge.node_output import StreamLines
 from sim_bridge.targets import is_library_frame
 
@@ -36,6 +40,8 @@ INTERFACE_PACKAGES = frozenset((
     'builtin_interfaces', 'visualization_msgs', 'rcl_interfaces', 'diagnostic_msgs'))
 #: ROS's own topics of every node: they stay in the node's process.
 OWN_TOPICS = ('/rosout', '/parameter_events')
+#: Most nodes a process may describe.
+MAX_NODES = 100
 #: Wall seconds a node process may take to start (Python, rclpy, its imports, constructors).
 START_TIMEOUT_S = 60.0
 #: Wall seconds a node process may take to handle one step before the run fails.
@@ -106,6 +112,23 @@ def allowed_class(type_name: str) -> type | None:
         return None
     return found if isinstance(found, type) and hasattr(found, 'get_fields_and_field_types') \
         else None
+
+
+def checked_node(entry: dict) -> dict:
+    """
+    Return one node of a process's graph, each field checked and bounded.
+
+    TypeError, KeyError, ValueError or AttributeError when it is not a node's description.
+    """
+    values = dict(entry.get('values', {}))
+    return {
+        'name': str(entry['name'])[:256], 'namespace': str(entry['namespace'])[:256],
+        'publishes': [(t, n) for t, n in entry['publishes'] if valid_topic(t) and valid_type(n)],
+        'subscribes': [(t, n) for t, n in entry['subscribes']
+                       if valid_topic(t) and valid_type(n)],
+        'parameters': [str(name)[:256] for name in entry['parameters']],
+        'values': {str(name)[:256]: float(value) for name, value in values.items()
+                   if type(value) in (int, float) and math.isfinite(value)}}
 
 
 class Agent:
@@ -223,7 +246,7 @@ class Agent:
                           and not is_library_frame(match['file'])]
                 if dumped:  # faulthandler prints the innermost call first
                     self.kill()
-                    return (f"{self.label} did not return from its code at "
+                    return (f'{self.label} did not return from its code at '
                             f"{dumped[0]['file']}:{dumped[0]['line']} in {dumped[0]['name']}")
         self.kill()
         return f'{self.label} did not return from its code'
@@ -319,23 +342,11 @@ class Agent:
             raise self.ended_without_word() from None
 
     def checked_graph(self, graph: Any) -> list[dict]:
-        """Return the process's graph if it is well formed; else fail the run."""
-        from sim_bridge.frames import valid_topic, valid_type
+        """Return the process's graph (what its nodes are) if well formed; else fail the run."""
         try:
-            checked = [{
-                'name': str(entry['name'])[:256], 'namespace': str(entry['namespace'])[:256],
-                'publishes': [(t, n) for t, n in entry['publishes']
-                              if valid_topic(t) and valid_type(n)],
-                'subscribes': [(t, n) for t, n in entry['subscribes']
-                               if valid_topic(t) and valid_type(n)],
-                'parameters': [str(name)[:256] for name in entry['parameters']],
-                'values': {str(name)[:256]: float(value)
-                           for name, value in dict(entry.get('values', {})).items()
-                           if type(value) in (int, float) and math.isfinite(value)}}
-                for entry in graph[:100]]
-        except (TypeError, KeyError, ValueError):
+            return [checked_node(entry) for entry in graph[:MAX_NODES]]
+        except (TypeError, KeyError, ValueError, AttributeError):
             raise self.failure('sent a malformed graph') from None
-        return checked
 
     def update_taps(self) -> None:
         """Subscribe here (raw) to each topic the process's nodes subscribe to."""
@@ -363,9 +374,8 @@ class Agent:
                 continue
             while (got := tap.handle.take_message(tap.msg_type, True)) is not None:
                 data, info = got
-                taken.append((info['source_timestamp'], Message(
-                    topic, f'{tap.msg_type.__module__.split(".")[0]}/msg/'
-                    f'{tap.msg_type.__name__}', data)))
+                message = Message(topic, type_name(tap.msg_type), data)
+                taken.append((info['source_timestamp'], message))
         taken.sort(key=lambda item: item[0])
         return [message for _, message in taken]
 
@@ -383,8 +393,7 @@ class Agent:
                 known = self.publishers[message.topic] = (
                     self.node.create_publisher(msg_type, message.topic, 1000), msg_type)
             publisher, msg_type = known
-            if f'{msg_type.__module__.split(".")[0]}/msg/{msg_type.__name__}' \
-                    != message.type_name:
+            if type_name(msg_type) != message.type_name:
                 raise self.failure(f'sent {message.topic} as {message.type_name}, a type it '
                                    'did not publish it as')
             try:

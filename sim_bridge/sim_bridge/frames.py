@@ -89,6 +89,11 @@ def valid_type(type_name: Any) -> bool:
             and TYPE_NAME.fullmatch(type_name) is not None)
 
 
+def type_name(msg_type: type) -> str:
+    """Return the ROS name of a message class: ``geometry_msgs/msg/Twist``."""
+    return f"{msg_type.__module__.split('.')[0]}/msg/{msg_type.__name__}"
+
+
 def encode(kind: str, messages: Iterable[Message] = (), **fields: Any) -> bytes:
     """Return the bytes of a frame of ``kind`` with ``fields`` and ``messages``."""
     messages = list(messages)

@@ -49,7 +49,6 @@ import signal
 import sys
 import sysconfig
 import tempfile
-import threading
 import time
 import traceback
 from typing import Any

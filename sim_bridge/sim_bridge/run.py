@@ -14,8 +14,6 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 import difflib
 import functools
-import gc
-import inspect
 import json
 import math
 import os
@@ -56,8 +54,7 @@ from sim_bridge.simulation.world import World, WorldError
 from sim_bridge.stepping import (
     describe, next_timer_ns, NodeEnded, NodeError, spin_until_idle, SteppedExecutor)
 from sim_bridge.targets import (
-    load_node_class, module_file, node_command, run_mode, split_target, StudentCode,
-    TargetError)
+    module_file, node_command, split_target, StudentCode, TargetError)
 import yaml
 
 BRIDGE_NODE = 'sim_bridge'

@@ -18,7 +18,7 @@ from sim_bridge.boundary import (
 from sim_bridge.node_output import NodeLog, StreamLines, to_terminal
 from sim_bridge.run import (
     BRIDGE_NODE, NO_TYPE_DESCRIPTION_SERVICE, parameter_warnings, Params, RunError,
-    RunStopped, runner_node, unconnected_topics)
+    runner_node, RunStopped, unconnected_topics)
 from sim_bridge.scenario import target_name
 from sim_bridge.stepping import describe, next_timer_ns, spin_until_idle, SteppedExecutor
 
@@ -256,4 +256,3 @@ def node_error(failure: AgentFailure, lidar: Any) -> dict:
     if failure.traceback:
         entry['traceback'] = failure.traceback
     return entry
-

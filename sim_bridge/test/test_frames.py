@@ -1,4 +1,4 @@
-"""The boundary's frame codec: what is encoded decodes the same; anything else is one FrameError."""
+"""The boundary's frame codec: what is encoded decodes as it was; anything else is a FrameError."""
 
 import struct
 

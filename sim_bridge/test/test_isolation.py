@@ -115,7 +115,7 @@ def test_a_node_that_closes_its_console_fails_with_its_own_error(tmp_path):
 
 def test_os_exit_fails_the_run_with_the_exit_status_and_its_log(batch):
     report = batch['os__exit']
-    [error] = report.metrics['node_errors']  # its own process ended: the run's outputs are whole
+    [error] = report.metrics['node_errors']  # its process ended: the run's outputs are whole
     assert 'the node process ended (exit status 4)' in error['error']
     assert (report.out_dir / 'metrics.json').is_file()
     assert (report.out_dir / isolate.LOG_NAME).is_file()
@@ -154,8 +154,9 @@ def test_a_node_that_hangs_while_starting_is_stopped_naming_its_constructor(tmp_
         limits=Limits(stall_s=2.0, startup_s=3.0), quiet=True, record=False, plot=False)
     [error] = report.metrics['node_errors']
     # Before its constructor returns, a node is known by its TARGET.
-    assert error['error'] == ("no reply for 3 s: node 'misbehaving_node' did not return from "
-                              f"its main() at {MISBEHAVING}:28: while self.how == 'hang_at_start':")
+    assert error['error'] == (
+        "no reply for 3 s: node 'misbehaving_node' did not return from its main() at "
+        f"{MISBEHAVING}:28: while self.how == 'hang_at_start':")
     assert report.metrics['sim_time_s'] == 0.0
     assert (report.out_dir / 'metrics.json').is_file()
 

@@ -6,9 +6,10 @@ its own process in lockstep with the simulator: the lab's wall_follow (36 beams)
 loop, a main() paced by time.sleep, and an idle node (what the simulator and the recorder cost
 alone). For each: sim time over wall time (x real time), the exchanges with the node's process
 (per sim s, and wall us each: the round trip and the node's own work; physics steps need
-none), and the node process's peak memory. With ``--before CHECKOUT`` (a checkout of the kit from before
-the boundary, with its .venv), each case also runs there, as it ran then (stepped in the
-runner's process, or a process at real time), and the ratio of the two is printed. Not a test:
+none), and the node process's peak memory. With ``--before CHECKOUT`` (a checkout of the
+kit from before the boundary, with its .venv), each case also runs there, as it ran then
+(stepped in the runner's process, or a process at real time), and the ratio of the two is
+printed. Not a test:
 figures to compare, on the machine of the day.
 """
 
@@ -93,8 +94,9 @@ def main() -> int:
         sim = metrics['sim_time_s']
         then = before(args.before, world, target, args.duration) if args.before else None
         errors = '; '.join(e['error'] for e in metrics['node_errors'])
+        per_exchange_us = 1e6 * meter.exchange_s / max(1, meter.exchanges)
         print(f'{name:24} {sim:6.0f} {wall:7.2f} {sim / wall:7.1f} '
-              f'{meter.exchanges / sim:10.1f} {1e6 * meter.exchange_s / max(1, meter.exchanges):8.0f} '
+              f'{meter.exchanges / sim:10.1f} {per_exchange_us:8.0f} '
               f'{meter.exchange_s:7.2f} {meter.peak_kib / 1024:8.0f}'
               + (f' {then:8.1f} {sim / wall / then:10.2f}' if then else '')
               + (f'  ERROR {errors}' if errors else ''))
