@@ -9,8 +9,7 @@ alone). For each: sim time over wall time (x real time), the exchanges with the 
 none), and the node process's peak memory. With ``--before CHECKOUT`` (a checkout of the
 kit from before the boundary, with its .venv), each case also runs there, as it ran then
 (stepped in the runner's process, or a process at real time), and the ratio of the two is
-printed. Not a test:
-figures to compare, on the machine of the day.
+printed. Not a test: figures to compare, on the machine of the day.
 """
 
 import argparse
