@@ -56,7 +56,7 @@ class Meter:
                 meter.peak_kib = max(meter.peak_kib, int(status.split('VmHWM:')[1].split()[0]))
             except (OSError, IndexError):
                 pass
-            close(agent)
+            return close(agent)
         boundary.Agent.exchange = timed_exchange
         boundary.Agent.close = measured_close
 
