@@ -1,7 +1,7 @@
 """
 How fast runs go through the trust boundary (sim_bridge.boundary): figures side by side.
 
-``python sim_bridge/test/bench/bench_boundary.py [--duration S]`` runs, recorded, each node in
+``python test/bench/bench_boundary.py [--duration S]`` runs, recorded, each node in
 its own process in lockstep with the simulator: the lab's wall_follow (36 beams), a spin_once
 loop, a main() paced by time.sleep, and an idle node (what the simulator and the recorder cost
 alone). For each: sim time over wall time (x real time), the exchanges with the node's process
@@ -25,11 +25,11 @@ from sim_bridge.run import run_simulation
 from sim_bridge.run_environment import keep_dds_in_process
 
 HERE = Path(__file__).parent
-FIXTURES = HERE.parent / 'fixtures'
+FIXTURES = HERE.parent.parent / 'sim_bridge' / 'test' / 'fixtures'
 CASES = (('wall_follow (scan_pkg)', 'wall_follow_box', 'wall_follow'),
          ('spin_once loop', 'obstacles', str(FIXTURES / 'spin_once_loop.py')),
-         ('time.sleep loop', 'obstacles', str(HERE / 'sleeper.py')),
-         ('idle node (baseline)', 'obstacles', str(HERE / 'idle.py')))
+         ('time.sleep loop', 'obstacles', str(HERE / 'boundary_sleeper.py')),
+         ('idle node (baseline)', 'obstacles', str(HERE / 'boundary_idle.py')))
 
 
 class Meter:
