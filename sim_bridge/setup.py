@@ -25,9 +25,12 @@ setup(
         (share, ['package.xml']),
         (os.path.join(share, 'launch'), glob('launch/*.launch.py')),
         (os.path.join(share, 'params'), glob('params/*.yaml')),
-        # The worlds and models live at the workspace's top level (see README).
+        # The worlds, models, shipped scenarios and example nodes live at the workspace's top
+        # level (see README); sim_bridge.common.paths finds them in a checkout or here.
         *tree('../worlds', os.path.join(share, 'worlds')),
         *tree('../models', os.path.join(share, 'models')),
+        *tree('../scenarios', os.path.join(share, 'scenarios')),
+        *tree('../examples', os.path.join(share, 'examples')),
     ],
     install_requires=['setuptools', 'numpy', 'pybullet', 'rosbags>=0.11,<0.12', 'matplotlib',
                       'contourpy', 'PyYAML', 'trimesh', 'pycollada', 'shapely', 'pillow',
@@ -44,12 +47,12 @@ setup(
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
-            'sim_bridge = sim_bridge.bridge:main',
-            'lab_run = sim_bridge.run:main',
-            'lab_grade = sim_bridge.grade:main',
-            'lab_video = sim_bridge.video:main',
-            'teleop_keyboard = sim_bridge.teleop:main',
-            'send_cmd_vel = sim_bridge.send_cmd_vel:main',
+            'sim_bridge = sim_bridge.ros.bridge:main',
+            'lab_run = sim_bridge.commands.run:main',
+            'lab_grade = sim_bridge.commands.grade:main',
+            'lab_video = sim_bridge.commands.video:main',
+            'teleop_keyboard = sim_bridge.ros.teleop:main',
+            'send_cmd_vel = sim_bridge.ros.send_cmd_vel:main',
         ],
     },
 )

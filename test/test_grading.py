@@ -1,12 +1,12 @@
 """
 Closed-loop grading: the shipped scenarios pass through the real grader, naive nodes fail them.
 
-Every seed of every scenario in ``test/scenarios/`` is one test. The module grades them all at
+Every seed of every scenario in ``scenarios/`` is one test. The module grades them all at
 once as ``python -m sim_bridge.grade --jobs N`` does (``grade_runs``: each run a child process
 of its own, in the stepped simulator on real rclpy, N the machine's cores); each test checks
 its run's report. Recording and plotting are off except for one run, graded again in this
 process with ``run_scenario``, which checks they are written too.
-The naive nodes in ``test/naive_nodes/`` (written the way the lab's own solutions are) replace
+The naive nodes in ``examples/`` (written the way the lab's own solutions are) replace
 the scenario's node, as ``--node-override`` does, and must fail on behaviour, not by crashing.
 ``pytest -s`` prints the measured figures as tables when the module ends.
 """
@@ -18,15 +18,15 @@ import re
 
 import pytest
 
-from sim_bridge import grade
-from sim_bridge.grade import grade_runs
-from sim_bridge.grading import GradeJob, run_scenario
-from sim_bridge.report_text import json_safe
-from sim_bridge.scenario import load_scenarios, ScenarioRun
+from sim_bridge.commands import grade
+from sim_bridge.common.text import json_safe
+from sim_bridge.grading.batch import grade_runs
+from sim_bridge.grading.runs import GradeJob, run_scenario
+from sim_bridge.grading.scenario import load_scenarios, ScenarioRun
 
 HERE = Path(__file__).resolve().parent
-SCENARIOS = HERE / 'scenarios'
-NAIVE_NODES = HERE / 'naive_nodes'
+SCENARIOS = HERE.parent / 'scenarios'
+NAIVE_NODES = HERE.parent / 'examples'
 NO_NODE_ERRORS = 'len(node_errors) == 0'
 COLLISION_FREE = 'collisions == 0'
 #: The run graded with its rosbag2 recording and trajectory plot written, as the demo does.

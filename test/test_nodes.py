@@ -2,7 +2,7 @@
 The five scan_pkg nodes on real rclpy, stepped: every callback runs before the test goes on.
 
 In one process Fast DDS delivers a publish before ``publish()`` returns, so a test publishes,
-then runs every ready callback with ``sim_bridge.stepping.spin_until_idle`` and checks what
+then runs every ready callback with ``sim_bridge.runner.stepping.spin_until_idle`` and checks what
 happened: no waiting on the wall clock, and exactly one callback per message. Time is sim time
 (``use_sim_time``, /clock published by the test) wherever a node reads its clock. A node's log
 is read through a recording logger patched onto it. Field checks are on
@@ -32,8 +32,8 @@ from scan_pkg.scan_around import ScanAround
 from scan_pkg.wall_follow import WallFollow
 from scan_pkg.wanderbot import Wanderbot
 from sensor_msgs.msg import LaserScan
-from sim_bridge.run_environment import run_environment
-from sim_bridge.stepping import spin_until_idle, SteppedExecutor
+from sim_bridge.common.run_environment import run_environment
+from sim_bridge.runner.stepping import spin_until_idle, SteppedExecutor
 
 # The lab's scanner: 36 beams from -1.57 to +1.57 rad; beams 17 and 18 are the two nearest
 # straight ahead (+-2.6 deg), beam 0 points right (-90 deg) and beam 35 left (+90 deg).
@@ -341,7 +341,7 @@ def test_scan_node_reports_a_bad_scan_and_carries_on(ros, node_name, bad_scan):
     make_msg, warning, lines = BAD_SCANS[bad_scan]
     line = None if lines is None else lines[node_name]
     log, send = scan_node_with_source(ros, node_name)
-    # A callback that raised would fail here with sim_bridge.stepping.NodeError.
+    # A callback that raised would fail here with sim_bridge.runner.stepping.NodeError.
     send(make_msg())
     # One warning naming the problem, if any, then the node's line, if the scan tells one.
     assert log.levels() == ['WARN'] * (warning is not None) + ['INFO'] * (line is not None), (

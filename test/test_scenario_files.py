@@ -7,14 +7,14 @@ import pytest
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import get_typestore, Stores
 
-from sim_bridge.lab_tasks import LAB_TASKS
-from sim_bridge.metrics import offset_path_length
-from sim_bridge.paths import world_names
-from sim_bridge.run import run_simulation
-from sim_bridge.scenario import load_scenario, load_scenarios
+from sim_bridge.common.paths import world_names
+from sim_bridge.grading.scenario import load_scenario, load_scenarios
+from sim_bridge.live.lab_tasks import LAB_TASKS
+from sim_bridge.runner.run import run_simulation
+from sim_bridge.scoring.metrics import offset_path_length
 from sim_bridge.simulation.world import World
 
-SCENARIOS = Path(__file__).resolve().parent / 'scenarios'
+SCENARIOS = Path(__file__).resolve().parents[1] / 'scenarios'
 WALL_FOLLOW_WORLDS = [name for name in world_names() if name.startswith('wall_follow_')]
 DIRECTIONS = {'cw': ('right', None, 'laps <= -1'), 'ccw': ('left', 'mirrored', 'laps >= 1')}
 
@@ -71,7 +71,7 @@ def test_wanderbot_runs_five_seeds_of_ten_minutes_in_the_room():
 
 
 def test_the_shipped_scenarios_carry_the_labs_marks():
-    from sim_bridge.marks import task_marks, total
+    from sim_bridge.grading.marks import task_marks, total
     scenarios = load_scenarios([SCENARIOS])
     tasks = {task.title: task for task in task_marks(scenarios, [])}
     assert {title: (task.scenarios if len(task.scenarios) == 1 else len(task.scenarios),

@@ -1,7 +1,7 @@
 """
 Start the simulator with the world of a lab task, and the task's scan_pkg node.
 
-``ros2 launch sim_bridge lab.launch.py task:=wall_follow`` (tasks: see sim_bridge.lab_tasks);
+``ros2 launch sim_bridge lab.launch.py task:=wall_follow`` (tasks: see sim_bridge.live.lab_tasks);
 ``world:=...`` overrides the task's world, ``robot:=NAME`` and ``robot_pose:='[x, y, yaw]'`` its
 robot (the lab robot in every task's world; see sim.launch.py), ``gui:=true`` opens the pybullet
 window.
@@ -17,7 +17,7 @@ from launch.substitutions import LaunchConfiguration, PathJoinSubstitution
 from launch_ros.actions import Node
 from launch_ros.substitutions import FindPackageShare
 
-from sim_bridge.lab_tasks import LAB_TASKS
+from sim_bridge.live.lab_tasks import LAB_TASKS
 
 
 def task_params_files(node: str) -> list[str]:

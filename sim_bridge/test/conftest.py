@@ -1,5 +1,5 @@
-"""Every test process keeps its ROS 2 traffic to itself (see DESIGN.md, tests and DDS)."""
+"""Every test process keeps its ROS 2 traffic to itself (README, How a run works)."""
 
-from sim_bridge.run_environment import keep_dds_in_process
+from sim_bridge.common.run_environment import keep_dds_in_process
 
 keep_dds_in_process()

@@ -13,8 +13,8 @@ import sys
 
 from mcap.reader import make_reader
 import pytest
-from sim_bridge import boundary
-from sim_bridge.run import run_simulation
+from sim_bridge.runner import boundary
+from sim_bridge.runner.run import run_simulation
 
 FIXTURES = Path(__file__).parent / 'fixtures'
 HOSTILE = FIXTURES / 'hostile'
@@ -107,6 +107,6 @@ def test_lines_are_stamped_with_the_sim_time_and_node_of_the_code_that_wrote_the
 
 
 def test_the_agent_is_a_module_of_its_own(tmp_path):
-    result = subprocess.run([sys.executable, '-m', 'sim_bridge.agent', '--help'],
+    result = subprocess.run([sys.executable, '-m', 'sim_bridge.runner.agent', '--help'],
                             capture_output=True, text=True, timeout=60)
     assert result.returncode == 0 and '--in' in result.stdout

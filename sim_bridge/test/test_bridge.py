@@ -30,13 +30,14 @@ from rclpy.time import Time
 from rclpy.utilities import get_default_context
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import LaserScan
-from sim_bridge import bridge as bridge_module, live
-from sim_bridge.bridge import NO_TF_WARNING, SimBridge
-from sim_bridge.paths import find_world
+from sim_bridge.common.paths import find_world
+from sim_bridge.live import live
+from sim_bridge.ros import bridge as bridge_module
+from sim_bridge.ros.bridge import NO_TF_WARNING, SimBridge
+from sim_bridge.runner.stepping import spin_until_idle, SteppedExecutor
 from sim_bridge.simulation.robot import DiffDriveConfig, DriveLimits
 from sim_bridge.simulation.simulator import Simulator
 from sim_bridge.simulation.world import World
-from sim_bridge.stepping import spin_until_idle, SteppedExecutor
 import yaml
 
 NANOSECONDS_PER_SECOND = 10 ** 9

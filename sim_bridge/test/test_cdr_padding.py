@@ -26,8 +26,8 @@ from rosbags.typesys import get_typestore, Stores
 from rosgraph_msgs.msg import Clock
 from rosidl_parser import definition
 from sensor_msgs.msg import JointState, LaserScan, PointCloud2, PointField
-from sim_bridge.cdr_padding import PaddingZeroer
-from sim_bridge.record import message_type_name
+from sim_bridge.runner.cdr_padding import PaddingZeroer
+from sim_bridge.runner.record import message_type_name
 from std_msgs.msg import Bool, ByteMultiArray, Empty, MultiArrayDimension, String
 
 TYPESTORE = get_typestore(Stores.ROS2_JAZZY)

@@ -2,7 +2,7 @@
 
 import json
 
-from sim_bridge.demo import run_tasks
+from sim_bridge.commands.demo import run_tasks
 
 
 def test_the_demo_drives_the_scan_readers_past_the_obstacles(tmp_path, capfd):

@@ -6,9 +6,10 @@ from pathlib import Path
 import pytest
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import get_typestore, Stores
-from sim_bridge.drive import DriveError, DrivePlan, parse_drive, Segment
-from sim_bridge.run import run_simulation, RunError
-from sim_bridge.scenario import scenario_from_dict, ScenarioError
+from sim_bridge.common.errors import RunError
+from sim_bridge.grading.scenario import scenario_from_dict, ScenarioError
+from sim_bridge.ros.drive import DriveError, DrivePlan, parse_drive, Segment
+from sim_bridge.runner.run import run_simulation
 
 FIXTURES = Path(__file__).parent / 'fixtures'
 #: obstacles.yaml: the robot starts at the origin facing +x, the cube's front face at x = 2.0.

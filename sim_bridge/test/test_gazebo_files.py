@@ -7,7 +7,7 @@ import shutil
 import numpy as np
 import pytest
 
-from sim_bridge import paths
+from sim_bridge.common import paths
 from sim_bridge.simulation.geometry import triangulate
 from sim_bridge.simulation.sdf import (describe_ignored, load_model, NO_SPEED_LIMIT, parse_model,
                                        SdfError)

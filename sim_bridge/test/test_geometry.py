@@ -7,7 +7,7 @@ import pytest
 import shapely
 
 from sim_bridge.simulation.geometry import (
-    compose_pose, Footprint, FootprintSet, MESH_TOLERANCE, Shape, signed_distance,
+    Footprint, FootprintSet, MESH_TOLERANCE, point_in_world, Shape, signed_distance,
     slice_footprints, triangulate, wrap_angle)
 
 
@@ -19,10 +19,8 @@ def test_wrap_angle_maps_into_minus_pi_to_pi():
                                                                         np.cos(angles))
 
 
-def test_compose_pose_rotates_the_child_offset_by_the_parent_yaw():
-    x, y, z, yaw = compose_pose((1.0, 2.0, 0.5, math.pi / 2), (1.0, 0.0, 0.25, math.pi))
-    assert (x, y, z) == pytest.approx((1.0, 3.0, 0.75))
-    assert yaw == pytest.approx(-math.pi / 2)
+def test_a_point_in_a_frame_is_rotated_by_the_frame_yaw():
+    assert point_in_world((1.0, 2.0, math.pi / 2), (1.0, 0.0)) == pytest.approx((1.0, 3.0))
 
 
 def test_circle_distance_is_negative_inside_zero_on_edge_positive_outside():

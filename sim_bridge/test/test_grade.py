@@ -15,11 +15,14 @@ from types import SimpleNamespace
 
 import pytest
 
-from sim_bridge import grade, paths
-from sim_bridge.grade import BatchProgress, format_duration, format_table, main, summary
-from sim_bridge.grading import GradeJob, run_scenario, write_report
-from sim_bridge.report_text import TEXT_LIMIT_BYTES
-from sim_bridge.scenario import scenario_from_dict
+from sim_bridge.commands import grade
+from sim_bridge.commands.grade import main
+from sim_bridge.common import paths
+from sim_bridge.common.text import TEXT_LIMIT_BYTES
+from sim_bridge.grading import batch
+from sim_bridge.grading.batch import BatchProgress, format_duration, format_table, summary
+from sim_bridge.grading.runs import GradeJob, run_scenario, write_report
+from sim_bridge.grading.scenario import scenario_from_dict
 
 SCENARIO = {
     'world': 'wall_follow_box', 'nodes': ['wall_follow'], 'duration': 30.0, 'seeds': [1, 2, 3],
@@ -320,7 +323,7 @@ def test_a_run_is_resumed_only_while_its_world_and_models_are_unchanged(tmp_path
     job = GradeJob(run, tmp_path / 'out')
 
     def digest():
-        return grade.fingerprint(job, {}, grade.Limits())
+        return batch.fingerprint(job, {}, batch.Limits())
 
     missing_model = digest()
     shipped_post = paths.models_dir() / 'obstacle_post' / 'model.sdf'
@@ -344,7 +347,7 @@ def test_a_scenarios_robot_remap_and_setpoint_reach_the_run_and_its_fingerprint(
     changed = scenario_from_dict({**SCENARIO, key: value}, 'box_ccw')
 
     def digest(scenario):
-        return grade.fingerprint(GradeJob(scenario.runs()[0], tmp_path), {}, grade.Limits())
+        return batch.fingerprint(GradeJob(scenario.runs()[0], tmp_path), {}, batch.Limits())
 
     assert digest(changed) != digest(plain)
     CALLS.clear()
@@ -404,8 +407,8 @@ def test_a_scenario_with_inf_or_nan_is_saved_and_reported(tmp_path, params, star
     job = GradeJob(scenario.runs()[0], tmp_path / 'run')
     job.out_dir.mkdir()
     report = run_scenario(job.run, job.out_dir, simulate=fake_simulate)
-    grade.save_result(report, 'digest')
-    assert grade.finished_report(job, 'digest').passed
+    batch.save_result(report, 'digest')
+    assert batch.finished_report(job, 'digest').passed
     write_report([report], tmp_path / 'report.json')
     entry = json.loads((tmp_path / 'report.json').read_text())['runs'][0]
     assert [entry['params'], entry['start']] == shown
@@ -430,11 +433,11 @@ def test_a_result_file_of_the_wrong_shape_is_run_again_naming_the_file(
         tmp_path, runs, saved, says):
     job = GradeJob(runs[0], tmp_path / 'run')
     job.out_dir.mkdir()
-    (job.out_dir / grade.RESULT_NAME).write_text(saved)
+    (job.out_dir / batch.RESULT_NAME).write_text(saved)
     notes = []
-    assert grade.finished_report(job, 'digest', notes.append) is None
+    assert batch.finished_report(job, 'digest', notes.append) is None
     [note] = notes
-    assert note.startswith(f'running box_ccw/seed_1 again: {job.out_dir / grade.RESULT_NAME} ')
+    assert note.startswith(f'running box_ccw/seed_1 again: {job.out_dir / batch.RESULT_NAME} ')
     assert says in note
 
 
@@ -464,7 +467,7 @@ def test_main_says_which_runs_were_reused_and_which_results_are_not_in_the_batch
     monkeypatch.setattr(grade, 'grade_runs', grade_reusing)
     out = tmp_path / 'out'
     (out / 'other' / 'seed_1').mkdir(parents=True)
-    (out / 'other' / 'seed_1' / grade.RESULT_NAME).write_text('{}')
+    (out / 'other' / 'seed_1' / batch.RESULT_NAME).write_text('{}')
     main([str(scenario_file(tmp_path)), '--out', str(out), '--quiet'])
     stdout = capsys.readouterr().out
     reused = '1 of 3 runs reused from an earlier invocation'

@@ -3,8 +3,8 @@ A class graded with one command: the demo's four submissions, each run in its ow
 
 ``ana`` hands in the project's own nodes, ``ben`` the lab's naive wall follower, ``cleo`` a
 scan reader that puts an int in a float field and no wall follower, ``dev`` a wall follower
-that does not compile and a scan reader that calls ``sys.exit`` (sim_bridge.demo.CLASS). The
-class table, class.csv, every student's report and the HTML pages (every link resolving) are
+that does not compile and a scan reader that calls ``sys.exit`` (sim_bridge.commands.demo.CLASS).
+The class table, class.csv, every student's report and the HTML pages (every link resolving) are
 checked.
 """
 
@@ -19,15 +19,16 @@ import shutil
 
 import pytest
 
-from sim_bridge import grade
-from sim_bridge.demo import CLASS, CLASS_SCENARIOS, make_class
-from sim_bridge.grade_class import ClassBatch, CSV_NAME, INDEX_NAME, STUDENTS_DIR
-from sim_bridge.html_report import linked_files
-from sim_bridge.report_text import TEXT_LIMIT_BYTES
-from sim_bridge.scenario import load_scenarios
+from sim_bridge.commands import grade
+from sim_bridge.commands.demo import CLASS, CLASS_SCENARIOS, make_class
+from sim_bridge.common.text import TEXT_LIMIT_BYTES
+from sim_bridge.grading import batch
+from sim_bridge.grading.class_batch import ClassBatch, CSV_NAME, INDEX_NAME, STUDENTS_DIR
+from sim_bridge.grading.html_report import linked_files
+from sim_bridge.grading.scenario import load_scenarios
 
 WORKSPACE = Path(__file__).resolve().parents[2]
-SCENARIOS = [WORKSPACE / 'test' / 'scenarios' / name for name in CLASS_SCENARIOS]
+SCENARIOS = [WORKSPACE / 'scenarios' / name for name in CLASS_SCENARIOS]
 EXPECTED_TABLE = [
     ['student', 'scan_ahead', 'wall_follow_box_cw', 'runs', 'task 1 (of 2)', 'task 4 (of 3)',
      'marks (of 5)'],
@@ -194,7 +195,7 @@ def test_error_texts_that_are_not_utf8_reach_every_report(awkward):
     [run] = json.loads((zoe / grade.REPORT_NAME).read_text(encoding='utf-8'))['runs']
     assert 'cannot open map caf\\xe9.yaml' in run['metrics']['node_errors'][0]['error']
     assert 'cannot open map caf\\xe9.yaml' in (zoe / grade.PAGE_NAME).read_text(encoding='utf-8')
-    result = json.loads((zoe / 'scan_ahead' / 'seed_1' / grade.RESULT_NAME).read_text())
+    result = json.loads((zoe / 'scan_ahead' / 'seed_1' / batch.RESULT_NAME).read_text())
     assert 'caf\\xe9' in result['report']['metrics']['node_errors'][0]['error']
 
 
@@ -202,7 +203,7 @@ def test_a_huge_error_is_cut_in_every_output(awkward):
     _, out, _ = awkward
     folder = out / STUDENTS_DIR / 'max'
     files = [folder / grade.REPORT_NAME, folder / grade.PAGE_NAME,
-             folder / 'scan_ahead' / 'seed_1' / grade.RESULT_NAME,
+             folder / 'scan_ahead' / 'seed_1' / batch.RESULT_NAME,
              folder / 'scan_ahead' / 'seed_1' / 'metrics.json']
     for path in files:
         text = path.read_text(encoding='utf-8')
@@ -213,7 +214,7 @@ def test_a_huge_error_is_cut_in_every_output(awkward):
 def test_reports_carry_no_absolute_path_of_the_grader(awkward):
     root, out, _ = awkward
     files = [out / INDEX_NAME, out / CSV_NAME, *out.rglob(grade.REPORT_NAME),
-             *out.rglob(grade.PAGE_NAME), *out.rglob(grade.RESULT_NAME)]
+             *out.rglob(grade.PAGE_NAME), *out.rglob(batch.RESULT_NAME)]
     for path in files:
         text = path.read_text(encoding='utf-8')
         for folder in (str(root), os.getcwd(), os.path.expanduser('~')):

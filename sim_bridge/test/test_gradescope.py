@@ -19,8 +19,8 @@ import zipfile
 
 import pytest
 
-from sim_bridge import grade, gradescope
-from sim_bridge.grading import run_scenario
+from sim_bridge.commands import autograder as autograder_command, grade
+from sim_bridge.grading.runs import run_scenario
 
 WORKSPACE = Path(__file__).resolve().parents[2]
 FIXTURES = Path(__file__).resolve().parent / 'fixtures'
@@ -179,8 +179,8 @@ def autograder(tmp_path_factory):
     (folder / 'ahead.yaml').write_text(AHEAD)
     (folder / 'wander.yaml').write_text(WANDER)
     zip_path = folder / 'autograder.zip'
-    assert gradescope.main(['build', str(folder / 'ahead.yaml'), str(folder / 'wander.yaml'),
-                            '-o', str(zip_path)]) == 0
+    assert autograder_command.main(['build', str(folder / 'ahead.yaml'),
+                                    str(folder / 'wander.yaml'), '-o', str(zip_path)]) == 0
     return zip_path
 
 

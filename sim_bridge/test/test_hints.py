@@ -1,11 +1,11 @@
-"""The hints a node error gets (sim_bridge.hints): ROS-installation modules, scan geometry."""
+"""The hints a node error gets (sim_bridge.runner.hints): ROS-installation modules, scan shape."""
 
 import importlib.util
 import math
 import os
 
 import pytest
-from sim_bridge.hints import (
+from sim_bridge.runner.hints import (
     direction, geometry, printed_scan_hint, ros_module_hint, ROS_MODULES, turtlebot3_lidar)
 
 

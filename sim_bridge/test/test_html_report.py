@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from sim_bridge.html_report import linked_files, write_class_index, write_runs_page
+from sim_bridge.grading.html_report import linked_files, write_class_index, write_runs_page
 
 VOID = {'meta', 'img', 'br', 'hr', 'link', 'input'}
 SCRIPT = '<script>alert(1)</script>'

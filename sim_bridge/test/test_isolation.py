@@ -17,13 +17,16 @@ import time
 
 import pytest
 
-from sim_bridge import isolate, paths
-from sim_bridge.grade import BatchProgress, grade_runs
-from sim_bridge.grading import GradeJob, RESULT_NAME
-from sim_bridge.isolate import (
-    CappedLog, exit_reason, Limits, LOG_HEAD_BYTES, log_tail, LOG_TAIL_BYTES, LOG_TAIL_READ,
-    process_exists, remove_leftover_scratch, trimmed_environment)
-from sim_bridge.scenario import scenario_from_dict
+from sim_bridge.common import paths
+from sim_bridge.grading import isolate, limits
+from sim_bridge.grading.batch import BatchProgress, grade_runs
+from sim_bridge.grading.isolate import (
+    CappedLog, exit_reason, LOG_HEAD_BYTES, log_tail, LOG_TAIL_BYTES, LOG_TAIL_READ,
+    remove_leftover_scratch, trimmed_environment)
+from sim_bridge.grading.isolated_child import process_exists
+from sim_bridge.grading.limits import Limits
+from sim_bridge.grading.runs import GradeJob, RESULT_NAME
+from sim_bridge.grading.scenario import scenario_from_dict
 
 FIXTURES = Path(__file__).resolve().parent / 'fixtures'
 MISBEHAVING = FIXTURES / 'misbehaving_node.py'
@@ -215,7 +218,7 @@ def test_exit_reasons(returncode, says):
 
 
 def test_budget_grows_with_the_simulated_duration():
-    assert Limits().budget_s(600.0) == isolate.BUDGET_BASE_S + 600.0 * isolate.BUDGET_PER_SIM_S
+    assert Limits().budget_s(600.0) == limits.BUDGET_BASE_S + 600.0 * limits.BUDGET_PER_SIM_S
     assert Limits(timeout_s=5.0).budget_s(600.0) == 5.0
 
 
@@ -223,7 +226,7 @@ def test_a_process_run_gets_a_budget_for_real_time_on_a_slow_machine():
     # 600 s at real time after up to 20 s of the node's start: the stepped budget (660 s)
     # would leave 40 s for start-up, outputs and a live simulator falling behind.
     budget = Limits().budget_s(600.0, process=True)
-    assert budget == isolate.BUDGET_BASE_S + 20.0 + 600.0 * isolate.PROCESS_BUDGET_PER_SIM_S
+    assert budget == limits.BUDGET_BASE_S + 20.0 + 600.0 * limits.PROCESS_BUDGET_PER_SIM_S
     assert budget - 20.0 >= 2 * 600.0  # half real time still ends within it
     assert Limits(timeout_s=5.0).budget_s(600.0, process=True) == 5.0  # --timeout decides
 
@@ -233,7 +236,7 @@ def test_a_process_run_gets_a_budget_for_real_time_on_a_slow_machine():
     (str(FIXTURES / 'spin_once_loop.py'), True), (str(FIXTURES / 'sleepy_timer.py'), True)])
 def test_a_jobs_budget_follows_the_way_its_node_file_runs(tmp_path, node, process):
     run = replace(scenario('budget', node), duration_s=100.0).runs()[0]
-    job = isolate.Job(run, tmp_path, Limits())
+    job = limits.Job(run, tmp_path, Limits())
     assert job.budget_s == Limits().budget_s(100.0, process)
 
 

@@ -11,8 +11,8 @@ from pathlib import Path
 
 import pytest
 
-from sim_bridge.lab_tasks import LAB_TASKS
-from sim_bridge.paths import world_names
+from sim_bridge.common.paths import world_names
+from sim_bridge.live.lab_tasks import LAB_TASKS
 
 PACKAGE = Path(__file__).resolve().parents[1]
 LAUNCH_FILES = sorted((PACKAGE / 'launch').glob('*.launch.py'))

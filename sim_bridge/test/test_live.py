@@ -1,5 +1,5 @@
 """
-Live runs (sim_bridge.live): the simulator and a lab node as separate ROS 2 processes.
+Live runs (sim_bridge.live.live): the simulator and a lab node as separate ROS 2 processes.
 
 The pure parts (command lines, lines printed, environment) are checked without processes; the
 process handling with plain Python children; the live runs with the real simulator and node
@@ -21,8 +21,11 @@ import time
 
 import numpy as np
 import pytest
-from sim_bridge import live
-from sim_bridge.lab_tasks import LAB_TASKS
+from sim_bridge.commands import live as live_command
+from sim_bridge.live import live
+from sim_bridge.live.lab_tasks import LAB_TASKS
+from sim_bridge.runner import processes
+from sim_bridge.runner.options import split_param
 from sim_bridge.simulation.geometry import signed_distance
 from sim_bridge.simulation.world import World
 
@@ -44,9 +47,9 @@ def live_env() -> dict:
     return env
 
 
-def python_spec(executable: str, code: str) -> live.ProcessSpec:
+def python_spec(executable: str, code: str) -> processes.ProcessSpec:
     """Return a process running Python ``code``."""
-    return live.ProcessSpec(executable, (sys.executable, '-c', code))
+    return processes.ProcessSpec(executable, (sys.executable, '-c', code))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -54,31 +57,31 @@ def python_spec(executable: str, code: str) -> live.ProcessSpec:
 
 def test_lines_are_printed_as_ros2_launch_prints_them():
     specs = [python_spec('sim_bridge', ''), python_spec('wall_follow', '')]
-    assert live.process_names(specs) == ['sim_bridge-1', 'wall_follow-2']
-    assert live.prefixed('wall_follow-2', '[INFO] [1.5] [wall_follow]: hi') == \
+    assert processes.process_names(specs) == ['sim_bridge-1', 'wall_follow-2']
+    assert processes.prefixed('wall_follow-2', '[INFO] [1.5] [wall_follow]: hi') == \
         '[wall_follow-2] [INFO] [1.5] [wall_follow]: hi'
-    assert live.started_line('sim_bridge-1', 1234) == \
+    assert processes.started_line('sim_bridge-1', 1234) == \
         '[INFO] [sim_bridge-1]: process started with pid [1234]'
-    assert live.ended_line('wall_follow-2', 1235, 0, ['wall_follow']) == \
+    assert processes.ended_line('wall_follow-2', 1235, 0, ['wall_follow']) == \
         '[INFO] [wall_follow-2]: process has finished cleanly [pid 1235]'
-    assert live.ended_line('wall_follow-2', 1235, 1, ['python', '-m', 'x']) == \
+    assert processes.ended_line('wall_follow-2', 1235, 1, ['python', '-m', 'x']) == \
         "[ERROR] [wall_follow-2]: process has died [pid 1235, exit code 1, cmd 'python -m x']."
-    assert live.signal_line('sim_bridge-1', 'SIGINT') == \
+    assert processes.signal_line('sim_bridge-1', 'SIGINT') == \
         "[INFO] [sim_bridge-1]: sending signal 'SIGINT' to process[sim_bridge-1]"
-    assert live.escalation_line('sim_bridge-1', 5.0, 'SIGINT', 'SIGTERM') == (
+    assert processes.escalation_line('sim_bridge-1', 5.0, 'SIGINT', 'SIGTERM') == (
         "[ERROR] [sim_bridge-1]: process[sim_bridge-1] failed to terminate '5' seconds after "
         "receiving 'SIGINT', escalating to 'SIGTERM'")
 
 
 def test_children_get_line_buffered_output_and_discovery_across_processes():
-    env, warning = live.child_environment({'ROS_DOMAIN_ID': '42', 'PATH': '/bin'})
+    env, warning = processes.child_environment({'ROS_DOMAIN_ID': '42', 'PATH': '/bin'})
     assert env == {'ROS_DOMAIN_ID': '42', 'PATH': '/bin', 'PYTHONUNBUFFERED': '1',
                    'RCUTILS_LOGGING_BUFFERED_STREAM': '1'}
     assert warning is None
-    env, warning = live.child_environment({'ROS_AUTOMATIC_DISCOVERY_RANGE': 'OFF'})
+    env, warning = processes.child_environment({'ROS_AUTOMATIC_DISCOVERY_RANGE': 'OFF'})
     assert env['ROS_AUTOMATIC_DISCOVERY_RANGE'] == 'LOCALHOST'
     assert 'LOCALHOST' in warning
-    env, _ = live.child_environment({'ROS_AUTOMATIC_DISCOVERY_RANGE': 'SUBNET'})
+    env, _ = processes.child_environment({'ROS_AUTOMATIC_DISCOVERY_RANGE': 'SUBNET'})
     assert env['ROS_AUTOMATIC_DISCOVERY_RANGE'] == 'SUBNET'
 
 
@@ -86,12 +89,12 @@ def test_a_task_starts_the_simulator_and_its_node_as_lab_launch_does():
     bridge, node = live.task_specs('wall_follow', real_time_factor=2,
                                    params={'wall_follow': {'distance': '0.6'}},
                                    python='python3')
-    assert bridge == live.ProcessSpec('sim_bridge', (
-        'python3', '-m', 'sim_bridge.bridge', '--ros-args',
+    assert bridge == processes.ProcessSpec('sim_bridge', (
+        'python3', '-m', 'sim_bridge.ros.bridge', '--ros-args',
         '--params-file', str(PACKAGES / 'sim_bridge' / 'params' / 'sim.yaml'),
         '-p', 'world:=wall_follow_box', '-p', 'gui:=false', '-p', 'real_time_factor:=2.0'))
     # The node's overrides come after its params file and use_sim_time: the last one wins.
-    assert node == live.ProcessSpec('wall_follow', (
+    assert node == processes.ProcessSpec('wall_follow', (
         'python3', '-m', 'scan_pkg.wall_follow', '--ros-args',
         '--params-file', str(PACKAGES / 'scan_pkg' / 'params' / 'wall_follow.yaml'),
         '-p', 'use_sim_time:=true', '-p', 'distance:=0.6'))
@@ -119,7 +122,7 @@ def test_a_robot_and_its_pose_go_to_the_simulator_as_its_parameters():
 @pytest.mark.parametrize('task', sorted(LAB_TASKS))
 def test_every_task_runs_its_console_scripts_module(task):
     bridge, node = live.task_specs(task)
-    assert bridge.cmd[1:3] == ('-m', 'sim_bridge.bridge')
+    assert bridge.cmd[1:3] == ('-m', 'sim_bridge.ros.bridge')
     assert node.executable == LAB_TASKS[task].node
     assert node.cmd[1:3] == ('-m', f'scan_pkg.{LAB_TASKS[task].node}')
     assert f'world:={LAB_TASKS[task].world}' in bridge.cmd
@@ -130,21 +133,22 @@ def test_bad_tasks_and_parameters_are_refused_before_anything_starts(capsys):
         live.task_specs('fly')
     with pytest.raises(ValueError, match='parameters for wanderbot'):
         live.task_specs('wall_follow', params={'wanderbot': {'speed': '1.0'}})
-    assert live.parse_param('wall_follow:distance=0.6') == ('wall_follow', 'distance', '0.6')
-    assert live.parse_param('sim_bridge:robot_pose=[0.0, 1.0, 0.0]') == \
+    assert split_param('wall_follow:distance=0.6') == (
+        'wall_follow', 'distance', '0.6')
+    assert split_param('sim_bridge:robot_pose=[0.0, 1.0, 0.0]') == \
         ('sim_bridge', 'robot_pose', '[0.0, 1.0, 0.0]')
     for text in ('distance=0.6', 'wall_follow:distance', ':x=1'):
         with pytest.raises(ValueError, match='NODE:NAME=VALUE'):
-            live.parse_param(text)
-    assert live.main(['wall_follow', '--world', 'no_such_world']) == 2
-    assert live.main(['wall_follow', '--robot', 'no_such_bot']) == 2
-    assert live.main(['wall_follow', '--param', 'distance=0.6']) == 2
-    assert live.main(['wall_follow', '--param', 'wanderbot:speed=1.0']) == 2
+            split_param(text)
+    assert live_command.main(['wall_follow', '--world', 'no_such_world']) == 2
+    assert live_command.main(['wall_follow', '--robot', 'no_such_bot']) == 2
+    assert live_command.main(['wall_follow', '--param', 'distance=0.6']) == 2
+    assert live_command.main(['wall_follow', '--param', 'wanderbot:speed=1.0']) == 2
     assert 'error: ' in capsys.readouterr().err
     for argv in (['fly'], ['wall_follow', '--rtf', '0'], ['wall_follow', '--duration', 'nan'],
                  ['wall_follow', '--robot-pose', '1', '2']):
         with pytest.raises(SystemExit) as exit_info:
-            live.main(argv)
+            live_command.main(argv)
         assert exit_info.value.code == 2
 
 
@@ -155,8 +159,8 @@ def test_output_of_both_streams_is_prefixed_per_process_in_order():
     lines = []
     code = ('import sys, time\nfor i in range(3):\n'
             "    print('out', i); print('err', i, file=sys.stderr); time.sleep(0.05)")
-    with live.LiveRun([python_spec('one', code), python_spec('two', 'print("hello")')],
-                      env=live_env(), out=lines.append) as run:
+    with processes.LiveRun([python_spec('one', code), python_spec('two', 'print("hello")')],
+                           env=live_env(), out=lines.append) as run:
         run.start()
         deadline = time.monotonic() + TIMEOUT_S
         while run.running() and time.monotonic() < deadline:
@@ -176,9 +180,9 @@ def test_output_of_both_streams_is_prefixed_per_process_in_order():
 
 def test_a_process_that_ends_early_stops_the_others_and_is_named():
     lines = []
-    status = live.run_live([python_spec('sim', 'import time; time.sleep(60)'),
-                            python_spec('node', 'raise SystemExit(3)')],
-                           duration_s=TIMEOUT_S, env=live_env(), out=lines.append)
+    status = processes.run_live([python_spec('sim', 'import time; time.sleep(60)'),
+                                 python_spec('node', 'raise SystemExit(3)')],
+                                duration_s=TIMEOUT_S, env=live_env(), out=lines.append)
     assert status == 1
     assert any(line.startswith('[ERROR] [node-2]: process has died [pid ')
                and 'exit code 3, cmd ' in line for line in lines)
@@ -195,8 +199,8 @@ def test_stopping_goes_last_started_first_and_escalates_as_launch_does():
                     'signal.signal(signal.SIGTERM, signal.SIG_IGN); '
                     "print('ready', flush=True); time.sleep(60)")
     specs = [python_spec('sim', ignores_sigint), python_spec('node', ignores_both)]
-    with live.LiveRun(specs, env=live_env(), out=lines.append, sigterm_timeout_s=0.3,
-                      sigkill_timeout_s=0.3) as run:
+    with processes.LiveRun(specs, env=live_env(), out=lines.append, sigterm_timeout_s=0.3,
+                           sigkill_timeout_s=0.3) as run:
         run.start()
         deadline = time.monotonic() + TIMEOUT_S
         while sum(line.endswith('] ready') for line in lines) < 2 and \
@@ -226,7 +230,7 @@ def test_children_can_be_interrupted_even_when_started_with_sigint_ignored():
     code = 'import signal; print(signal.getsignal(signal.SIGINT) is signal.default_int_handler)'
     previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
-        run = live.LiveRun([python_spec('child', code)], env=live_env(), out=lines.append)
+        run = processes.LiveRun([python_spec('child', code)], env=live_env(), out=lines.append)
         run.start()
     finally:
         signal.signal(signal.SIGINT, previous)
@@ -247,8 +251,8 @@ def running(pid: int) -> bool:
 @pytest.mark.skipif(not sys.platform.startswith('linux'), reason='prctl PR_SET_PDEATHSIG')
 def test_children_are_interrupted_when_the_live_process_dies():
     code = ('import sys, time\n'
-            'from sim_bridge import live\n'
-            "run = live.LiveRun([live.ProcessSpec('sleeper', (sys.executable, '-c', "
+            'from sim_bridge.runner import processes\n'
+            "run = processes.LiveRun([processes.ProcessSpec('sleeper', (sys.executable, '-c', "
             "'import time; time.sleep(60)'))])\n"
             'run.start()\n'
             'time.sleep(60)\n')
@@ -358,7 +362,7 @@ def observing(env: dict):
         observer.kill()
 
 
-def run_until(run: live.LiveRun, condition, lines: list[str]) -> None:
+def run_until(run: processes.LiveRun, condition, lines: list[str]) -> None:
     """Print a live run's output until ``condition()`` (bounded); no process may end."""
     deadline = time.monotonic() + SIM_TIMEOUT_S
     while not condition():
@@ -367,8 +371,8 @@ def run_until(run: live.LiveRun, condition, lines: list[str]) -> None:
 
 
 def start_live(argv: list[str], env: dict) -> subprocess.Popen:
-    """Start ``python -m sim_bridge.live ARGV``, its output in one text pipe."""
-    return subprocess.Popen([sys.executable, '-m', 'sim_bridge.live', *argv], env=env,
+    """Start ``python -m sim_bridge.commands.live ARGV``, its output in one text pipe."""
+    return subprocess.Popen([sys.executable, '-m', 'sim_bridge.commands.live', *argv], env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
 
 
@@ -444,7 +448,7 @@ def test_stopping_the_node_stops_the_robot_while_the_simulator_runs():
     with observing(env) as observer:
         specs = [live.bridge_spec('wall_follow_box', real_time_factor=2.0),
                  live.node_spec('wall_follow')]
-        with live.LiveRun(specs, env=env, out=lines.append) as run:
+        with processes.LiveRun(specs, env=env, out=lines.append) as run:
             run.start()
             # Conditions on sim time, not wall time: a busy machine runs the simulator slower.
             run_until(run, lambda: observer.has_sim_time(8.0), lines)
@@ -513,8 +517,8 @@ def test_a_node_with_a_bad_parameter_ends_the_run_naming_it():
 def test_a_node_that_raises_mid_run_ends_the_run_naming_it():
     lines = []
     specs = [live.bridge_spec('obstacles', real_time_factor=2.0),
-             live.ProcessSpec('raiser', (sys.executable, str(FIXTURES / 'raising_node.py')))]
-    assert live.run_live(specs, TIMEOUT_S, env=live_env(), out=lines.append) == 1
+             processes.ProcessSpec('raiser', (sys.executable, str(FIXTURES / 'raising_node.py')))]
+    assert processes.run_live(specs, TIMEOUT_S, env=live_env(), out=lines.append) == 1
     # Four scans crossed from the simulator's process before the fifth made it raise.
     assert sum('[raiser]: scan ' in line for line in lines) == 4, lines
     assert '[raiser-2] ZeroDivisionError: no valid beam to average' in lines

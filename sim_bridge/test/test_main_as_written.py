@@ -1,8 +1,8 @@
 """
 A node file runs as ``python3 FILE`` would run it: stepped when its main() allows, else as written.
 
-The decision (sim_bridge.node_styles) is read from the source alone; the runs of the files it
-sends to a process (their own main(), against the simulator run live, each on a ROS domain of
+The decision (sim_bridge.runner.node_styles) is read from the source alone; the runs of the files
+it sends to a process (their own main(), against the simulator run live, each on a ROS domain of
 its own) are checked for doing what their authors meant.
 """
 
@@ -16,11 +16,14 @@ import textwrap
 
 import pytest
 from rosbags.rosbag2 import Reader
-from sim_bridge.node_styles import decide, node_class
-from sim_bridge.process_run import (
+from sim_bridge.commands.run import main
+from sim_bridge.common.errors import RunError
+from sim_bridge.runner.node_styles import decide, node_class
+from sim_bridge.runner.options import gui_problem
+from sim_bridge.runner.process_run import (
     DOMAIN_BASE, DOMAIN_COUNT, DomainReservation, last_traceback, node_spec, printed_error)
-from sim_bridge.run import gui_problem, main, run_simulation, RunError
-from sim_bridge.targets import load_node_class, run_mode, TargetError
+from sim_bridge.runner.run import run_simulation
+from sim_bridge.runner.targets import load_node_class, run_mode, TargetError
 
 FIXTURES = Path(__file__).parent / 'fixtures'
 LAB_NODES = sorted((Path(__file__).parents[2] / 'scan_pkg' / 'scan_pkg').glob('*.py'))
@@ -416,9 +419,9 @@ def test_ros_args_after_the_target_reach_a_node_process_unchanged(tmp_path):
 
 
 def test_a_class_of_both_styles_is_graded_each_run_in_its_child(tmp_path):
-    from sim_bridge.grade import format_table, grade_runs
-    from sim_bridge.grading import GradeJob
-    from sim_bridge.scenario import scenario_from_dict
+    from sim_bridge.grading.batch import format_table, grade_runs
+    from sim_bridge.grading.runs import GradeJob
+    from sim_bridge.grading.scenario import scenario_from_dict
     base = {'world': 'obstacles', 'duration': 4.0, 'seed': 1,
             'criteria': ['len(node_errors) == 0', 'collisions == 0', 'distance_m > 0.3']}
     process = scenario_from_dict({**base, 'nodes': [str(FIXTURES / 'namespaced_loop.py')],
@@ -476,15 +479,14 @@ def test_a_parameter_a_node_process_does_not_declare_is_a_warning(tmp_path):
 def test_a_process_run_measures_the_wall_distance_against_the_nodes_own_distance(tmp_path):
     # No setpoint given: as in a stepped run, the node's `distance` parameter, asked over ROS.
     from scan_pkg import wall_follow
-    from sim_bridge.node_styles import Decision
-    from sim_bridge.run import load_world, node_parameters, run_as_process
-    world = load_world('wall_follow_box')
-    params = node_parameters(world, {'wall_follow': {'distance': 0.6}}, seed=1, gui=False,
-                             start=None)
-    result = run_as_process(
-        world, wall_follow.__file__, Decision(False, 'the test runs it so'), params,
-        duration_s=3.0, out_dir=tmp_path, remap=(), ros_args=(), setpoint=None, quiet=True,
-        record=False, plot=False, field_checks=True)
+    from sim_bridge.runner.node_styles import Decision
+    from sim_bridge.runner.options import prepare_run, RunSpec
+    from sim_bridge.runner.process_run import run_as_process
+    spec = RunSpec('wall_follow_box', (wall_follow.__file__,), duration_s=3.0, seed=1,
+                   params={'wall_follow': {'distance': 0.6}}, out_dir=tmp_path, quiet=True,
+                   record=False, plot=False)
+    result = run_as_process(spec, prepare_run(spec), wall_follow.__file__,
+                            Decision(False, 'the test runs it so'))
     assert result.metrics['node_errors'] == [] and result.metrics['warnings'] == []
     assert result.metrics['wall_distance_m']['setpoint'] == 0.6
 

@@ -2,8 +2,9 @@
 
 import pytest
 
-from sim_bridge.marks import format_marks, summary, task_marks, total
-from sim_bridge.scenario import load_scenario, load_scenarios, scenario_from_dict, ScenarioError
+from sim_bridge.grading.marks import format_marks, summary, task_marks, total
+from sim_bridge.grading.scenario import (
+    load_scenario, load_scenarios, scenario_from_dict, ScenarioError)
 
 BASE = {'world': 'wall_follow_box', 'nodes': ['wall_follow'], 'duration': 10.0,
         'criteria': ['collisions == 0']}

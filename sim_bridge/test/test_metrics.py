@@ -8,10 +8,10 @@ import tracemalloc
 import numpy as np
 import pytest
 
-from sim_bridge.metrics import (compute_metrics, coverage, laps_around, longest_stationary,
-                                METRIC_KINDS, offset_path_length, stop_and_turn_angles)
-from sim_bridge.printed_values import KINDS as PRINTED_KINDS
-from sim_bridge.run_trace import CollisionEvent, ScanSnapshot, Trace
+from sim_bridge.scoring.metrics import (compute_metrics, coverage, laps_around, longest_stationary,
+                                        METRIC_KINDS, offset_path_length, stop_and_turn_angles)
+from sim_bridge.scoring.printed_values import KINDS as PRINTED_KINDS
+from sim_bridge.scoring.run_trace import CollisionEvent, ScanSnapshot, Trace
 from sim_bridge.simulation.geometry import Footprint, Shape, signed_distance
 from sim_bridge.simulation.world import Obstacle, World
 

@@ -7,7 +7,7 @@ import sys
 
 import pytest
 
-from sim_bridge import paths
+from sim_bridge.common import paths
 
 
 def test_a_source_checkout_finds_its_own_worlds_and_models():
@@ -86,7 +86,8 @@ def test_an_output_folder_that_is_a_file_is_a_one_line_command_line_error(tmp_pa
     for out in (a_file, a_file / 'out'):
         with pytest.raises(ArgumentTypeError, match=f'{a_file} is a file, not a folder'):
             paths.output_folder(str(out))
-    for program in (['sim_bridge.demo', '--no-live'], ['sim_bridge.grade', str(tmp_path)]):
+    for program in (['sim_bridge.commands.demo', '--no-live'],
+                    ['sim_bridge.grade', str(tmp_path)]):
         done = subprocess.run([sys.executable, '-m', *program, '--out', str(a_file / 'out')],
                               capture_output=True, text=True, timeout=60)
         assert done.returncode == 2 and 'Traceback' not in done.stderr

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 import shapely
 
-from sim_bridge.plot import _patch, plot_trajectory, scan_hits, SCANS_DRAWN, spread_evenly
-from sim_bridge.run_trace import CollisionEvent, ScanSnapshot, Trace
+from sim_bridge.media.plot import _patch, plot_trajectory, scan_hits, SCANS_DRAWN, spread_evenly
+from sim_bridge.scoring.run_trace import CollisionEvent, ScanSnapshot, Trace
 from sim_bridge.simulation.geometry import Footprint, Shape
 from sim_bridge.simulation.world import Obstacle, World
 

@@ -7,10 +7,10 @@ import pytest
 
 from scan_pkg.laser import Scan
 from scan_pkg.report import closest_line, range_ahead_line, regions_line
-from sim_bridge.printed_values import (
+from sim_bridge.scoring.printed_values import (
     closest_truth, excerpt, judge_printed, range_ahead_truth, read_closest, read_range_ahead,
     read_regions, region_truths, score_printed)
-from sim_bridge.run_trace import ScanSnapshot
+from sim_bridge.scoring.run_trace import ScanSnapshot
 
 # The lab's scanner: 36 beams from -1.57 to +1.57 rad; beams 17 and 18 are the two nearest
 # straight ahead (+-2.6 deg), beam 0 points right (-90 deg), beam 35 left (+90 deg).

@@ -5,7 +5,7 @@ Messages are real rclpy messages serialised by ``rclpy.serialization.serialize_m
 needs no rclpy context: nothing here starts DDS except the one test of a raw subscription,
 which starts it in a context of its own with discovery off. Bags are read back with rosbags'
 reader and deserialised with its ROS2_JAZZY type store, independently of the recorder. The
-bytes stored are the ones given with their alignment padding zeroed (sim_bridge.cdr_padding,
+bytes stored are the ones given with their alignment padding zeroed (sim_bridge.runner.cdr_padding,
 tested in test_cdr_padding.py): the same bytes for the same message, whatever Fast CDR left.
 """
 
@@ -28,9 +28,9 @@ from rosbags.rosbag2 import Reader
 from rosbags.typesys import get_typestore, Stores
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import LaserScan
-from sim_bridge.cdr_padding import PaddingZeroer
-from sim_bridge.record import BAG_VERSION, BagRecorder, DEFAULT_TOPICS, message_type_name
-from sim_bridge.run import run_simulation
+from sim_bridge.runner.cdr_padding import PaddingZeroer
+from sim_bridge.runner.record import BAG_VERSION, BagRecorder, DEFAULT_TOPICS, message_type_name
+from sim_bridge.runner.run import run_simulation
 from std_msgs.msg import String
 from std_srvs.srv import SetBool
 import yaml

@@ -5,7 +5,7 @@ import os
 
 import pytest
 
-from sim_bridge.report_text import (
+from sim_bridge.common.text import (
     cap_text, count_cell, first_line, format_measured, json_safe, one_line, PathNames,
     printable, reason)
 

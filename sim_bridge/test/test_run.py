@@ -23,8 +23,10 @@ import numpy as np
 import pytest
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import get_typestore, Stores
-from sim_bridge.run import main, run_simulation, RunError, UserInterrupt
-from sim_bridge.scenario import scenario_from_dict
+from sim_bridge.commands.run import main
+from sim_bridge.common.errors import RunError, UserInterrupt
+from sim_bridge.grading.scenario import scenario_from_dict
+from sim_bridge.runner.run import run_simulation
 from sim_bridge.simulation.geometry import signed_distance
 from sim_bridge.simulation.world import World
 import yaml
@@ -407,7 +409,8 @@ def test_without_field_checks_the_int_goes_out_as_jazzy_sends_it(tmp_path, run_m
     assert status == 0
     commands = read_bag(tmp_path / 'run')['/cmd_vel']
     assert len(commands) == 2 * SCAN_RATE
-    # The int 0 is sent as the double whose bits are 0: 0.0 (5 would be 5e-324, DESIGN.md).
+    # The int 0 is sent as the double whose bits are 0: 0.0 (5 would be 5e-324: README, Running
+    # and grading in one process).
     assert [twist.angular.z for _, twist in commands] == [0.0] * len(commands)
     assert os.environ.get('ROS_PYTHON_CHECK_FIELDS') is None
 
@@ -619,7 +622,7 @@ def test_the_simulator_is_not_remapped(tmp_path, run_main):
 
 def test_a_students_wall_follower_is_graded_by_the_scenarios_params_remaps_and_setpoint(
         tmp_path):
-    from sim_bridge.grading import run_scenario
+    from sim_bridge.grading.runs import run_scenario
     scenario = scenario_from_dict({
         'world': 'wall_follow_box', 'nodes': ['wall_follow'], 'duration': 30,
         # The scenario's parameters for its own node: the student's node names itself
@@ -882,7 +885,7 @@ def test_a_node_file_saved_on_windows_with_a_bom_and_crlf_runs(tmp_path, run_mai
 
 
 def test_a_syntax_error_is_reported_at_the_students_line_in_the_grade_report(tmp_path):
-    from sim_bridge.grading import run_scenario
+    from sim_bridge.grading.runs import run_scenario
     path = tmp_path / 'wall_follow.py'
     path.write_text('import rclpy\n\n\ndef on_scan(self, msg)\n    pass\n')
     scenario = scenario_from_dict({'world': 'obstacles', 'nodes': [str(path)], 'duration': 1,

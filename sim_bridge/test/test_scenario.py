@@ -6,9 +6,12 @@ import textwrap
 
 import pytest
 
-from sim_bridge.scenario import (load_scenario, load_scenarios, MAX_SEED, parse_criterion,
-                                 ScenarioError, target_name, with_node_overrides)
-from sim_bridge.yaml_loader import FILE_LIMIT_BYTES
+from sim_bridge.common.yaml_loader import FILE_LIMIT_BYTES
+from sim_bridge.grading.criteria import parse_criterion
+from sim_bridge.grading.scenario import (
+    load_scenario, load_scenarios, ScenarioError, with_node_overrides)
+from sim_bridge.runner.options import MAX_SEED
+from sim_bridge.runner.targets import target_name
 
 METRICS = {
     'collisions': 0, 'laps': -2, 'min_clearance_m': 0.21, 'turns_deg': [104.5, 171.0, 95.25],

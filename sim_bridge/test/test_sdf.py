@@ -7,7 +7,7 @@ import shutil
 
 import pytest
 
-from sim_bridge import paths
+from sim_bridge.common import paths
 from sim_bridge.simulation.geometry import Shape
 from sim_bridge.simulation.sdf import LidarConfig, load_model, parse_model, SdfError
 

@@ -7,7 +7,7 @@ import numpy as np
 import pybullet
 import pytest
 
-from sim_bridge import paths
+from sim_bridge.common import paths
 from sim_bridge.simulation.geometry import Shape
 from sim_bridge.simulation.lidar import cast_rays
 from sim_bridge.simulation.robot import DriveLimits

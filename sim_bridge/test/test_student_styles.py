@@ -11,7 +11,7 @@ base class.
 from pathlib import Path
 
 import pytest
-from sim_bridge.run import run_simulation
+from sim_bridge.runner.run import run_simulation
 
 FIXTURES = Path(__file__).parent / 'fixtures'
 

@@ -19,8 +19,8 @@ import threading
 import time
 
 import pytest
-from sim_bridge.send_cmd_vel import parse_arguments
-from sim_bridge.teleop_keys import BANNER, BANNER_EVERY, CTRL_C, MOVE_BINDINGS, TeleopKeys
+from sim_bridge.ros.send_cmd_vel import parse_arguments
+from sim_bridge.ros.teleop_keys import BANNER, BANNER_EVERY, CTRL_C, MOVE_BINDINGS, TeleopKeys
 
 FIXTURES = Path(__file__).parent / 'fixtures'
 #: Every ROS process of these tests lives in this namespace, on a private domain.
@@ -220,13 +220,13 @@ class Terminal:
 
 
 def teleop(*ros_args: str) -> Terminal:
-    return Terminal(sys.executable, '-m', 'sim_bridge.teleop', *ROS_ARGS, *ros_args)
+    return Terminal(sys.executable, '-m', 'sim_bridge.ros.teleop', *ROS_ARGS, *ros_args)
 
 
 def test_teleop_drives_the_live_simulator_stops_and_quits_with_a_stop(tmp_path):
     with open(tmp_path / 'bridge.log', 'w') as log:
         bridge = subprocess.Popen(
-            [sys.executable, '-m', 'sim_bridge.bridge', *ROS_ARGS, '-p', 'world:=obstacles',
+            [sys.executable, '-m', 'sim_bridge.ros.bridge', *ROS_ARGS, '-p', 'world:=obstacles',
              '-p', 'real_time_factor:=2.0'], env=private_domain_env(), stdout=log, stderr=log)
     listener = Listener()
     keyboard = teleop()
@@ -299,7 +299,7 @@ def test_teleop_stamped_sends_twist_stamped_with_its_frame_id_and_stops_on_sigte
 
 
 def test_teleop_needs_a_terminal_and_frame_id_needs_stamped():
-    done = subprocess.run([sys.executable, '-m', 'sim_bridge.teleop', *ROS_ARGS],
+    done = subprocess.run([sys.executable, '-m', 'sim_bridge.ros.teleop', *ROS_ARGS],
                           stdin=subprocess.DEVNULL, capture_output=True, text=True,
                           env=private_domain_env(), timeout=30)
     assert done.returncode == 1
@@ -320,7 +320,7 @@ def test_teleop_needs_a_terminal_and_frame_id_needs_stamped():
 
 
 def send_cmd_vel(*arguments: str, **kwargs) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, '-m', 'sim_bridge.send_cmd_vel', *arguments,
+    return subprocess.Popen([sys.executable, '-m', 'sim_bridge.ros.send_cmd_vel', *arguments,
                              *ROS_ARGS], env=private_domain_env(), stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, **kwargs)
 

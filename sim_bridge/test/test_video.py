@@ -16,12 +16,15 @@ import imageio_ffmpeg
 import numpy as np
 import pytest
 
-from sim_bridge import grade, lab_video, video
-from sim_bridge.lab_tasks import video_name
-from sim_bridge.run import main as run_main, run_simulation
-from sim_bridge.video import (
+from sim_bridge.commands import grade
+from sim_bridge.commands import task_video as lab_video
+from sim_bridge.commands.run import main as run_main
+from sim_bridge.live.lab_tasks import video_name
+from sim_bridge.media import video
+from sim_bridge.media.video import (
     BANNER_HEIGHT, FRAME_HEIGHT, FRAME_WIDTH, FrameRenderer, load_footage, LogLine,
     render_video, terminal_rows, VideoError, WORLD_WIDTH)
+from sim_bridge.runner.run import run_simulation
 
 FIXTURES = Path(__file__).parent / 'fixtures'
 DURATION_S = 3.0
@@ -237,8 +240,8 @@ def test_a_recorded_live_session_has_a_runs_outputs_and_its_video(tmp_path):
     env = dict(os.environ, ROS_DOMAIN_ID=str(200 + os.getpid() % 30))
     env.pop('ROS_AUTOMATIC_DISCOVERY_RANGE', None)
     result = subprocess.run(
-        [sys.executable, '-m', 'sim_bridge.live', 'scan_ahead', '--duration', '6', '--record',
-         str(out)], env=env, capture_output=True, text=True, timeout=120)
+        [sys.executable, '-m', 'sim_bridge.commands.live', 'scan_ahead', '--duration', '6',
+         '--record', str(out)], env=env, capture_output=True, text=True, timeout=120)
     assert result.returncode == 0, result.stdout + result.stderr
     metrics = json.loads((out / 'metrics.json').read_text())
     assert metrics['sim_time_s'] > 0 and metrics['run_mode']['mode'] == 'live'

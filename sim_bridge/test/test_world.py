@@ -4,11 +4,11 @@ import math
 
 import numpy as np
 import pytest
-from sim_bridge import paths
+from sim_bridge.common import paths
+from sim_bridge.common.yaml_loader import load_yaml
 from sim_bridge.simulation import world as world_module
 from sim_bridge.simulation.geometry import Footprint, Shape, signed_distance
 from sim_bridge.simulation.world import World, WORLD_FILE_LIMIT_BYTES, WorldError
-from sim_bridge.yaml_loader import load_yaml
 import yaml
 
 WALL_FOLLOW_WORLDS = ('wall_follow_box', 'wall_follow_box_rotated', 'wall_follow_cross',

@@ -24,7 +24,7 @@ from scan_pkg.behaviors.wall_follow import estimate_wall, WallFollowConfig, Wall
 from scan_pkg.behaviors.wander import corridor_distance, obstacle_points, Wanderer
 from scan_pkg.laser import Scan
 from scan_pkg.report import read_scan
-from sim_bridge.run_environment import keep_dds_in_process
+from sim_bridge.common.run_environment import keep_dds_in_process
 from timing import microseconds_per_call
 
 BEAMS = (36, 1081)

@@ -1,5 +1,5 @@
 """
-How fast runs go through the trust boundary (sim_bridge.boundary): figures side by side.
+How fast runs go through the trust boundary (sim_bridge.runner.boundary): figures side by side.
 
 ``python test/bench/bench_boundary.py [--duration S]`` runs, recorded, each node in
 its own process in lockstep with the simulator: the lab's wall_follow (36 beams), a spin_once
@@ -20,8 +20,8 @@ import sys
 import tempfile
 import time
 
-from sim_bridge import boundary
-from sim_bridge.run import run_simulation
+from sim_bridge.runner import boundary
+from sim_bridge.runner.run import run_simulation
 from sim_bridge.run_environment import keep_dds_in_process
 
 HERE = Path(__file__).parent

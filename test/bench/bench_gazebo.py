@@ -31,8 +31,8 @@ import time
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import get_typestore, Stores
 
-from sim_bridge.run import run_simulation
-from sim_bridge.run_environment import environment_set
+from sim_bridge.common.run_environment import environment_set
+from sim_bridge.runner.run import run_simulation
 from sim_bridge.simulation.simulator import Simulator
 from sim_bridge.simulation.world import World
 
@@ -45,7 +45,7 @@ GENERATIONS = {'Sim': ('turtlebot3_gazebo_sim', 'GZ_SIM_RESOURCE_PATH'),
 #: Measures the real-time factor of the recorded wall_follow run in any checkout's code.
 WALL_FOLLOW_RTF = """
 import sys, tempfile, time
-from sim_bridge.run import run_simulation
+from sim_bridge.runner.run import run_simulation
 with tempfile.TemporaryDirectory() as out:
     start = time.perf_counter()
     run_simulation('wall_follow_box', ['wall_follow'], duration_s=float(sys.argv[1]), seed=1,

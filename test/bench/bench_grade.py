@@ -3,8 +3,8 @@ Benchmark the grader: throughput with one and two child processes, and a child's
 
 Grades a fixed batch of shipped scenarios (scan_ahead once, wall_follow round the box
 clockwise and the L counter-clockwise, 3 seeds each: 7 runs, 467 simulated seconds) through
-``sim_bridge.grade.grade_runs`` with ``--jobs 1`` and ``--jobs 2``, fresh each time, and prints
-side by side: wall seconds, scenario runs per minute and simulated seconds per wall second.
+``sim_bridge.grading.batch.grade_runs`` with ``--jobs 1`` and ``--jobs 2``, fresh each time, and
+prints side by side: wall seconds, scenario runs per minute and simulated seconds per wall second.
 Then the per-run overhead of a child process: the same run (scan_ahead, 10 s) in this process
 (``run_scenario``) and in a child (``grade_runs``: forked from the server that has the runner
 imported), best of ``--repeats``, and the difference; beside it, what a fresh interpreter per
@@ -20,13 +20,13 @@ import sys
 import tempfile
 import time
 
-from sim_bridge.grade import grade_runs
-from sim_bridge.grading import GradeJob, run_scenario
-from sim_bridge.isolate import PRELOADED
-from sim_bridge.run_environment import keep_dds_in_process
-from sim_bridge.scenario import load_scenarios
+from sim_bridge.common.run_environment import keep_dds_in_process
+from sim_bridge.grading.batch import grade_runs
+from sim_bridge.grading.isolated_child import PRELOADED
+from sim_bridge.grading.runs import GradeJob, run_scenario
+from sim_bridge.grading.scenario import load_scenarios
 
-SCENARIOS = Path(__file__).resolve().parents[1] / 'scenarios'
+SCENARIOS = Path(__file__).resolve().parents[2] / 'scenarios'
 BATCH = ('scan_ahead.yaml', 'wall_follow_box_cw.yaml', 'wall_follow_l_shape_ccw.yaml')
 OVERHEAD_SCENARIO = 'scan_ahead.yaml'
 

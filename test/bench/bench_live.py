@@ -2,7 +2,7 @@
 Benchmark live runs: the simulator bridge's CPU use and pace, and /scan across processes.
 
 Run: ``python test/bench/bench_live.py [--quick]`` (about a minute; less with --quick). Each
-measurement starts, with sim_bridge.live, the processes of ``./lab live wall_follow`` (the
+measurement starts, with sim_bridge.live.live, the processes of ``./lab live wall_follow`` (the
 bridge in wall_follow_box with 100 Hz physics, 10 Hz 36-beam scans and 50 Hz odometry, and the
 wall_follow node driving) plus this script as a listener in a third process, on a
 ROS_DOMAIN_ID of this process's own. The window starts once the listener has /clock and the
@@ -35,7 +35,8 @@ import time
 
 import numpy as np
 
-from sim_bridge import live
+from sim_bridge.live import live
+from sim_bridge.runner import processes
 
 WORLD, NODE = 'wall_follow_box', 'wall_follow'
 FACTORS = (1, 2, 5, 10, 20, 50)
@@ -102,9 +103,9 @@ def live_window(real_time_factor: float, warmup_s: float, window_s: float) -> di
     """
     specs = [live.bridge_spec(WORLD, real_time_factor=real_time_factor),
              live.node_spec(NODE),
-             live.ProcessSpec('listener', (sys.executable, __file__, '--listen'))]
+             processes.ProcessSpec('listener', (sys.executable, __file__, '--listen'))]
     lines = []
-    with live.LiveRun(specs, env=bench_env(), out=lines.append) as run:
+    with processes.LiveRun(specs, env=bench_env(), out=lines.append) as run:
         run.start()
         deadline = time.monotonic() + START_TIMEOUT_S
         while f'[{LISTENER}] first clock' not in lines:

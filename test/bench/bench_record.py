@@ -29,7 +29,7 @@ from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import get_typestore, Stores
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import LaserScan
-from sim_bridge.record import BAG_VERSION, BagRecorder, message_type_name
+from sim_bridge.runner.record import BAG_VERSION, BagRecorder, message_type_name
 from timing import microseconds_per_call
 
 REPEATS = 3

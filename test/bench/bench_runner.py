@@ -1,10 +1,10 @@
 """
 Benchmark the stepped runner on real rclpy: real-time factor of a wall-follow run, per stage.
 
-Runs ``sim_bridge.run.run_simulation`` on ``wall_follow_box`` with the ``wall_follow`` node for
-600 simulated seconds (the goal: at least 100x real time with 36 beams, 50x with 1081, recorded),
-the beam count set by the bridge's ``lidar_samples`` parameter, and prints side by side, in one
-process and one sitting:
+Runs ``sim_bridge.runner.run.run_simulation`` on ``wall_follow_box`` with the ``wall_follow`` node
+for 600 simulated seconds (the goal: at least 100x real time with 36 beams, 50x with 1081,
+recorded), the beam count set by the bridge's ``lidar_samples`` parameter, and prints side by side,
+in one process and one sitting:
 
 1. the pure simulator alone (physics at 100 Hz and a 10 Hz scan, no rclpy), and the runner with
    recording off and on, at 36 and 1081 beams (best of ``--repeats``; plot off);
@@ -32,10 +32,10 @@ import rclpy.executors
 from rclpy.experimental import EventsExecutor
 
 from scan_pkg.wall_follow import WallFollow
-from sim_bridge import run
-from sim_bridge.bridge import SimBridge
-from sim_bridge.paths import find_world
-from sim_bridge.record import BagRecorder
+from sim_bridge.common.paths import find_world
+from sim_bridge.ros.bridge import SimBridge
+from sim_bridge.runner import run
+from sim_bridge.runner.record import BagRecorder
 from sim_bridge.simulation.simulator import Simulator
 from sim_bridge.simulation.world import World
 

@@ -16,10 +16,10 @@ from pathlib import Path
 import tempfile
 import time
 
-from sim_bridge.run import run_simulation
-from sim_bridge.run_environment import keep_dds_in_process
-from sim_bridge.video import (
+from sim_bridge.common.run_environment import keep_dds_in_process
+from sim_bridge.media.video import (
     DEFAULT_FPS, frame_times, FrameRenderer, load_footage, LOG_FILE, render_video)
+from sim_bridge.runner.run import run_simulation
 
 DURATION_S = 76.2
 NAMES = 'Hassan Rizwan 335753, Ada Lovelace 100001'

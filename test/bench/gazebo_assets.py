@@ -15,7 +15,7 @@ import os
 from pathlib import Path
 import sys
 
-from sim_bridge import paths
+from sim_bridge.common import paths
 from sim_bridge.simulation.sdf import describe_ignored, LidarConfig, load_model
 from sim_bridge.simulation.world import World
 

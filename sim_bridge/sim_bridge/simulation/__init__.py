@@ -1,5 +1,5 @@
 """
-The simulator: Gazebo's stand-in, pure Python with no rclpy (the ROS face is sim_bridge.bridge).
+The simulator: Gazebo's stand-in, pure Python with no rclpy (its ROS face: ros.bridge).
 
 Read it as a table of contents:
 

@@ -22,9 +22,7 @@ import math
 
 import numpy as np
 import shapely
-
-from sim_bridge.simulation.geometry import (Footprint, FootprintSet, Shape,
-                                            slice_footprints)
+from sim_bridge.simulation.geometry import Footprint, FootprintSet, Shape, slice_footprints
 
 #: Height (m) above the floor where the robot's band starts: the floor and anything flatter
 #: than this (a ground plane, a mat, a cable cover) is driven over, never bumped into.

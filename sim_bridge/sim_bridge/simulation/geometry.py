@@ -44,16 +44,12 @@ def wrap_angle(angle: float) -> float:
     return (angle + math.pi) % (2.0 * math.pi) - math.pi
 
 
-def compose_pose(parent: tuple[float, float, float, float],
-                 child: tuple[float, float, float, float]) -> tuple[float, float, float, float]:
-    """Return the pose (x, y, z in m, yaw in rad) of ``child``, given in ``parent``'s frame."""
-    x, y, z, yaw = parent
-    cos_yaw = math.cos(yaw)
-    sin_yaw = math.sin(yaw)
-    return (x + cos_yaw * child[0] - sin_yaw * child[1],
-            y + sin_yaw * child[0] + cos_yaw * child[1],
-            z + child[2],
-            wrap_angle(yaw + child[3]))
+def point_in_world(pose: tuple[float, float, float],
+                   offset: tuple[float, float]) -> tuple[float, float]:
+    """Return (x, y) in m of the point ``offset`` (m) in the frame ``pose`` (x, y m; yaw rad)."""
+    x, y, yaw = pose
+    return (x + offset[0] * math.cos(yaw) - offset[1] * math.sin(yaw),
+            y + offset[0] * math.sin(yaw) + offset[1] * math.cos(yaw))
 
 
 @dataclass(frozen=True)

@@ -25,7 +25,6 @@ from operator import itemgetter
 
 import numpy as np
 import pybullet
-
 from sim_bridge.simulation.geometry import MESH_TOLERANCE, rotation_matrix, Shape, triangulate
 from sim_bridge.simulation.sdf import LidarConfig
 

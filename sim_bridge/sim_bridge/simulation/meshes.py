@@ -13,7 +13,6 @@ from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
-
 from sim_bridge.simulation.geometry import Mesh
 
 #: File suffixes trimesh reads here (lower case).

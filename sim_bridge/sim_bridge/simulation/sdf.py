@@ -12,7 +12,7 @@ SDF 1.4 to 1.10, Gazebo Sim and Gazebo Classic forms alike, with :mod:`xml.etree
   (:attr:`Model.planes`);
 - nested ``<model>`` elements at their pose in the parent, and ``<include>`` elements, whose
   ``<pose>``, ``<name>`` and ``<static>`` replace the included model's own (Gazebo's rule);
-  ``model://NAME/...`` is looked up on :func:`~sim_bridge.paths.model_search_path`;
+  ``model://NAME/...`` is looked up on :func:`~sim_bridge.common.paths.model_search_path`;
 - the lidar: the first ``gpu_lidar``/``lidar``/``gpu_ray``/``ray`` sensor with more than one
   horizontal sample (a one-beam range sensor is not a lidar), or the one named by the caller;
   its frame is Gazebo Sim's ``<gz_frame_id>``, Classic's ray plugin ``<frame_name>``, else the
@@ -40,10 +40,9 @@ from urllib.parse import unquote, urlparse
 import xml.etree.ElementTree as ElementTree
 
 import numpy as np
-
-from sim_bridge import paths
-from sim_bridge.simulation.geometry import (euler_from_matrix, Footprint, Mesh,
-                                            rotation_matrix, Shape, triangulate)
+from sim_bridge.common import paths
+from sim_bridge.simulation.geometry import (
+    euler_from_matrix, Footprint, Mesh, rotation_matrix, Shape, triangulate)
 from sim_bridge.simulation.meshes import extrude, load_mesh, MeshError
 from sim_bridge.simulation.robot import DiffDriveConfig, DriveLimits
 
@@ -302,7 +301,7 @@ def load_model(folder_or_file: str | os.PathLike, lidar: str | None = None,
 
     ``lidar`` names the sensor to use when the model has several lidars (default: the first);
     ``world_folder`` is searched first for ``model://`` URIs (see
-    :func:`~sim_bridge.paths.model_search_path`). Raises :class:`SdfError` for a file that
+    :func:`~sim_bridge.common.paths.model_search_path`). Raises :class:`SdfError` for a file that
     cannot be used, FileNotFoundError for none.
     """
     path = model_file(Path(folder_or_file))

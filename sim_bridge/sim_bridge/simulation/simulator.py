@@ -29,7 +29,6 @@ import weakref
 
 import numpy as np
 import pybullet
-
 from sim_bridge.simulation.geometry import wrap_angle
 from sim_bridge.simulation.lidar import build_scene, LaserScanData, Lidar
 from sim_bridge.simulation.robot import DiffDrive, DriveLimits, integrate_arc
@@ -101,7 +100,7 @@ class Simulator:
         self.lidar_config = config
         #: None, or a list to which each step appends the robot's ground truth after it, for
         #: scoring: (time s, x m, y m, yaw rad, v m/s, w rad/s, clearance m), as in a
-        #: :class:`~sim_bridge.run_trace.Trace`.
+        #: :class:`~sim_bridge.scoring.run_trace.Trace`.
         self.trajectory: list[tuple[float, ...]] | None = None
         self.command_timeout = command_timeout
         self._floor = world.floor_slice

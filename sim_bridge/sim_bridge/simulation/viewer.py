@@ -12,7 +12,6 @@ import math
 
 import numpy as np
 import pybullet
-
 from sim_bridge.simulation.geometry import Shape, triangulate
 
 ROBOT_COLOUR = (0.1, 0.3, 0.8, 1.0)

@@ -89,12 +89,13 @@ import os
 from pathlib import Path
 from typing import Any
 
-from sim_bridge import paths
+from sim_bridge.common import paths
+from sim_bridge.common.values import is_finite_number, with_type
+from sim_bridge.common.yaml_loader import load_yaml, read_text
 from sim_bridge.simulation.floor_slice import FloorSlice
 from sim_bridge.simulation.geometry import Footprint, Shape, triangulate, wrap_angle
-from sim_bridge.simulation.sdf import (describe_ignored, Ignored, is_sdf_text, load_model, Model,
-                                       parse_world, place, SdfError)
-from sim_bridge.yaml_loader import load_yaml, read_text
+from sim_bridge.simulation.sdf import (
+    describe_ignored, Ignored, is_sdf_text, load_model, Model, parse_world, place, SdfError)
 import yaml
 
 DEFAULT_ROBOT_MODEL = 'lab_robot'
@@ -380,14 +381,14 @@ class _Parser:
         if data is None:
             data = {}
         if not isinstance(data, Mapping):
-            raise self.fail(None, None, f'must be a mapping of keys, got {_kind(data)}')
+            raise self.fail(None, None, f'must be a mapping of keys, got {with_type(data)}')
         self.check_keys(data, _TOP_KEYS, None)
         name = data.get('name', path.stem if path is not None else self.label)
         if not isinstance(name, str) or not name:
             raise self.fail(None, 'name', f'must be a non-empty text, got {name!r}')
         description = data.get('description', '')
         if not isinstance(description, str):
-            raise self.fail(None, 'description', f'must be text, got {_kind(description)}')
+            raise self.fail(None, 'description', f'must be text, got {with_type(description)}')
         floor_size = self.floor(data.get('floor'))
         robot_model, robot, robot_start = self.robot(data.get('robot'))
         obstacles = []
@@ -404,7 +405,8 @@ class _Parser:
         if target is not None:
             names = [obstacle.name for obstacle in obstacles]
             if not isinstance(target, str):
-                raise self.fail(None, 'target', f'must be an obstacle name, got {_kind(target)}')
+                raise self.fail(None, 'target',
+                                f'must be an obstacle name, got {with_type(target)}')
             if target not in names:
                 raise self.fail(None, 'target', f"names no obstacle ('{target}'); obstacles: "
                                 f"{', '.join(names) or 'none'}")
@@ -426,7 +428,7 @@ class _Parser:
         if value is None:
             return []
         if not isinstance(value, list):
-            raise self.fail(None, key, f'must be a list of entries, got {_kind(value)}')
+            raise self.fail(None, key, f'must be a list of entries, got {with_type(value)}')
         return value
 
     def check_keys(self, entry: Mapping, allowed: tuple[str, ...], where: str | None) -> None:
@@ -448,7 +450,7 @@ class _Parser:
         if value is None:
             return None
         if not isinstance(value, Mapping):
-            raise self.fail('floor', None, f'must be a mapping, got {_kind(value)}')
+            raise self.fail('floor', None, f'must be a mapping, got {with_type(value)}')
         self.check_keys(value, _FLOOR_KEYS, 'floor')
         if 'size' not in value:
             return None
@@ -458,7 +460,7 @@ class _Parser:
         if value is None:
             value = {}
         if not isinstance(value, Mapping):
-            raise self.fail('robot', None, f'must be a mapping, got {_kind(value)}')
+            raise self.fail('robot', None, f'must be a mapping, got {with_type(value)}')
         self.check_keys(value, _ROBOT_KEYS, 'robot')
         name = value.get('model', DEFAULT_ROBOT_MODEL)
         model = self.model(name, 'robot', self.folder)
@@ -472,7 +474,7 @@ class _Parser:
               lidar: str | None = None) -> Model:
         """Return the model ``name`` (a folder's name, or a path to a folder or SDF file)."""
         if not isinstance(name, str) or not name:
-            raise self.fail(where, 'model', f'must be a model name, got {_kind(name)}')
+            raise self.fail(where, 'model', f'must be a model name, got {with_type(name)}')
         try:
             given = Path(name)
             found = given if given.parent != Path('.') or given.suffix == '.sdf' \
@@ -487,7 +489,7 @@ class _Parser:
 
     def walls(self, entry: Any, index: int) -> tuple[str, list[Obstacle]]:
         if not isinstance(entry, Mapping):
-            raise self.fail(f'walls[{index}]', None, f'must be a mapping, got {_kind(entry)}')
+            raise self.fail(f'walls[{index}]', None, f'must be a mapping, got {with_type(entry)}')
         name = entry.get('name', f'wall_{index}')
         where = f'walls[{index}] ({name})'
         if not isinstance(name, str) or not name:
@@ -531,11 +533,11 @@ class _Parser:
     def obstacle(self, entry: Any, index: int) -> tuple[str, Obstacle]:
         if not isinstance(entry, Mapping):
             raise self.fail(f'obstacles[{index}]', None,
-                            f'must be a mapping, got {_kind(entry)}')
+                            f'must be a mapping, got {with_type(entry)}')
         name = entry.get('name')
         if not isinstance(name, str) or not name:
             raise self.fail(f'obstacles[{index}]', 'name',
-                            'missing' if name is None else f'must be text, got {_kind(name)}')
+                            'missing' if name is None else f'must be text, got {with_type(name)}')
         where = f'obstacles[{index}] ({name})'
         kind = entry.get('type')
         if kind not in OBSTACLE_TYPES:
@@ -596,7 +598,7 @@ class _Parser:
         A position is within ±MAX_COORDINATE_M of the origin.
         """
         if not isinstance(value, list) or len(value) != count \
-                or not all(_is_number(item) for item in value):
+                or not all(is_finite_number(item) for item in value):
             raise self.fail(where, key, f'must be {count} finite numbers, got {value!r}')
         self.within_limit(value[:positions], value, where, key)
         return tuple(float(item) for item in value)
@@ -605,14 +607,14 @@ class _Parser:
                   count: int) -> tuple[float, ...]:
         """Return ``count`` sizes (m), each positive and at most MAX_SIZE_M."""
         if not isinstance(value, list) or len(value) != count \
-                or not all(_is_number(item) and item > 0 for item in value):
+                or not all(is_finite_number(item) and item > 0 for item in value):
             raise self.fail(where, key, f'must be {count} positive finite numbers, got {value!r}')
         self.within_limit(value, value, where, key, sizes=True)
         return tuple(float(item) for item in value)
 
     def number(self, value: Any, where: str | None, key: str, position: bool = True) -> float:
         """Return a finite number: a position (m) within ±MAX_COORDINATE_M unless not one."""
-        if not _is_number(value):
+        if not is_finite_number(value):
             raise self.fail(where, key, f'must be a finite number, got {value!r}')
         if position:
             self.within_limit([value], value, where, key)
@@ -635,15 +637,6 @@ class _Parser:
         if not sizes and any(abs(number) > MAX_COORDINATE_M for number in numbers):
             raise self.fail(where, key, f'must be within ±{MAX_COORDINATE_M:g} m of the origin '
                             f'(positions are in metres), got {value!r}')
-
-
-def _is_number(value: Any) -> bool:
-    return (isinstance(value, (int, float)) and not isinstance(value, bool)
-            and math.isfinite(value))
-
-
-def _kind(value: Any) -> str:
-    return f'{value!r} ({type(value).__name__})'
 
 
 def _wall(name: str, x: float, y: float, yaw: float, length: float, thickness: float,

@@ -1,0 +1,84 @@
+"""
+The handout's video of a lab task in one command: ``./lab video TASK --names "..."``.
+
+``python -m sim_bridge.commands.task_video TASK --names "Ada Lovelace 123, ..." [--speed N] [--out
+DIR]`` runs the first seed of the task's shipped scenario
+(sim_bridge.live.lab_tasks.TASK_SCENARIOS, with its ``drive:`` segments where it has them, as the
+grader runs it), its outputs in ``--out`` (default ``out/video/<task>``), and writes its video
+(sim_bridge.media.video) named as the handout names it, ``labscan_task1.mp4`` ...
+``labscan_task4.mp4``, in the current folder (or ``-o FILE``).
+"""
+
+import argparse
+from pathlib import Path
+import sys
+from typing import Sequence
+
+from sim_bridge.common.paths import scenarios_dir
+from sim_bridge.grading.runs import run_scenario
+from sim_bridge.grading.scenario import load_scenario
+from sim_bridge.live.lab_tasks import HANDOUT_NUMBERS, TASK_SCENARIOS, video_name
+from sim_bridge.media.video import render_video, VideoError
+
+
+def task_name(text: str) -> str:
+    """Return the lab task ``text`` names: a task (``wall_follow``) or a handout number (4)."""
+    numbers = {str(number): task for task, number in HANDOUT_NUMBERS.items()}
+    task = numbers.get(text.removeprefix('task'), text)
+    if task not in TASK_SCENARIOS:
+        raise argparse.ArgumentTypeError(
+            f"'{text}': a lab task is one of {', '.join(TASK_SCENARIOS)} or the handout's "
+            f"number {', '.join(sorted(numbers))}")
+    return task
+
+
+def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
+    """Parse the command line."""
+    parser = argparse.ArgumentParser(prog='./lab video',
+                                     description=__doc__.strip().splitlines()[0])
+    parser.add_argument('task', type=task_name, metavar='TASK',
+                        help=f"{', '.join(TASK_SCENARIOS)}, or the handout's task number")
+    parser.add_argument('--names', required=True, help="the students' names, on every frame")
+    parser.add_argument('--speed', type=float, default=1.0, metavar='N',
+                        help='simulated seconds per second of video (default 1: real time)')
+    parser.add_argument('--out', type=Path, metavar='DIR',
+                        help="the run's output folder (default out/video/TASK)")
+    parser.add_argument('-o', '--output', type=Path, metavar='FILE.mp4',
+                        help="the video file (default: the handout's name, labscan_taskN.mp4)")
+    return parser.parse_args(argv)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run a task's scenario and write its video: 0, 1 when the run failed, 2 when no video."""
+    args = parse_args(argv)
+    try:
+        scenarios = scenarios_dir()
+    except FileNotFoundError as error:
+        print(f'error: {error}', file=sys.stderr)
+        return 2
+    out_dir = args.out or Path('out') / 'video' / args.task
+    output = args.output or Path(video_name(args.task))
+    try:
+        scenario = load_scenario(scenarios / TASK_SCENARIOS[args.task])
+        run = scenario.runs()[0]
+        print(f'{args.task}: {scenario.description or scenario.name} (seed {run.seed}, '
+              f'{scenario.duration_s:g} s simulated)', file=sys.stderr)
+        report = run_scenario(run, out_dir, quiet=False)
+        if report.metrics is None:
+            print(f'error: {report.error}', file=sys.stderr)
+            return 2
+        info = render_video(out_dir, output, args.names, speed=args.speed)
+    except (ValueError, VideoError) as error:
+        print(f'error: {error}', file=sys.stderr)
+        return 2
+    except OSError as error:
+        print(f'error: cannot write {error.filename or output}: {error.strerror or error}',
+              file=sys.stderr)
+        return 2
+    print(f'{info.path}: {info.duration_s:.1f} s of video ({args.speed:g}x simulated time); '
+          f"the run's outputs are in {out_dir}")
+    return 0 if report.passed else 1
+
+
+if __name__ == '__main__':
+    sys.exit(main())

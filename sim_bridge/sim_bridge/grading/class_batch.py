@@ -1,0 +1,211 @@
+"""
+Grade a whole class: every student's node files on every scenario, one table for the class.
+
+``python -m sim_bridge.grade SCENARIO... --submissions DIR`` grades each folder of DIR as a
+student's submission. A scenario's node (``wall_follow``) is replaced by the student's file of
+the same name (``DIR/<student>/wall_follow.py``); a student without that file fails the
+scenario's runs as "not submitted". Any folder name the file system allows is a student's
+name (``col:on``, ``index.html``, bytes that are not UTF-8). Outputs below ``--out``:
+``class.csv`` (a row per student, a column per scenario: passed runs of total and why the
+others failed, then the runs in all and, when the scenarios carry marks
+(:mod:`sim_bridge.grading.marks`), the marks per task and in all) and ``index.html``, the class's
+page; ``students/<student>/`` with each run's outputs, ``report.json`` and ``report.html``.
+"""
+
+import csv
+import os
+from pathlib import Path
+
+from sim_bridge.common.text import count_cell, one_line, OUTCOME_LEGEND, PathNames, printable
+from sim_bridge.grading import html_report
+from sim_bridge.grading.marks import format_marks, task_marks, TaskMarks, total
+from sim_bridge.grading.runs import (
+    GradeJob, PAGE_NAME, REPORT_NAME, reuse_notes, RunReport, write_outputs, write_report)
+from sim_bridge.grading.scenario import Scenario
+from sim_bridge.runner.targets import target_name
+
+CSV_NAME = 'class.csv'
+INDEX_NAME = 'index.html'
+#: The folder of ``--out`` holding a folder per student: no student's name can collide with
+#: the class's own outputs.
+STUDENTS_DIR = 'students'
+
+
+class ClassBatch:
+    """The runs of a class: a job per student, scenario and seed, or a run not submitted."""
+
+    def __init__(self, scenarios: list[Scenario], submissions: Path, out: Path) -> None:
+        if not submissions.is_dir():
+            raise ValueError(f'--submissions {submissions}: not a folder')
+        # --out inside the class folder (class/results), or the class folder itself (its
+        # students/), holds the grader's outputs, no student.
+        out_path, ours = out.resolve(), (out / STUDENTS_DIR).resolve()
+        self.students = sorted(folder.name for folder in submissions.iterdir()
+                               if folder.is_dir() and not folder.name.startswith('.')
+                               and not out_path.is_relative_to(folder.resolve())
+                               and folder.resolve() != ours)
+        if not self.students:
+            raise ValueError(f'--submissions {submissions}: no student folders in it')
+        self.scenarios = scenarios
+        self.out = out
+        self.jobs: list[GradeJob] = []
+        #: Each run's student, and the reports of runs whose node files are missing.
+        self.student_of: dict[str, str] = {}
+        self.missing: list[tuple[str, RunReport]] = []
+        for student in self.students:
+            jobs, missing = submission_runs(scenarios, self.source_folder(submissions / student),
+                                            self.folder(student), student)
+            self.jobs += jobs
+            self.missing += [(student, report) for report in missing]
+            self.student_of.update({str(job.out_dir): student for job in jobs})
+
+    def source_folder(self, folder: Path) -> Path:
+        """
+        Return the folder to run a student's files from: ``folder``, or a link to it.
+
+        rclpy's logging refuses a source file path that is not UTF-8 (a folder unzipped from
+        a Windows export): such a folder is run through a link in ``students/.sources/``,
+        named as the reports show it (hidden: no student's folder).
+        """
+        if printable(folder.name) == folder.name:
+            return folder.resolve()
+        link = self.out / STUDENTS_DIR / '.sources' / printable(folder.name)
+        link.parent.mkdir(parents=True, exist_ok=True)
+        if link.is_symlink():
+            link.unlink()
+        link.symlink_to(folder.resolve(), target_is_directory=True)
+        return Path(os.path.abspath(link))
+
+    def folder(self, student: str) -> Path:
+        """Return the output folder of ``student``."""
+        return self.out / STUDENTS_DIR / student
+
+    def by_student(self, reports: list[RunReport]) -> dict[str, list[RunReport]]:
+        """Return each student's reports (of :attr:`jobs`, plus the missing), scenario order."""
+        order = {scenario.name: index for index, scenario in enumerate(self.scenarios)}
+        students: dict[str, list[RunReport]] = {student: [] for student in self.students}
+        for job, report in zip(self.jobs, reports):
+            students[self.student_of[str(job.out_dir)]].append(report)
+        for student, report in self.missing:
+            students[student].append(report)
+        for runs in students.values():
+            runs.sort(key=lambda report: (order[report.run.scenario.name], report.run.seed))
+        return students
+
+    def marks(self, entries: dict[str, list[dict]]) -> dict[str, list[TaskMarks]]:
+        """Return each student's marks per task from their run entries."""
+        return {student: task_marks(self.scenarios, runs) for student, runs in entries.items()}
+
+    def table(self, entries: dict[str, list[dict]]) -> list[list[str]]:
+        """
+        Return the class table: a header, then per student a cell per scenario and the runs.
+
+        ``entries`` are each student's run entries (``RunReport.as_dict``). A cell is
+        'passed/total' runs, followed by the worst reason of a failed one: ``0/3 not
+        submitted`` (see :data:`OUTCOME_LEGEND`). When the scenarios carry marks, a column per
+        task with marks (``task 1 (of 2)``) and the total (``marks (of 5)``) follow.
+        """
+        marks = self.marks(entries)
+        marked = [task for task in task_marks(self.scenarios, []) if task.marks is not None]
+        _, maximum = total(marked)
+        rows = [['student', *(scenario.name for scenario in self.scenarios), 'runs',
+                 *(f'{task.title} (of {format_marks(task.marks)})' for task in marked),
+                 *([f'marks (of {format_marks(maximum)})'] if marked else [])]]
+        for student, runs in entries.items():
+            cells = [' '.join(filter(None, count_cell(
+                [run for run in runs if run['scenario'] == scenario.name])))
+                for scenario in self.scenarios]
+            tasks = [task for task in marks[student] if task.marks is not None]
+            rows.append([one_line(student), *cells, ' '.join(filter(None, count_cell(runs))),
+                         *(format_marks(task.earned) for task in tasks),
+                         *([format_marks(total(tasks)[0])] if tasks else [])])
+        return rows
+
+    def write_outputs(self, reports: list[RunReport],
+                      names: PathNames | None = None) -> tuple[str, list[Path]]:
+        """
+        Write every student's report and page, class.csv and index.html.
+
+        Each file is written on its own: one that cannot be written (named on stderr) stops
+        no other. Return the table with where the outputs are, and the files not written.
+        """
+        students = self.by_student(reports)
+        entries = {student: [report.as_dict(names) for report in runs]
+                   for student, runs in students.items()}
+        marks = self.marks(entries)
+        index = self.out / INDEX_NAME
+        pages = {student: self.folder(student) / PAGE_NAME for student in students}
+        notes = reuse_notes(reports, self.out / STUDENTS_DIR)
+        writers = {}
+        for student, runs in students.items():
+            writers[self.folder(student) / REPORT_NAME] = (
+                lambda path, runs=runs, student=student: write_report(
+                    runs, path, names=names, notes=notes, marks=marks[student]))
+            writers[pages[student]] = (
+                lambda path, student=student: html_report.write_runs_page(
+                    path, f'Grading report: {student}', entries[student], up=index,
+                    root=self.out, notes=notes, marks=marks[student]))
+        rows = self.table(entries)
+        writers[self.out / CSV_NAME] = lambda path: write_csv(path, rows)
+        writers[index] = lambda path: html_report.write_class_index(
+            path, 'Class grading report', entries,
+            [scenario.name for scenario in self.scenarios],
+            {student: page for student, page in pages.items() if page.is_file()}, marks)
+        unwritten = write_outputs(writers)
+        legend = [f'  {name}: {text}' for name, text in OUTCOME_LEGEND.items()]
+        legend += [f'  {task.rule()}' for task in next(iter(marks.values()), [])
+                   if task.marks is not None]
+        lines = [format_rows(rows), *legend, *(f'note: {note}' for note in notes),
+                 f'class: {printable(os.fspath(self.out / CSV_NAME))} and '
+                 f'{printable(os.fspath(index))}; each student: '
+                 f'{printable(os.fspath(self.out / STUDENTS_DIR))}/<student>/{PAGE_NAME}']
+        if unwritten:
+            lines.append(f'{len(unwritten)} files not written (see above): '
+                         + ', '.join(printable(os.fspath(path)) for path in unwritten))
+        return '\n'.join(lines), unwritten
+
+
+def submission_runs(scenarios: list[Scenario], source: Path, out: Path,
+                    name: str) -> tuple[list[GradeJob], list[RunReport]]:
+    """
+    Return the runs of one submission: the jobs to run, and the failed runs of missing files.
+
+    Each scenario's node is replaced by the file of the same name in the folder ``source``
+    (``wall_follow`` by ``source/wall_follow.py``); a scenario with a file missing is not
+    run and its runs fail as ``not submitted: no wall_follow.py in <name>/``. Outputs go to
+    ``out/<scenario>/seed_<n>``; the progress calls a run ``<name>/<run>``.
+    """
+    jobs, missing = [], []
+    for scenario in scenarios:
+        files = {target_name(node): source / f'{target_name(node)}.py' for node in scenario.nodes}
+        absent = [path.name for path in files.values() if not path.is_file()]
+        graded = scenario
+        for node, path in files.items():
+            # An existing file is taken as a file whatever its path holds (targets).
+            graded = graded.with_node_override(f'{node}={os.path.abspath(path)}')
+        for run in graded.runs():
+            job = GradeJob(run, out / run.name, f'{name}/{run.name}')
+            if absent:
+                missing.append(RunReport(run, job.out_dir, [], None,
+                                         f"not submitted: no {', '.join(absent)} in {name}/",
+                                         0.0))
+            else:
+                jobs.append(job)
+    return jobs, missing
+
+
+def write_csv(path: Path, rows: list[list[str]]) -> None:
+    """Write ``rows`` as a CSV file (UTF-8)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, 'w', newline='', encoding='utf-8') as file:
+        csv.writer(file).writerows(rows)
+
+
+def format_rows(rows: list[list[str]]) -> str:
+    """Return rows as an aligned text table: the first column left, the others right."""
+    widths = [max(len(row[column]) for row in rows) for column in range(len(rows[0]))]
+    lines = ['  '.join([row[0].ljust(widths[0])] + [cell.rjust(width) for cell, width
+                                                    in zip(row[1:], widths[1:])])
+             for row in rows]
+    lines.insert(1, '-' * len(lines[0]))
+    return '\n'.join(lines)

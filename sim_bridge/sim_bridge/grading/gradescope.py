@@ -1,0 +1,210 @@
+"""
+Gradescope: the autograder's ``results.json`` for a graded submission, and ``autograder.zip``.
+
+Gradescope grades each submission in a container of its own (Ubuntu; the autograder
+specification: https://gradescope-autograders.readthedocs.io/en/latest/specs/). Its
+``autograder.zip`` holds ``setup.sh``, run once when the image is built, and
+``run_autograder``, run per submission in ``/autograder`` with the student's files in
+``/autograder/submission``; it must write ``/autograder/results/results.json``.
+
+``python -m sim_bridge.grade SCENARIO... --submission DIR --gradescope results.json`` writes
+the results (:func:`results`): the marks as the score, a test per scenario, ordered by task.
+``python -m sim_bridge.commands.autograder build SCENARIO... -o autograder.zip`` (``./lab
+autograder``) builds the zip: the kit (the two packages, worlds, models, ``lab`` and its
+requirements), the chosen scenario files, ``setup.sh`` (``./lab setup``: a venv with ROS 2 Jazzy's
+wheels and the kit, as on a machine with only Python) and ``run_autograder``. ``AUTOGRADER_ROOT``
+(default ``/autograder``) moves the root ``run_autograder`` works in, so it can be tried on a
+folder laid out as Gradescope lays it out.
+"""
+
+from collections.abc import Callable
+import json
+import os
+from pathlib import Path
+import stat
+from typing import Any
+import zipfile
+
+from sim_bridge.common.paths import WORLD_FILE_SUFFIXES, world_names
+from sim_bridge.common.text import cap_text, PathNames, printable, reason
+from sim_bridge.grading.marks import format_marks, summary as marks_summary, task_marks, total
+from sim_bridge.grading.runs import RunReport
+from sim_bridge.grading.scenario import load_scenarios, Scenario, ScenarioError
+
+#: The most bytes of one test's output in results.json (the reason, the table, tracebacks).
+OUTPUT_LIMIT_BYTES = 8 * 1024
+#: The failed runs whose reasons a test's output lists before its table.
+REASONS_SHOWN = 3
+#: What the zip carries of the kit, relative to the workspace's top.
+KIT_FILES = ('lab', 'requirements.txt', 'requirements-dev.txt', 'requirements-ros.txt',
+             'scan_pkg', 'sim_bridge', 'worlds', 'models')
+#: Folders of the kit left out of the zip: tests, caches and build outputs.
+SKIPPED_FOLDERS = {'test', '__pycache__', '.pytest_cache', 'build', 'install', 'log'}
+KIT_DIR = 'kit'
+SCENARIOS_DIR = 'scenarios'
+
+SETUP_SH = r"""#!/usr/bin/env bash
+# Gradescope runs this once, as root, when it builds the autograder's image (Ubuntu): Python 3
+# with venv, then ./lab setup: a venv in kit/.venv with ROS 2 Jazzy from PyPI
+# (requirements-ros.txt) and the kit, as on any machine with only Python. No display needed.
+set -euo pipefail
+here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+export DEBIAN_FRONTEND=noninteractive
+apt-get update
+apt-get install -y --no-install-recommends python3 python3-venv python3-pip python3-dev \
+    build-essential
+PYTHON=python3 "$here/kit/lab" setup
+"""
+
+RUN_AUTOGRADER = r"""#!/usr/bin/env bash
+# Gradescope runs this for each submission: grade $root/submission against the scenarios in
+# $root/source/scenarios and write $root/results/results.json (always: a submission that
+# cannot be graded gets a score of 0 and says why). AUTOGRADER_ROOT moves the root (tests);
+# AUTOGRADER_PYTHON names another Python with the kit's requirements.
+root=${AUTOGRADER_ROOT:-/autograder}
+kit=$root/source/kit
+python=${AUTOGRADER_PYTHON:-$kit/.venv/bin/python}
+results=$root/results
+mkdir -p "$results"
+# A grade of 0 that says why; the texts hold no quote or backslash (they are JSON as they are).
+fail() {
+    printf '{"score": 0.0, "output": "%s", "output_format": "text", "tests": []}\n' "$1" \
+        > "$results/results.json"
+}
+if [ ! -x "$python" ]; then
+    fail "The autograder is not set up (its Python is missing: setup.sh did not finish).\
+ Please tell your instructor."
+    exit 0
+fi
+cd "$root"
+# The kit in the zip, whatever else the Python has installed; plots without a display.
+export PYTHONPATH=$kit/scan_pkg:$kit/sim_bridge${PYTHONPATH:+:$PYTHONPATH}
+export MPLBACKEND=Agg
+"$python" -m sim_bridge.grade "$root/source/scenarios" --submission "$root/submission" \
+    --gradescope "$results/results.json" --out "$results/graded" --jobs "$(nproc)" \
+    --no-record --quiet
+status=$?
+# The grader writes results.json whatever happens; a non-empty one is the grade.
+[ -s "$results/results.json" ] || fail "The grader stopped (exit status $status) before it\
+ wrote the results. Please tell your instructor."
+exit 0
+"""
+
+
+def results(reports: list[RunReport], scenarios: list[Scenario],
+            table: Callable[[list[RunReport]], str], names: PathNames | None = None,
+            notes: list[str] = ()) -> dict[str, Any]:
+    """
+    Return Gradescope's results of one submission's graded runs.
+
+    The score is the marks (:mod:`sim_bridge.grading.marks`); a test per scenario, ordered by task,
+    named ``task 1: scan_ahead``, scores its share of its task's marks (a scenario without
+    marks scores 0 of 0), passes when every run of it passed, and its output says why the
+    runs failed, how the task is marked and the runs' ``table`` (grade's pass/fail table),
+    without the grader's paths (``names``), cut to OUTPUT_LIMIT_BYTES.
+    """
+    names = names or PathNames({})
+    entries = [report.as_dict(names) for report in reports]
+    tasks = task_marks(scenarios, entries)
+    tests = []
+    for task in tasks:
+        for scenario in task.scenarios:
+            runs = [report for report in reports if report.run.scenario.name == scenario]
+            passed = sum(report.passed for report in runs)
+            score, maximum = task.share(len(runs), passed)
+            failed = [entry for entry in entries if entry['scenario'] == scenario
+                      and not entry['passed']]
+            lines = [f'{passed} of {len(runs)} runs passed'
+                     + (f', {format_marks(score)} of {format_marks(maximum)} marks'
+                        if task.marks is not None else '')]
+            lines += [f"{entry['run']}: {reason(entry)}" for entry in failed[:REASONS_SHOWN]]
+            if len(failed) > REASONS_SHOWN:
+                lines.append(f'... and {len(failed) - REASONS_SHOWN} more failed runs')
+            lines += [task.rule(), '', names(table(runs))]
+            lines += tracebacks(runs, names)
+            tests.append({
+                'name': f'{task.title}: {scenario}', 'score': round(score, 4),
+                'max_score': round(maximum, 4),
+                'status': 'passed' if runs and passed == len(runs) else 'failed',
+                'output': cap_text('\n'.join(lines), OUTPUT_LIMIT_BYTES),
+                'visibility': 'visible'})
+    earned, _ = total(tasks)
+    runs_passed = sum(report.passed for report in reports)
+    output = [marks_summary(tasks) or 'no scenario carries marks',
+              f'{runs_passed} of {len(reports)} runs passed', *map(printable, notes)]
+    return {'score': round(earned, 4), 'output': '\n'.join(output), 'output_format': 'text',
+            'visibility': 'visible', 'tests': tests}
+
+
+def tracebacks(reports: list[RunReport], names: PathNames) -> list[str]:
+    """Return the first failed run's traceback (a node's, or the run's), with a heading."""
+    for report in reports:
+        node_errors = (report.metrics or {}).get('node_errors') or []
+        for text in [error.get('traceback') for error in node_errors] + [report.traceback]:
+            if text:
+                return ['', f'traceback of {report.run.name}:', names(text)]
+    return []
+
+
+def failed_results(why: str) -> dict[str, Any]:
+    """Return the results of a submission that could not be graded: 0, and why."""
+    return {'score': 0.0, 'output': f'The submission could not be graded: {printable(why)}',
+            'output_format': 'text', 'tests': []}
+
+
+def write_results(path: Path, document: dict[str, Any]) -> None:
+    """Write results.json whole or not at all (a reader never sees half a file)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    partial = path.with_name(path.name + '.partial')
+    partial.write_text(json.dumps(document, indent=2, allow_nan=False) + '\n', encoding='utf-8')
+    partial.replace(path)
+
+
+def build(scenario_paths: list[str], out: Path, root: Path) -> list[str]:
+    """
+    Write ``autograder.zip`` at ``out`` from the workspace ``root``; return its file names.
+
+    ScenarioError when a scenario does not load or names its world by a file's path (the
+    zip carries the chosen scenario files and the kit's worlds, nothing else).
+    """
+    scenarios = load_scenarios(scenario_paths)
+    for scenario in scenarios:
+        world = Path(scenario.world)
+        if world.suffix in WORLD_FILE_SUFFIXES or world.parent != Path('.'):
+            raise ScenarioError(
+                f'{scenario.path}: world: {scenario.world} is a file; the autograder carries '
+                "the scenario files and the kit's worlds only: name a world of worlds/ "
+                f"({', '.join(world_names())})")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    names = []
+    with zipfile.ZipFile(out, 'w', zipfile.ZIP_DEFLATED) as archive:
+        def add(name: str, data: bytes, executable: bool = False) -> None:
+            info = zipfile.ZipInfo(name, date_time=(2024, 1, 1, 0, 0, 0))
+            info.compress_type = zipfile.ZIP_DEFLATED
+            mode = 0o755 if executable else 0o644
+            info.external_attr = (stat.S_IFREG | mode) << 16
+            archive.writestr(info, data)
+            names.append(name)
+
+        add('setup.sh', SETUP_SH.encode(), executable=True)
+        add('run_autograder', RUN_AUTOGRADER.encode(), executable=True)
+        for scenario in scenarios:
+            add(f'{SCENARIOS_DIR}/{scenario.path.name}', scenario.path.read_bytes())
+        for entry in KIT_FILES:
+            for path in sorted(kit_files(root / entry)):
+                add(f'{KIT_DIR}/{path.relative_to(root).as_posix()}', path.read_bytes(),
+                    executable=os.access(path, os.X_OK))
+    return names
+
+
+def kit_files(path: Path) -> list[Path]:
+    """Return the files of the kit below ``path`` (a file or folder), skipping tests and caches."""
+    if path.is_file():
+        return [path]
+    files = []
+    for folder, subfolders, filenames in os.walk(path):
+        subfolders[:] = [name for name in subfolders
+                         if name not in SKIPPED_FOLDERS and not name.startswith('.')
+                         and not name.endswith('.egg-info')]
+        files += [Path(folder) / name for name in filenames if not name.endswith('.pyc')]
+    return files

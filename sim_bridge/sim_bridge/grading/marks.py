@@ -1,0 +1,131 @@
+"""
+Marks: how a batch's runs become the lab's marks, per task and in all.
+
+A scenario's ``task:`` names the lab task it grades and its ``marks:`` are that task's marks
+(:mod:`sim_bridge.grading.scenario`); the wall follower's sixteen scenarios are one task worth 3. A
+task's marks are earned over every run of its scenarios in the batch: ``marking: all`` gives
+them when every run passed and none otherwise; ``proportional`` gives marks x runs passed /
+runs. A run that was not submitted is a run that failed. A scenario without ``marks:`` counts
+in no total: it is reported by its runs only. Plain values in, plain values out: no rclpy.
+"""
+
+from dataclasses import dataclass
+from typing import Any, Iterable
+
+from sim_bridge.grading.scenario import Scenario
+
+
+@dataclass(frozen=True)
+class TaskMarks:
+    """One task's runs in a batch (of one student) and the marks they earn."""
+
+    task: str
+    #: The names of the task's scenarios in the batch, in the batch's order.
+    scenarios: tuple[str, ...]
+    #: The task's marks (its maximum), or None for scenarios that carry no marks.
+    marks: float | None
+    marking: str
+    runs: int
+    passed: int
+
+    @property
+    def title(self) -> str:
+        """Return how tables name the task: 'task 1' for a number, else its label."""
+        return f'task {self.task}' if self.task.isdigit() else self.task
+
+    @property
+    def earned(self) -> float:
+        """Return the marks the runs earn (0 for a task without marks)."""
+        if not self.marks or not self.runs:
+            return 0.0
+        if self.marking == 'proportional':
+            return self.marks * self.passed / self.runs
+        return self.marks if self.passed == self.runs else 0.0
+
+    def share(self, runs: int, passed: int) -> tuple[float, float]:
+        """
+        Return (score, maximum) of one scenario's ``runs`` of the task, ``passed`` of them.
+
+        The task's marks are split over its scenarios by their runs, so the scenarios' scores
+        add up to :attr:`earned`; under ``marking: all`` a scenario scores only when the whole
+        task passed.
+        """
+        if not self.marks or not self.runs:
+            return 0.0, 0.0
+        maximum = self.marks * runs / self.runs
+        if self.marking == 'proportional':
+            return self.marks * passed / self.runs, maximum
+        return (maximum if self.passed == self.runs else 0.0), maximum
+
+    def rule(self) -> str:
+        """Say in a line how the task's runs become its marks."""
+        if self.marks is None:
+            return f'{self.title} carries no marks'
+        runs = f'{self.runs} runs' if self.runs != 1 else '1 run'
+        if self.marking == 'proportional':
+            return f'{self.title}: {format_marks(self.marks)} marks x runs passed / {runs}'
+        every = f'all {runs} pass' if self.runs != 1 else 'its run passes'
+        return f'{self.title}: {format_marks(self.marks)} marks when {every}'
+
+
+def task_order(scenario: Scenario) -> tuple:
+    """Return a sort key: tasks with marks by number then label, those without last."""
+    task = scenario.task_name
+    return (scenario.marks is None, not task.isdigit(), int(task) if task.isdigit() else 0,
+            task)
+
+
+def task_marks(scenarios: Iterable[Scenario], entries: Iterable[dict[str, Any]]
+               ) -> list[TaskMarks]:
+    """
+    Return each task's marks from the run ``entries`` (``RunReport.as_dict``) of a batch.
+
+    Tasks come in :func:`task_order`; a task's runs are the entries of its ``scenarios``.
+    """
+    scenarios = sorted(scenarios, key=task_order)
+    counts: dict[str, list[int]] = {}
+    for entry in entries:
+        count = counts.setdefault(entry['scenario'], [0, 0])
+        count[0] += 1
+        count[1] += bool(entry['passed'])
+    tasks: dict[str, list[Scenario]] = {}
+    for scenario in scenarios:
+        tasks.setdefault(scenario.task_name, []).append(scenario)
+    result = []
+    for name, members in tasks.items():
+        runs = sum(counts.get(scenario.name, [0, 0])[0] for scenario in members)
+        passed = sum(counts.get(scenario.name, [0, 0])[1] for scenario in members)
+        result.append(TaskMarks(name, tuple(scenario.name for scenario in members),
+                                members[0].marks, members[0].marking, runs, passed))
+    return result
+
+
+def total(tasks: Iterable[TaskMarks]) -> tuple[float, float]:
+    """Return (marks earned, maximum) over the tasks that carry marks."""
+    marked = [task for task in tasks if task.marks is not None]
+    return sum(task.earned for task in marked), sum(task.marks for task in marked)
+
+
+def format_marks(value: float) -> str:
+    """Return marks as people write them: '2', '1.5', '0.19' (at most two decimals)."""
+    return f'{value:.2f}'.rstrip('0').rstrip('.')
+
+
+def summary(tasks: list[TaskMarks]) -> str:
+    """Return a line of marks: 'marks 2.5/5 (task 1: 2/2, task 4: 0.5/3)', or '' for none."""
+    marked = [task for task in tasks if task.marks is not None]
+    if not marked:
+        return ''
+    earned, maximum = total(marked)
+    return (f'marks {format_marks(earned)}/{format_marks(maximum)} ('
+            + ', '.join(f'{task.title}: {format_marks(task.earned)}/{format_marks(task.marks)}'
+                        for task in marked) + ')')
+
+
+def as_dict(tasks: list[TaskMarks]) -> dict[str, Any]:
+    """Return the marks for a JSON report: the total, the maximum and each task's."""
+    earned, maximum = total(tasks)
+    return {'total': earned, 'max': maximum, 'tasks': [
+        {'task': task.task, 'scenarios': list(task.scenarios), 'marks': task.earned,
+         'max': task.marks, 'marking': task.marking, 'runs': task.runs, 'passed': task.passed}
+        for task in tasks]}

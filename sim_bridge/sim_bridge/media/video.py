@@ -1,0 +1,556 @@
+"""
+Render a finished run as a video: the robot in its world beside the nodes' terminal.
+
+``python -m sim_bridge.commands.video OUT_DIR --names "Ada Lovelace 123, ..." [-o
+labscan_task4.mp4] [--speed N] [--fps F]`` reads what a run left in its output folder and writes an
+H.264 MP4 (yuv420p, faststart: it plays in a browser and in common players):
+
+- ``params.yaml``: the simulator's world, robot model and start pose (the ``sim_bridge`` entry);
+- ``run/``: the rosbag2 recording, its ``/odom`` (the robot's pose, the simulator's ground
+  truth) and ``/scan`` (every lidar scan);
+- ``log.jsonl``: the nodes' console lines with the simulated time each was written;
+- ``metrics.json``: the run's simulated length, its collisions and the command of each node.
+
+Frames are at simulated time: a 76 s run is a 76 s video at ``speed`` 1, 19 s at 4. Each frame
+shows the world from above as the robot could hit it (drawn once by sim_bridge.media.plot, then the
+moving parts drawn on a copy), the path so far, the robot's outline, the beams of the last scan
+and the simulated clock; beside it a terminal with the node's command at its top and the console
+lines that were written by then, scrolling as a terminal does; the names on a banner over both.
+Rendering uses matplotlib's Agg canvas and Pillow (no display), the encoder is the FFmpeg that
+imageio-ffmpeg ships on PyPI. Pure: no rclpy.
+"""
+
+from dataclasses import dataclass, field
+import json
+import math
+import os
+from pathlib import Path
+import re
+from typing import Iterator, Sequence
+
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from matplotlib.font_manager import findfont, FontProperties
+import numpy as np
+from PIL import Image, ImageDraw, ImageFont
+from sim_bridge.media.plot import _draw_world
+from sim_bridge.simulation.geometry import point_in_world
+from sim_bridge.simulation.sdf import LidarConfig
+from sim_bridge.simulation.world import World, WorldError
+import yaml
+
+#: Frame size (px): 720p, both even (yuv420p) and multiples of 16 (no rescaling by FFmpeg).
+FRAME_WIDTH, FRAME_HEIGHT = 1280, 720
+BANNER_HEIGHT = 40
+WORLD_WIDTH = 640
+DEFAULT_FPS = 10.0
+#: Console text (px); DejaVu Sans Mono, the font matplotlib ships.
+TERMINAL_FONT_SIZE = 13
+TERMINAL_LINE_HEIGHT = 16
+TERMINAL_MARGIN = 8
+BANNER_FONT_SIZE = 18
+MIN_NAMES_FONT_SIZE = 12
+TERMINAL_BACKGROUND = (24, 24, 24)
+TERMINAL_HEADER = (56, 56, 64)
+TERMINAL_TEXT = (210, 210, 210)
+LEVEL_COLOURS = {'DEBUG': (140, 140, 140), 'WARN': (240, 200, 60), 'ERROR': (240, 90, 80),
+                 'FATAL': (240, 90, 80), 'STDERR': (240, 150, 120)}
+BANNER_BACKGROUND = (21, 57, 110)
+PATH_COLOUR = (21, 101, 192)
+ROBOT_COLOUR = (46, 125, 50)
+BEAM_COLOUR = (229, 115, 115)
+#: A beam with no return, drawn to the lidar's range_max.
+MISS_COLOUR = (225, 225, 225)
+HIT_COLOUR = (198, 40, 40)
+COLLISION_COLOUR = (213, 0, 0)
+#: Bag topics the video reads.
+ODOM_TOPIC, SCAN_TOPIC = '/odom', '/scan'
+LOG_FILE = 'log.jsonl'
+#: The video's file in a run's folder, when no other is named.
+VIDEO_NAME = 'video.mp4'
+#: Escape sequences a terminal interprets rather than shows (rcutils colours, cursor moves).
+ANSI_ESCAPE = re.compile(r'\x1b\[[0-9;?]*[A-Za-z]')
+
+
+class VideoError(Exception):
+    """A run's outputs from which no video can be made; the text names the file and why."""
+
+
+@dataclass(frozen=True)
+class LogLine:
+    """A console line as the terminal showed it, at sim time ``t`` (s), of ``level``."""
+
+    t: float
+    level: str
+    line: str
+
+
+@dataclass
+class Footage:
+    """
+    What a video shows of a run, read from its outputs.
+
+    ``pose_t`` (s) and ``poses`` (N, 3: x m, y m, yaw rad) sample the robot's ground truth;
+    ``scan_t`` (s) and ``scans`` each scan's ranges (m, +inf no return) with ``angle_min`` and
+    ``angle_increment`` (rad) of the laser frame, mounted at ``lidar_mount`` (x m, y m, yaw rad)
+    on the robot, returns up to ``range_max`` (m); ``duration_s`` the run's simulated length;
+    ``collisions`` (t s, x m, y m).
+    """
+
+    world: object
+    duration_s: float
+    pose_t: np.ndarray
+    poses: np.ndarray
+    scan_t: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    scans: list = field(default_factory=list)
+    angle_min: float = 0.0
+    angle_increment: float = 0.0
+    range_max: float = 0.0
+    lidar_mount: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    log: list[LogLine] = field(default_factory=list)
+    commands: list[str] = field(default_factory=list)
+    collisions: list[tuple[float, float, float]] = field(default_factory=list)
+    title: str = ''
+
+
+# ---------------------------------------------------------------------------------------------
+# Reading a run's outputs.
+
+def read_log(path: Path) -> list[LogLine]:
+    """
+    Return the console lines of a ``log.jsonl`` in time order; [] when there is none.
+
+    One JSON object a line: ``t`` (sim s), ``node``, ``level``, ``text`` and ``line`` (what the
+    terminal showed). VideoError names the line that is not such an object.
+    """
+    if not path.is_file():
+        return []
+    lines = []
+    with path.open(encoding='utf-8', errors='replace') as stream:
+        for number, text in enumerate(stream, start=1):
+            if not text.strip():
+                continue
+            try:
+                entry = json.loads(text)
+                lines.append(LogLine(float(entry['t']), str(entry.get('level', '')),
+                                     str(entry['line'])))
+            except (ValueError, TypeError, KeyError) as error:
+                raise VideoError(f'{path}:{number}: not a log line ({error!r})') from None
+    lines.sort(key=lambda entry: entry.t)  # stable: lines of one time keep their order
+    return lines
+
+
+def _json(path: Path) -> dict:
+    try:
+        document = json.loads(path.read_text(encoding='utf-8'))
+    except FileNotFoundError:
+        raise VideoError(f'{path}: no such file (not the output folder of a run?)') from None
+    except (OSError, ValueError) as error:
+        raise VideoError(f'{path}: cannot read it: {error}') from None
+    if not isinstance(document, dict):
+        raise VideoError(f'{path}: not a JSON object')
+    return document
+
+
+def simulator_parameters(out_dir: Path) -> dict:
+    """Return the simulator's entry of the run's ``params.yaml`` (world, robot, robot_pose)."""
+    path = out_dir / 'params.yaml'
+    try:
+        document = yaml.safe_load(path.read_text(encoding='utf-8'))
+        values = document['sim_bridge']['ros__parameters']
+        values['world']
+    except FileNotFoundError:
+        raise VideoError(f'{path}: no such file (not the output folder of a run?)') from None
+    except (OSError, yaml.YAMLError, TypeError, KeyError) as error:
+        raise VideoError(f'{path}: no simulator world in it ({error!r})') from None
+    return values
+
+
+def read_recording(bag: Path) -> tuple[tuple, tuple]:
+    """
+    Return ((pose times s, poses), (scan times s, ranges, geometry)) of a bag.
+
+    ``geometry`` is the scans' (angle_min rad, angle_increment rad, range_max m).
+
+    Read with rosbags' reader and Jazzy type store; times are the messages' bag stamps (sim
+    time: the runner stamps each message with the step that sent it).
+    """
+    from rosbags.rosbag2 import Reader
+    from rosbags.typesys import get_typestore, Stores
+    store = get_typestore(Stores.ROS2_JAZZY)
+    pose_t, poses, scan_t, scans = [], [], [], []
+    geometry = (0.0, 0.0, 0.0)
+    try:
+        with Reader(bag) as reader:
+            wanted = [c for c in reader.connections if c.topic in (ODOM_TOPIC, SCAN_TOPIC)]
+            for connection, stamp, raw in reader.messages(connections=wanted):
+                msg = store.deserialize_cdr(raw, connection.msgtype)
+                if connection.topic == ODOM_TOPIC:
+                    pose = msg.pose.pose
+                    yaw = 2.0 * math.atan2(pose.orientation.z, pose.orientation.w)
+                    pose_t.append(stamp * 1e-9)
+                    poses.append((pose.position.x, pose.position.y, yaw))
+                else:
+                    scan_t.append(stamp * 1e-9)
+                    scans.append(np.asarray(msg.ranges, dtype=float))
+                    geometry = (msg.angle_min, msg.angle_increment, msg.range_max)
+    except Exception as error:  # noqa: B902 rosbags raises its own errors and OSError
+        raise VideoError(f'{bag}: cannot read the recording: {error}') from None
+    if not poses:
+        raise VideoError(f"{bag}: the recording has no {ODOM_TOPIC} (the robot's pose)")
+    return ((np.array(pose_t), np.array(poses).reshape(-1, 3)),
+            (np.array(scan_t), scans, tuple(map(float, geometry))))
+
+
+def load_footage(out_dir: str | os.PathLike) -> Footage:
+    """Read what the video of the run in ``out_dir`` shows; VideoError when it cannot."""
+    out_dir = Path(out_dir)
+    metrics = _json(out_dir / 'metrics.json')
+    sim = simulator_parameters(out_dir)
+    pose = sim.get('robot_pose')
+    try:
+        world = World.load(sim['world'], robot=sim.get('robot'), robot_pose=pose)
+    except (FileNotFoundError, WorldError) as error:
+        raise VideoError(f"{out_dir / 'params.yaml'}: world: {error}") from None
+    bag = out_dir / 'run'
+    if not bag.is_dir():
+        raise VideoError(f'{bag}: no recording (was the run made with --no-record?)')
+    (pose_t, poses), (scan_t, scans, geometry) = read_recording(bag)
+    lidar = world.robot.lidar or LidarConfig()
+    mount = (lidar.pose[0], lidar.pose[1], lidar.pose[5])
+    duration = metrics.get('sim_time_s')
+    if not isinstance(duration, (int, float)) or not duration > 0:
+        duration = float(max(pose_t[-1], scan_t[-1] if len(scan_t) else 0.0))
+    collisions = [(event['time'], event['x'], event['y'])
+                  for event in metrics.get('collision_events') or []]
+    return Footage(world, float(duration), pose_t, poses, scan_t, scans, *geometry, mount,
+                   read_log(out_dir / LOG_FILE), list(metrics.get('commands') or []),
+                   collisions, title=getattr(world, 'name', ''))
+
+
+# ---------------------------------------------------------------------------------------------
+# Drawing frames.
+
+def _font(family: str, size: int, weight: str = 'normal') -> ImageFont.FreeTypeFont:
+    path = findfont(FontProperties(family=family, weight=weight), fallback_to_default=True)
+    return ImageFont.truetype(path, size)
+
+
+def terminal_rows(text: str, columns: int) -> list[str]:
+    """Return ``text`` as the rows a terminal ``columns`` wide shows (escapes out, wrapped)."""
+    text = ANSI_ESCAPE.sub('', text).expandtabs(8)
+    text = ''.join(char if char.isprintable() else '?' for char in text)
+    return [text[start:start + columns] for start in range(0, len(text), columns)] or ['']
+
+
+class TerminalPane:
+    """
+    The terminal of a video: the command at its top, the console lines below, scrolling.
+
+    ``size`` (px); :meth:`image` of the first ``count`` lines is cached, so that frames with no
+    new line cost nothing.
+    """
+
+    def __init__(self, size: tuple[int, int], commands: Sequence[str], log: Sequence[LogLine]):
+        self.size = size
+        self.font = _font('DejaVu Sans Mono', TERMINAL_FONT_SIZE)
+        advance = self.font.getlength('M')
+        self.columns = max(20, int((size[0] - 2 * TERMINAL_MARGIN) // advance))
+        self.header = [row for command in commands
+                       for row in terminal_rows(f'$ {command}', self.columns)]
+        self.header_height = TERMINAL_LINE_HEIGHT * len(self.header) + 2 * TERMINAL_MARGIN
+        self.capacity = max(1, (size[1] - self.header_height - TERMINAL_MARGIN)
+                            // TERMINAL_LINE_HEIGHT)
+        self.log = list(log)
+        self.times = np.array([entry.t for entry in self.log])
+        self._cached: tuple[int, Image.Image] | None = None
+        self._entry_rows: dict[int, list[tuple[str, tuple[int, int, int]]]] = {}
+        self._row_images: dict[tuple[str, tuple[int, int, int]], Image.Image] = {}
+        self._header = Image.new('RGB', self.size, TERMINAL_BACKGROUND)
+        draw = ImageDraw.Draw(self._header)
+        draw.rectangle((0, 0, self.size[0], self.header_height - TERMINAL_MARGIN // 2),
+                       fill=TERMINAL_HEADER)
+        for number, row in enumerate(self.header):
+            draw.text((TERMINAL_MARGIN, TERMINAL_MARGIN + number * TERMINAL_LINE_HEIGHT), row,
+                      font=self.font, fill=(255, 255, 255))
+
+    def count_at(self, t: float) -> int:
+        """Return how many lines had been written by sim time ``t`` (s)."""
+        return int(np.searchsorted(self.times, t, side='right'))
+
+    def image(self, count: int) -> Image.Image:
+        """Return the pane after the first ``count`` lines: the last rows that fit."""
+        if self._cached is not None and self._cached[0] == count:
+            return self._cached[1]
+        rows = []
+        for index in range(max(0, count - self.capacity), count):
+            if index not in self._entry_rows:
+                entry = self.log[index]
+                colour = LEVEL_COLOURS.get(entry.level.upper(), TERMINAL_TEXT)
+                self._entry_rows[index] = [(row, colour)
+                                           for row in terminal_rows(entry.line, self.columns)]
+            rows += self._entry_rows[index]
+        pane = self._header.copy()
+        # Text is the costly part of a frame: each row is drawn once, then moved as it scrolls.
+        drawn = {}
+        for number, key in enumerate(rows[-self.capacity:]):
+            drawn[key] = self._row_images.get(key) or drawn.get(key) or self._row(*key)
+            pane.paste(drawn[key], (0, self.header_height + number * TERMINAL_LINE_HEIGHT))
+        self._row_images = drawn
+        self._cached = (count, pane)
+        return pane
+
+    def _row(self, text: str, colour: tuple[int, int, int]) -> Image.Image:
+        row = Image.new('RGB', (self.size[0], TERMINAL_LINE_HEIGHT), TERMINAL_BACKGROUND)
+        ImageDraw.Draw(row).text((TERMINAL_MARGIN, 0), text, font=self.font, fill=colour)
+        return row
+
+
+class WorldPane:
+    """
+    The world from above: drawn once by sim_bridge.media.plot's world drawing, the rest per frame.
+
+    World coordinates (m) map to pixels through the axes' transform of that drawing; the path
+    is drawn on a copy kept from frame to frame, the robot and the scan on a copy of that.
+    """
+
+    def __init__(self, size: tuple[int, int], footage: Footage):
+        self.size = size
+        self.footage = footage
+        dpi = 100
+        figure = Figure(figsize=(size[0] / dpi, size[1] / dpi), dpi=dpi)
+        axes = figure.add_axes((0.08, 0.05, 0.9, 0.9))
+        _draw_world(axes, footage.world)
+        xmin, ymin, xmax, ymax = footage.world.bounds
+        xs, ys = footage.poses[:, 0], footage.poses[:, 1]
+        margin = 0.3
+        axes.set_xlim(min(xmin, xs.min()) - margin, max(xmax, xs.max()) + margin)
+        axes.set_ylim(min(ymin, ys.min()) - margin, max(ymax, ys.max()) + margin)
+        axes.set_aspect('equal', adjustable='box')
+        axes.grid(True, linewidth=0.4, alpha=0.5)
+        axes.tick_params(labelsize=8)
+        axes.set_title(footage.title, fontsize=10)
+        canvas = FigureCanvasAgg(figure)
+        canvas.draw()
+        self.transform = axes.transData
+        # The map's box (px: left, top, right, bottom): beams reaching beyond it are cut there.
+        box = axes.get_window_extent()
+        self.box = (math.floor(box.x0), math.floor(size[1] - box.y1),
+                    math.ceil(box.x1), math.ceil(size[1] - box.y0))
+        self.background = Image.fromarray(np.asarray(canvas.buffer_rgba())[..., :3])
+        outlines = footage.world.floor_slice.robot_outlines((0.0, 0.0, 0.0))
+        self.robot_rings = [np.asarray(ring)[:, :2] for ring in outlines]
+        self.robot_size = max(float(np.abs(ring).max()) for ring in self.robot_rings)
+        self._path = self.background.copy()
+        self._path_drawn = 0
+
+    def pixels(self, points: np.ndarray) -> np.ndarray:
+        """Return the (K, 2) pixel positions (column, row) of world points (K, 2) in m."""
+        display = self.transform.transform(np.asarray(points, dtype=float).reshape(-1, 2))
+        return np.column_stack((display[:, 0], self.size[1] - display[:, 1]))
+
+    def image(self, t: float) -> Image.Image:
+        """Return the pane at sim time ``t`` (s)."""
+        footage = self.footage
+        index = int(np.searchsorted(footage.pose_t, t, side='right'))
+        if index < self._path_drawn:  # an earlier time than the last frame: start over
+            self._path, self._path_drawn = self.background.copy(), 0
+        if index > self._path_drawn:
+            first = max(0, self._path_drawn - 1)
+            points = self.pixels(footage.poses[first:index, :2])
+            if len(points) > 1:
+                ImageDraw.Draw(self._path).line([tuple(p) for p in points], fill=PATH_COLOUR,
+                                                width=3, joint='curve')
+            self._path_drawn = index
+        frame = self._path.copy()
+        draw = ImageDraw.Draw(frame)
+        pose = footage.poses[max(index - 1, 0)]
+        self._draw_scan(draw, t, pose)
+        self._draw_robot(draw, pose)
+        for _, x, y in [event for event in footage.collisions if event[0] <= t]:
+            (column, row), = self.pixels([(x, y)])
+            for sign in (-1, 1):
+                draw.line((column - 7, row - 7 * sign, column + 7, row + 7 * sign),
+                          fill=COLLISION_COLOUR, width=3)
+        framed = self.background.copy()
+        framed.paste(frame.crop(self.box), self.box[:2])
+        return framed
+
+    def _draw_scan(self, draw: ImageDraw.ImageDraw, t: float, robot: np.ndarray) -> None:
+        footage = self.footage
+        index = int(np.searchsorted(footage.scan_t, t, side='right')) - 1
+        if index < 0:
+            return
+        # The robot's pose when the scan was taken, and the laser's on it.
+        at = max(int(np.searchsorted(footage.pose_t, footage.scan_t[index], side='right')) - 1, 0)
+        x, y, yaw = footage.poses[at]
+        mx, my, myaw = footage.lidar_mount
+        origin = point_in_world((x, y, yaw), (mx, my))
+        ranges = footage.scans[index]
+        angles = yaw + myaw + footage.angle_min + footage.angle_increment * np.arange(len(ranges))
+        hit = np.isfinite(ranges)
+        # A beam with no return shows the lidar's reach; one that hit, where it hit.
+        reach = np.where(hit, ranges, footage.range_max)
+        ends = self.pixels(np.column_stack((origin[0] + reach * np.cos(angles),
+                                            origin[1] + reach * np.sin(angles))))
+        (ox, oy), = self.pixels([origin])
+        for returned, colour in ((False, MISS_COLOUR), (True, BEAM_COLOUR)):
+            for column, row in ends[hit == returned]:
+                draw.line((ox, oy, column, row), fill=colour)
+        for column, row in ends[hit]:
+            draw.ellipse((column - 3, row - 3, column + 3, row + 3), fill=HIT_COLOUR)
+
+    def _draw_robot(self, draw: ImageDraw.ImageDraw, pose: np.ndarray) -> None:
+        x, y, yaw = pose
+        rotation = np.array([[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]])
+        for ring in self.robot_rings:
+            points = self.pixels(ring @ rotation.T + (x, y))
+            draw.polygon([tuple(p) for p in points], fill=ROBOT_COLOUR, outline=(20, 60, 20))
+        nose = (x + self.robot_size * math.cos(yaw), y + self.robot_size * math.sin(yaw))
+        (cx, cy), (nx, ny) = self.pixels([(x, y), nose])
+        draw.line((cx, cy, nx, ny), fill=(255, 255, 255), width=2)
+
+
+class FrameRenderer:
+    """
+    Draw a run's frames (FRAME_WIDTH x FRAME_HEIGHT, RGB) at any sim time.
+
+    The banner holds ``names`` and the simulated clock, the left the world, the right the
+    terminal. Frames are quickest drawn in time order (the path grows on a kept copy).
+    """
+
+    def __init__(self, footage: Footage, names: str, speed: float = 1.0):
+        self.footage = footage
+        self.names = names
+        self.speed = speed
+        body = (FRAME_WIDTH - WORLD_WIDTH, FRAME_HEIGHT - BANNER_HEIGHT)
+        self.world = WorldPane((WORLD_WIDTH, FRAME_HEIGHT - BANNER_HEIGHT), footage)
+        self.terminal = TerminalPane(body, footage.commands, footage.log)
+        self.clock_font = _font('DejaVu Sans Mono', BANNER_FONT_SIZE)
+        longest = self.clock(footage.duration_s)
+        self.names_image = names_banner(
+            names, FRAME_WIDTH - 40 - int(self.clock_font.getlength(longest)))
+
+    def clock(self, t: float) -> str:
+        """Return the banner's clock at sim time ``t`` (s)."""
+        speed = '' if self.speed == 1 else f'  ({self.speed:g}x)'
+        return f'sim time {t:7.1f} s / {self.footage.duration_s:.1f} s{speed}'
+
+    def frame(self, t: float, *, names: bool = True, log: bool = True) -> np.ndarray:
+        """
+        Return the frame at sim time ``t`` (s) as an (H, W, 3) uint8 array.
+
+        ``names`` and ``log`` False leave the names or the console lines out (to compare with).
+        """
+        frame = Image.new('RGB', (FRAME_WIDTH, FRAME_HEIGHT), BANNER_BACKGROUND)
+        frame.paste(self.world.image(t), (0, BANNER_HEIGHT))
+        count = self.terminal.count_at(t) if log else 0
+        frame.paste(self.terminal.image(count), (WORLD_WIDTH, BANNER_HEIGHT))
+        draw = ImageDraw.Draw(frame)
+        if names:
+            frame.paste(self.names_image, (10, 0))
+        draw.text((FRAME_WIDTH - 10, BANNER_HEIGHT // 2), self.clock(t), font=self.clock_font,
+                  fill=(255, 255, 255), anchor='rm')
+        return np.asarray(frame)
+
+
+def names_banner(names: str, width: int) -> Image.Image:
+    """
+    Return ``names`` drawn to fit ``width`` (px) of the banner, whole: never cut off.
+
+    In bold at BANNER_FONT_SIZE, smaller if needed down to MIN_NAMES_FONT_SIZE, then on two
+    lines (at commas where it can) at the size that fits.
+    """
+    image = Image.new('RGB', (width, BANNER_HEIGHT), BANNER_BACKGROUND)
+    draw = ImageDraw.Draw(image)
+    lines = [names]
+    for size in range(BANNER_FONT_SIZE, MIN_NAMES_FONT_SIZE - 1, -1):
+        font = _font('DejaVu Sans', size, 'bold')
+        if font.getlength(names) <= width:
+            break
+    else:
+        middle = len(names) // 2
+        commas = [index for index, char in enumerate(names) if char in ', ']
+        cut = min(commas, key=lambda index: abs(index - middle)) if commas else middle
+        lines = [names[:cut + 1].strip(), names[cut + 1:].strip()]
+        for size in range(BANNER_HEIGHT // 2 - 2, 5, -1):
+            font = _font('DejaVu Sans', size, 'bold')
+            if max(font.getlength(line) for line in lines) <= width:
+                break
+    draw.multiline_text((0, BANNER_HEIGHT // 2), '\n'.join(lines), font=font,
+                        fill=(255, 255, 255), anchor='lm', spacing=0)
+    return image
+
+
+def frame_times(duration_s: float, speed: float, fps: float) -> np.ndarray:
+    """
+    Return the sim time (s) of each frame: one every ``speed / fps`` s, the last at the end.
+
+    ``round(duration_s / speed * fps)`` frames (at least one): the video lasts the run's
+    simulated time divided by ``speed``. Frame k shows the run at the end of its interval.
+    """
+    count = max(1, round(duration_s / speed * fps))
+    return np.minimum((np.arange(count) + 1) * speed / fps, duration_s)
+
+
+@dataclass(frozen=True)
+class VideoInfo:
+    """A written video: its file, frame count, frame rate (1/s) and size (px)."""
+
+    path: Path
+    frames: int
+    fps: float
+    size: tuple[int, int]
+
+    @property
+    def duration_s(self) -> float:
+        """Return the video's length (s)."""
+        return self.frames / self.fps
+
+
+def encode(frames: Iterator[np.ndarray], path: Path, fps: float) -> int:
+    """
+    Write RGB frames as an H.264 MP4 (yuv420p, faststart); return how many were written.
+
+    Written to a temporary file beside ``path`` and moved there when complete: a video cut off
+    (Ctrl-C, a full disk) never replaces a good one.
+    """
+    import imageio_ffmpeg
+    partial = path.with_name(f'.{path.name}.partial.mp4')
+    writer = imageio_ffmpeg.write_frames(
+        str(partial), (FRAME_WIDTH, FRAME_HEIGHT), fps=fps, codec='libx264',
+        pix_fmt_out='yuv420p', quality=None, macro_block_size=16, ffmpeg_log_level='error',
+        output_params=['-crf', '23', '-preset', 'veryfast', '-movflags', '+faststart'])
+    count = 0
+    try:
+        writer.send(None)
+        for frame in frames:
+            writer.send(np.ascontiguousarray(frame))
+            count += 1
+        writer.close()
+    except BaseException:
+        writer.close()
+        partial.unlink(missing_ok=True)
+        raise
+    os.replace(partial, path)
+    return count
+
+
+def render_video(out_dir: str | os.PathLike, path: str | os.PathLike, names: str = '', *,
+                 speed: float = 1.0, fps: float = DEFAULT_FPS) -> VideoInfo:
+    """
+    Write the video of the run in ``out_dir`` to ``path`` and return what was written.
+
+    ``speed``: simulated seconds per second of video (1: real time); ``fps``: frames per
+    second of video. VideoError when the run's outputs lack what the video shows; OSError when
+    ``path`` cannot be written.
+    """
+    if not (math.isfinite(speed) and speed > 0 and math.isfinite(fps) and fps > 0):
+        raise VideoError(f'speed and fps must be positive numbers, got {speed} and {fps}')
+    footage = load_footage(out_dir)
+    renderer = FrameRenderer(footage, names, speed)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    times = frame_times(footage.duration_s, speed, fps)
+    count = encode((renderer.frame(t) for t in times), path, fps)
+    return VideoInfo(path, count, fps, (FRAME_WIDTH, FRAME_HEIGHT))

@@ -1,0 +1,385 @@
+"""
+The simulator as a ROS 2 node: it stands in for Gazebo and its ROS bridge in the lab.
+
+Publishes ``scan`` (sensor_msgs/LaserScan) at the lidar's ``update_rate``, in the lidar's frame;
+the odometry (nav_msgs/Odometry) on the drive plugin's odometry topic (``odom``) with TF
+odom -> base, static TF base -> lidar frame, ``clock`` (rosgraph_msgs/Clock) and
+``collisions`` (geometry_msgs/PointStamped); obeys the drive plugin's command topic
+(``cmd_vel``: geometry_msgs/Twist, or TwistStamped when ``cmd_vel_stamped`` is true) and,
+as Gazebo's DiffDrive does, keeps the last command until the next one (``cmd_vel_timeout``
+> 0 stops the robot after that many s without one). Live, a timer on the steady clock steps
+the physics at ``physics_rate`` (Hz), paced at ``real_time_factor`` x wall-clock speed; the
+other nodes run with ``use_sim_time:=true``. Stepped (``SimBridge(stepped=True)``), the runner
+calls :meth:`SimBridge.step` itself, as Gazebo's lockstep does with its clients.
+
+The drive follows the robot model's diff-drive plugin (``Model.drive``: limits, topics,
+frames, odometry rate, TF); what it leaves unset is Gazebo's default. Precedence: a parameter
+given to the node (params file, ``-p``, launch) wins over the plugin, which wins over the
+kit's default; each such parameter is declared with the plugin's value as its default.
+
+TF needs ``tf2_ros``, which a ROS 2 installation has and PyPI does not: without it the bridge
+says so once and publishes everything else.
+"""
+
+from array import array
+from fractions import Fraction
+import math
+
+from geometry_msgs.msg import PointStamped, TransformStamped, Twist, TwistStamped
+from nav_msgs.msg import Odometry
+import numpy as np
+import rclpy
+from rclpy.clock import Clock as RclpyClock, ClockType
+from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.time import Time
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import LaserScan
+
+try:
+    from tf2_ros import StaticTransformBroadcaster, TransformBroadcaster
+except ImportError:  # tf2_ros is part of a ROS 2 installation, not of the PyPI wheels
+    StaticTransformBroadcaster = TransformBroadcaster = None
+
+from sim_bridge.simulation.robot import DiffDriveConfig, DriveLimits
+from sim_bridge.simulation.sdf import LidarConfig
+from sim_bridge.simulation.simulator import Simulator
+from sim_bridge.simulation.world import World
+
+NANOSECONDS_PER_SECOND = 10 ** 9
+#: Hz, when neither the world (its physics step) nor the physics_rate parameter sets one: ten
+#: times a lab lidar's rate (Gazebo's own default step, 1 ms, would be 1000 Hz).
+DEFAULT_PHYSICS_RATE = 100.0
+NO_TF_WARNING = ('tf2_ros is not installed (it comes with a ROS 2 installation, not from PyPI): '
+                 'publishing no TF (odom -> base, base -> lidar frame); odometry, scans and '
+                 '/clock are published as usual')
+
+
+def quaternion_from_euler(roll: float, pitch: float, yaw: float
+                          ) -> tuple[float, float, float, float]:
+    """Return the (x, y, z, w) quaternion of fixed-axis roll, pitch, yaw rotations (rad)."""
+    cr, sr = math.cos(roll / 2.0), math.sin(roll / 2.0)
+    cp, sp = math.cos(pitch / 2.0), math.sin(pitch / 2.0)
+    cy, sy = math.cos(yaw / 2.0), math.sin(yaw / 2.0)
+    return (sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy,
+            cr * cp * sy - sr * sp * cy, cr * cp * cy + sr * sp * sy)
+
+
+def float32_array(values: np.ndarray) -> array:
+    """
+    Return ``values`` as the ``array('f')`` rosidl stores a float32 sequence field in.
+
+    Rounded by numpy in one pass: handed a numpy array, rosidl's setter converts it one
+    element at a time (about 40 us for 1081 beams).
+    """
+    return array('f', np.asarray(values, dtype=np.float32).tobytes())
+
+
+def relative(topic: str) -> str:
+    """Return a plugin's topic as a relative ROS name: in the node's namespace, remappable."""
+    return topic.lstrip('/')
+
+
+class UpdateSchedule:
+    """
+    When something sent at ``rate_hz`` is due, on a clock that advances in physics steps.
+
+    Update n (n = 1, 2, ...) is due at n / rate_hz s and happens at the first physics step at or
+    after that time, as a Gazebo sensor updates (its next update time moves on one period per
+    update): the rate is kept exactly on average whatever the physics step, e.g. 30 scans per
+    simulated second from a 30 Hz lidar on 100 Hz physics, 3 or 4 steps apart. Updates due
+    within one step (a rate above the physics rate) make one. Times are exact fractions of a
+    ns: deterministic, no drift.
+    """
+
+    def __init__(self, rate_hz: float) -> None:
+        self.period_ns = Fraction(NANOSECONDS_PER_SECOND) / Fraction(rate_hz)
+        self.updates = 0
+        self.last_ns = 0
+        #: The time (ns) from the previous update (or the start) to the last one.
+        self.elapsed_ns = 0
+        #: The first whole ns at or after the next update's exact time: asked every physics
+        #: step, so a comparison of integers (n < x for a whole n is n < ceil(x)).
+        self.next_ns = math.ceil(self.period_ns)
+
+    def due(self, now_ns: int) -> bool:
+        """Return whether an update is due at ``now_ns`` (ns); if so, it counts as made."""
+        if now_ns < self.next_ns:
+            return False
+        self.updates = math.floor(now_ns / self.period_ns)
+        self.next_ns = math.ceil((self.updates + 1) * self.period_ns)
+        self.elapsed_ns, self.last_ns = now_ns - self.last_ns, now_ns
+        return True
+
+
+class SimBridge(Node):
+    """
+    Step the simulator and bridge it to ROS topics.
+
+    ``stepped``: create no timer; whoever drives the bridge calls :meth:`step`. Other keyword
+    arguments go to rclpy's Node.
+    """
+
+    def __init__(self, *, stepped: bool = False, **kwargs):
+        super().__init__('sim_bridge', **kwargs)
+        world = self.load_world()
+        # What the world's files ask for and the simulator does not do, said once, at start.
+        if world.ignored:
+            self.get_logger().info(world.ignored)
+        world_step_s = world.physics_step_s
+        # The robot model's diff-drive plugin gives the drive's defaults, Gazebo's own where
+        # the plugin leaves something unset (a robot without one: DiffDriveConfig's); a
+        # parameter given to the node (params file, -p, launch) overrides it.
+        drive = world.robot.drive or DiffDriveConfig()
+        lidar_frame = world.robot.lidar.frame_id if world.robot.lidar else LidarConfig.frame_id
+        self.frames = {name: self.declare_parameter(name + '_frame', default).value
+                       for name, default in (('odom', drive.odometry_frame),
+                                             ('base_link', drive.base_frame),
+                                             ('laser', lidar_frame))}
+        limits = DriveLimits(**{name: self.declare_parameter(name, float(default)).value
+                                for name, default in vars(drive.limits).items()})
+        # Every other parameter is read before the simulator (a pybullet client) exists, so a
+        # bad one cannot leave a client behind.
+        physics_rate = self.rate('physics_rate', 1.0 / world_step_s if world_step_s
+                                 else DEFAULT_PHYSICS_RATE)
+        odom_rate = self.rate('odom_rate', float(drive.odometry_rate))
+        real_time_factor = self.rate('real_time_factor', 1.0)
+        stamped = self.declare_parameter('cmd_vel_stamped', False).value
+        publish_tf = self.declare_parameter('publish_tf', bool(drive.publish_tf)).value
+        # 0: keep the last command until the next, as Gazebo's DiffDrive does.
+        command_timeout = self.declare_parameter('cmd_vel_timeout',
+                                                 float(drive.command_timeout or 0.0)).value
+        if not (math.isfinite(command_timeout) and command_timeout >= 0.0):
+            raise ValueError("parameter 'cmd_vel_timeout' must be 0 (keep the last command) or "
+                             f'a positive number of s, got {command_timeout!r}')
+        self.sim = Simulator(
+            world,
+            seed=self.declare_parameter('seed', 0).value,
+            limits=limits,
+            command_timeout=command_timeout if command_timeout > 0.0 else None,
+            lidar_samples=self.optional('lidar_samples', 0),
+            lidar_noise_stddev=self.optional('lidar_noise_stddev', -1.0),
+            gui=self.declare_parameter('gui', False).value,
+            draw_rays=self.declare_parameter('draw_rays', False).value)
+        self.step_ns = round(NANOSECONDS_PER_SECOND / physics_rate)
+        self.step_s = self.step_ns / NANOSECONDS_PER_SECOND
+        self.scan_schedule = self.schedule(
+            'lidar update_rate', self.sim.lidar_config.update_rate, physics_rate)
+        self.odom_schedule = self.schedule('odom_rate', odom_rate, physics_rate)
+        self.steps = 0
+        self.collisions_reported = 0
+        #: Called as ``on_publish(topic, msg)`` after each message the bridge publishes itself.
+        self.on_publish = None
+
+        # Stepped, every QoS event handler is one more entity in every wait of the executor;
+        # the other side's handlers still report incompatible QoS.
+        events, cmd_vel_events = ({}, {}) if not stepped else (
+            {'event_callbacks': PublisherEventCallbacks(use_default_callbacks=False)},
+            {'event_callbacks': SubscriptionEventCallbacks(use_default_callbacks=False)})
+        self.scan_pub = self.create_publisher(LaserScan, 'scan', 10, **events)
+        self.odom_pub = self.create_publisher(Odometry, relative(drive.odometry_topic), 10,
+                                              **events)
+        self.clock_pub = self.create_publisher(Clock, 'clock', 10, **events)
+        self.collision_pub = self.create_publisher(PointStamped, 'collisions', 10, **events)
+        self.tf_broadcaster = None
+        if TransformBroadcaster is None:
+            self.get_logger().warning(NO_TF_WARNING)
+        else:
+            if publish_tf:
+                self.tf_broadcaster = TransformBroadcaster(self)
+            StaticTransformBroadcaster(self).sendTransform(self.laser_transform())
+        # Messages published every step are filled in place: publishing copies them.
+        self.clock = Clock()
+        self.odom = Odometry(child_frame_id=self.frames['base_link'])
+        self.odom.header.frame_id = self.frames['odom']
+        self.odom_transform = self.transform(self.clock.clock, 'odom', 'base_link',
+                                             (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+        self.create_subscription(TwistStamped if stamped else Twist,
+                                 relative(drive.command_topic), self.on_cmd_vel, 10,
+                                 **cmd_vel_events)
+        if not stepped:
+            # The steady clock: this timer makes sim time, so it cannot wait for it.
+            self.create_timer(1.0 / physics_rate / real_time_factor, self.step,
+                              clock=RclpyClock(clock_type=ClockType.STEADY_TIME))
+
+    def rate(self, name, default):
+        """Declare a parameter that must be positive and finite: a rate in Hz, or a factor."""
+        value = self.declare_parameter(name, default).value
+        if not (math.isfinite(value) and value > 0.0):
+            raise ValueError(f"parameter '{name}' must be positive and finite, got {value!r}")
+        return value
+
+    def schedule(self, name, rate, physics_rate):
+        """Return the UpdateSchedule of ``rate`` (Hz); warn when the physics cannot keep it."""
+        if rate > physics_rate:
+            self.get_logger().warning(
+                f'{name} {rate:g} Hz is above physics_rate {physics_rate:g} Hz: publishing '
+                f'every physics step, at {physics_rate:g} Hz')
+        return UpdateSchedule(rate)
+
+    def load_world(self) -> World:
+        """
+        Return the world the parameter ``world`` names, with the robot ``robot`` at ``robot_pose``.
+
+        ``robot`` names a model folder (as the world file's ``robot: model:``; empty: the
+        world's own robot) put at ``robot_pose`` (x m, y m, yaw rad; unset: where the world puts
+        its robot), as ``ros_gz_sim create`` spawns a model into a Gazebo world.
+        """
+        name = self.declare_parameter('world', 'obstacles').value
+        robot = self.declare_parameter('robot', '').value
+        pose = self.declare_parameter('robot_pose', Parameter.Type.DOUBLE_ARRAY).value
+        if pose is not None and len(pose) != 3:
+            raise ValueError(f"parameter 'robot_pose' must be [x, y, yaw] (m, m, rad), got "
+                             f'{list(pose)}')
+        if robot:
+            return World.load(name, robot=robot, robot_pose=pose)
+        world = World.load(name)
+        return world if pose is None else world.with_robot_start(*pose)
+
+    def optional(self, name, unset):
+        """Declare a parameter whose default ``unset`` means 'as the robot model says'."""
+        value = self.declare_parameter(name, unset).value
+        return None if value == unset else value
+
+    def on_cmd_vel(self, msg):
+        twist = getattr(msg, 'twist', msg)
+        warning = self.sim.set_command(twist.linear.x, twist.angular.z)
+        if warning:
+            self.get_logger().warning(f'cmd_vel: {warning}', throttle_duration_sec=1.0)
+
+    @property
+    def now_ns(self) -> int:
+        """Return the simulated time (ns) of the last physics step."""
+        return self.steps * self.step_ns
+
+    def step(self, clock_due: bool = True) -> bool:
+        """
+        Advance the physics one step and publish what is due; return True if anyone hears it.
+
+        /clock goes out with every other message, and on its own when ``clock_due`` (live: every
+        step; a stepped runner asks for it only when a node's timer falls due). The return
+        value tells a stepped runner whether a callback may now be ready: a message went to a
+        topic with a subscriber, or /clock did.
+        """
+        self.sim.step(self.step_s)
+        self.steps += 1
+        now_ns = self.now_ns
+        stamp = self.clock.clock
+        stamp.sec, stamp.nanosec = divmod(now_ns, NANOSECONDS_PER_SECOND)
+        due = []
+        if self.scan_schedule.due(now_ns):
+            due.append((self.scan_pub, self.scan_message(stamp)))
+        odom_due = self.odom_schedule.due(now_ns)
+        if odom_due:
+            due.append((self.odom_pub, self.odometry(stamp)))
+        collisions = self.sim.collisions
+        while self.collisions_reported < len(collisions):
+            due.append((self.collision_pub,
+                        self.report_collision(collisions[self.collisions_reported], stamp)))
+            self.collisions_reported += 1
+        send_tf = self.tf_broadcaster is not None and odom_due
+        heard = (clock_due or any(publisher.get_subscription_count() for publisher, _ in due)
+                 or (send_tf and self.tf_broadcaster.pub_tf.get_subscription_count() > 0))
+        if heard:
+            self.publish(self.clock_pub, self.clock)
+        for publisher, msg in due:
+            self.publish(publisher, msg)
+        if send_tf:
+            self.odom_transform.header.stamp = stamp
+            self.tf_broadcaster.sendTransform(self.odom_transform)
+        return heard
+
+    def publish(self, publisher, msg) -> None:
+        """Publish ``msg``; then hand it to ``on_publish`` (topic, msg) when that is set."""
+        publisher.publish(msg)
+        if self.on_publish is not None:
+            self.on_publish(publisher.topic_name, msg)
+
+    def scan_message(self, stamp) -> LaserScan:
+        """
+        Return the scan taken now, stamped ``stamp``.
+
+        ``scan_time`` is the time (s) since the previous scan (since the start for the first):
+        1/update_rate on average, one physics step more or less when the rate does not divide
+        the physics rate. ``time_increment`` is 0: every beam is cast at the same instant.
+        """
+        scan = self.sim.scan()
+        msg = LaserScan(angle_min=float(scan.angle_min), angle_max=float(scan.angle_max),
+                        angle_increment=float(scan.angle_increment),
+                        time_increment=float(scan.time_increment),
+                        scan_time=self.scan_schedule.elapsed_ns / NANOSECONDS_PER_SECOND,
+                        range_min=float(scan.range_min),
+                        range_max=float(scan.range_max), ranges=float32_array(scan.ranges),
+                        intensities=float32_array(scan.intensities))
+        msg.header.stamp = stamp
+        msg.header.frame_id = self.frames['laser']
+        return msg
+
+    def odometry(self, stamp) -> Odometry:
+        """Fill the odometry message (and the odom → base_link transform) for ``stamp``."""
+        x, y, yaw = self.sim.pose
+        linear, angular = self.sim.velocity
+        # A rotation about z only: (0, 0, sin(yaw / 2), cos(yaw / 2)).
+        half_yaw_sin, half_yaw_cos = math.sin(yaw / 2.0), math.cos(yaw / 2.0)
+        odom = self.odom
+        odom.header.stamp = stamp
+        pose = odom.pose.pose
+        pose.position.x, pose.position.y = float(x), float(y)
+        pose.orientation.z, pose.orientation.w = half_yaw_sin, half_yaw_cos
+        odom.twist.twist.linear.x, odom.twist.twist.angular.z = float(linear), float(angular)
+        translation = self.odom_transform.transform.translation
+        translation.x, translation.y = pose.position.x, pose.position.y
+        rotation = self.odom_transform.transform.rotation
+        rotation.z, rotation.w = half_yaw_sin, half_yaw_cos
+        return odom
+
+    def laser_transform(self) -> TransformStamped:
+        pose = self.sim.lidar_config.pose
+        return self.transform(Time().to_msg(), 'base_link', 'laser', pose[:3], pose[3:])
+
+    def transform(self, stamp, parent, child, translation, rotation_rpy) -> TransformStamped:
+        transform = TransformStamped()
+        transform.header.stamp = stamp
+        transform.header.frame_id = self.frames[parent]
+        transform.child_frame_id = self.frames[child]
+        offset = transform.transform.translation
+        offset.x, offset.y, offset.z = (float(value) for value in translation)
+        rotation = transform.transform.rotation
+        rotation.x, rotation.y, rotation.z, rotation.w = quaternion_from_euler(*rotation_rpy)
+        return transform
+
+    def report_collision(self, collision, stamp) -> PointStamped:
+        """Log a new contact and return its /collisions message."""
+        self.get_logger().warning(
+            f'collision with {collision.obstacle} at t={collision.time:.2f} s, '
+            f'x={collision.x:.2f} m, y={collision.y:.2f} m')
+        point = PointStamped()
+        point.header.stamp = stamp
+        point.header.frame_id = self.frames['odom']
+        point.point.x, point.point.y = float(collision.x), float(collision.y)
+        return point
+
+    def destroy_node(self):
+        self.sim.close()
+        return super().destroy_node()
+
+
+def main(args=None):
+    """Spin the simulator until Ctrl-C, which also ends it cleanly while the world is loading."""
+    rclpy.init(args=args)
+    try:
+        node = SimBridge()
+        try:
+            rclpy.spin(node)
+        finally:
+            node.destroy_node()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        rclpy.try_shutdown()
+
+
+if __name__ == '__main__':
+    main()

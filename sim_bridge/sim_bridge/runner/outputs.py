@@ -1,0 +1,256 @@
+"""
+A run's outputs: what it observed, its recording, and the files it writes when it ends.
+
+``metrics.json``, ``trajectory.png``, the node log and the rosbag2 recording ``run/`` (MCAP)
+in the run's output folder; the stepped and the process run open and close them alike.
+"""
+
+import functools
+import json
+from pathlib import Path
+import shutil
+import time
+from typing import Any, Sequence
+
+import numpy as np
+from rclpy.event_handler import SubscriptionEventCallbacks
+from rclpy.serialization import serialize_message
+from sim_bridge.common.errors import RunError, RunStopped, UserInterrupt
+from sim_bridge.media.plot import plot_trajectory
+from sim_bridge.runner.node_output import (
+    LOG_FILE, NodeLog, rosout_message, ROSOUT_TOPIC, ROSOUT_TYPE, to_terminal, write_log)
+from sim_bridge.runner.options import BRIDGE_NODE, RunResult
+from sim_bridge.runner.record import BagRecorder, DEFAULT_TOPICS, message_type_name
+from sim_bridge.runner.ros_graph import RunGraph, Teleop, TELEOP_NODE
+from sim_bridge.scoring.metrics import compute_metrics
+from sim_bridge.scoring.run_trace import CollisionEvent, ScanSnapshot, Trace
+from sim_bridge.simulation.geometry import point_in_world
+from sim_bridge.simulation.world import World
+
+
+def close_outputs(warnings: list[str], log: NodeLog, teleop: 'Teleop | None',
+                  recorder: 'RunRecorder | None', bag: BagRecorder | None) -> None:
+    """Add the log's and the teleop's warnings to ``warnings``; write the lines to ``bag``."""
+    if log.warning():
+        warnings.append(log.warning())
+    if teleop is not None:
+        warnings += teleop.plan.missed
+    if bag is not None and recorder is not None:
+        recorder.write_log()
+        bag.close()
+
+
+class Observer:
+    """
+    Fill a Trace from the bridge's simulator, and keep every scan sent on ``/scan``.
+
+    The simulator appends its ground truth to the trace after every physics step. A 60 s run
+    of the lab's lidar (36 beams at 10 Hz) keeps 600 scans, about 90 kB of ranges.
+    """
+
+    def __init__(self, simulator):
+        self.sim = simulator
+        self.trace = Trace(robot_radius=simulator.robot_radius)
+        simulator.trajectory = self.trace.samples
+
+    def on_scan(self, msg: Any) -> None:
+        """Keep the scan (a LaserScan) with the laser's pose in the world."""
+        x, y, yaw = self.sim.pose
+        laser_x, laser_y, *_, laser_yaw = self.sim.lidar_config.pose
+        pose = (*point_in_world((x, y, yaw), (laser_x, laser_y)), yaw + laser_yaw)
+        self.trace.scans.append(ScanSnapshot(
+            self.sim.time, pose, np.array(msg.ranges, dtype=np.float32), msg.angle_min,
+            msg.angle_increment, msg.range_min, msg.range_max))
+
+    def finish(self) -> Trace:
+        self.trace.collisions.extend(CollisionEvent(c.time, c.x, c.y, c.obstacle)
+                                     for c in self.sim.collisions)
+        return self.trace
+
+
+class RunRecorder:
+    """
+    What the run records: the bridge's messages as it publishes them, the rest as DDS delivers.
+
+    The bridge's own messages are serialised by rclpy (``serialize_message``) as they are
+    published; every other recorded topic (/cmd_vel, TF) has a raw subscription on the
+    runner's own node, as ``ros2 bag record`` has. Messages are stamped with the sim time of the
+    step that sent them. The lines the nodes wrote (``log``) are recorded on /rosout, each at
+    its own time, before the next message. Messages sent before :meth:`record` (while the nodes
+    start) are held, so that a run which cannot start has written nothing.
+    """
+
+    def __init__(self, run: RunGraph, observer: 'Observer', record: bool, log: NodeLog):
+        from rclpy.qos import DurabilityPolicy, QoSProfile
+        self.run = run
+        self.observer = observer
+        self.recording = record
+        self.log = log
+        self.held: list[tuple[str, str, bytes, int]] | None = []
+        self.bag = None
+        self.type_names: dict[type, str] = {}
+        bridge = run.bridge
+        bridge.on_publish = self.on_bridge_message
+        if not record:
+            return
+        node = run.node('sim_bridge_recorder')
+        bridge_topics = {publisher.topic_name for publisher in bridge.publishers}
+        subscribed = {sub.topic_name: sub.msg_type for sub in bridge.subscriptions}
+        for publisher in bridge.publishers:
+            subscribed.setdefault(publisher.topic_name, publisher.msg_type)
+        latched = QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        for topic, msg_type in subscribed.items():
+            if topic in DEFAULT_TOPICS and (topic not in bridge_topics or topic.startswith('/tf')):
+                write = functools.partial(self.write, topic, self.type_name(msg_type))
+                node.create_subscription(
+                    msg_type, topic, write, latched if topic == '/tf_static' else 10, raw=True,
+                    event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False))
+
+    def type_name(self, msg_type: type) -> str:
+        """Return (and keep) the ROS type name of a message class."""
+        if msg_type not in self.type_names:
+            self.type_names[msg_type] = message_type_name(msg_type)
+        return self.type_names[msg_type]
+
+    def on_bridge_message(self, topic: str, msg: Any) -> None:
+        """Record a message the bridge publishes; show scans to the observer."""
+        if topic == '/scan':
+            self.observer.on_scan(msg)
+        if self.recording and topic in DEFAULT_TOPICS:
+            self.write(topic, self.type_name(type(msg)), serialize_message(msg))
+
+    def write(self, topic: str, type_name: str, data: bytes) -> None:
+        """Write (or hold) one message's CDR bytes at the current sim time."""
+        self.write_log()
+        self.store(topic, type_name, data, self.run.bridge.now_ns)
+
+    def write_log(self) -> None:
+        """Write (or hold) the nodes' lines not yet recorded, on /rosout at their own times."""
+        for t_ns, entry in self.log.take_pending():
+            self.store(ROSOUT_TOPIC, ROSOUT_TYPE, rosout_message(entry, t_ns), t_ns)
+
+    def store(self, topic: str, type_name: str, data: bytes, t_ns: int) -> None:
+        """Write (or hold) one message's CDR bytes at ``t_ns`` (ns)."""
+        if self.bag is not None:
+            self.bag.write(topic, type_name, data, t_ns)
+        elif self.held is not None:
+            self.held.append((topic, type_name, data, t_ns))
+
+    def record(self, bag: BagRecorder | None) -> None:
+        """Write the held messages to ``bag`` and everything sent from now on."""
+        self.write_log()
+        if bag is not None:
+            for message in self.held:
+                bag.write(*message)
+        self.bag, self.held = bag, None
+
+
+def open_outputs(out_dir: Path, params_file: Path, record: bool) -> BagRecorder | None:
+    """Create ``out_dir`` with a copy of the params file, and the run's bag when recording."""
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(params_file, out_dir / 'params.yaml')
+        return BagRecorder(out_dir / 'run', overwrite=True, sim_clock=True) if record else None
+    except OSError as error:
+        raise RunError(f'cannot write to {out_dir}: {error}') from None
+
+
+def write_outputs(out_dir: Path, observer: Observer, world_model: World,
+                  interrupt: 'UserInterrupt', *, plot: bool, title: str,
+                  setpoint: float | None, wall_start: float, node_errors: list,
+                  warnings: list[str], ended_by: str | None, run_mode: Any,
+                  commands: Sequence[str] = (), log_lines: Sequence[dict] = (),
+                  printed: Sequence[str] = ()) -> RunResult:
+    """
+    Score a finished run and write ``metrics.json``, ``log.jsonl`` and the plot; return it.
+
+    ``wall_start`` is the run's start on the perf counter (s); ``log_lines`` the lines the
+    nodes wrote, dicts with the keys ``t`` (sim time, s), ``node``, ``level``, ``text`` and
+    ``line`` (sim_bridge.runner.node_output), in the order written; ``commands`` (the command line
+    that starts each node, :func:`node_commands`) are kept in the metrics for the run's video;
+    ``printed`` as in :func:`run_simulation`. A Ctrl-C while they are written waits for them
+    (``interrupt``); one pressed during the run is raised after them.
+    """
+    try:
+        write_log(out_dir / LOG_FILE, log_lines)
+        metrics = compute_metrics(observer.finish(), world_model, setpoint=setpoint,
+                                  wall_time_s=time.perf_counter() - wall_start,
+                                  node_errors=node_errors, log_lines=log_lines,
+                                  printed=printed, runner_nodes=(BRIDGE_NODE, TELEOP_NODE))
+        metrics['warnings'] = [*metrics.get('warnings', []), *warnings]
+        metrics['ended_by'] = ended_by
+        metrics['ignored'] = world_model.ignored
+        metrics['run_mode'] = run_mode
+        metrics['commands'] = list(commands)
+        (out_dir / 'metrics.json').write_text(json.dumps(metrics, indent=2) + '\n')
+        if plot:
+            plot_trajectory(observer.trace, world_model, out_dir / 'trajectory.png',
+                            title=title)
+    finally:
+        interrupt.restore()
+    if interrupt.pressed:
+        raise KeyboardInterrupt(f'run interrupted at {metrics["sim_time_s"]:.1f} s of sim time; '
+                                f'its outputs are in {out_dir}')
+    return RunResult(metrics, out_dir)
+
+
+class RunOutputs:
+    """
+    The skeleton a stepped and a process run share: watch, open the outputs, run, close, write.
+
+    :meth:`watch` puts the observer, the recorder and the teleop on the run's simulator;
+    :meth:`start` starts the output folder and the recording. ``with outputs:`` around the run
+    closes the recording on the way out, and ends the run with its outputs written when the
+    user's Ctrl-C (``interrupt``) or RunStopped (once the outputs are open) cut it short;
+    :meth:`write` then writes them with the run's ``node_errors``, ``warnings`` and
+    ``ended_by``.
+    """
+
+    def __init__(self, record: bool):
+        self.record = record
+        self.log = NodeLog(record)
+        self.interrupt = UserInterrupt()
+        self.node_errors: list[dict] = []
+        self.warnings: list[str] = []
+        self.ended_by: str | None = None
+        self.observer: Observer | None = None
+        self.recorder: RunRecorder | None = None
+        self.teleop: Teleop | None = None
+        self.bag: BagRecorder | None = None
+        self.opened = False
+
+    def watch(self, graph: RunGraph, bridge: Any, world: World, segments: Sequence[Any]) -> None:
+        """Observe and record the simulator of ``bridge``; drive it by ``segments`` if any."""
+        self.observer = Observer(bridge.sim)
+        self.recorder = RunRecorder(graph, self.observer, self.record, self.log)
+        self.teleop = Teleop(graph, bridge, world, segments) if segments else None
+
+    def start(self, out_dir: Path, params_file: Path) -> None:
+        """Start the output folder and the recording (held messages first)."""
+        self.bag = open_outputs(out_dir, params_file, self.record)
+        self.recorder.record(self.bag)
+        self.opened = True
+
+    def warn(self, warning: str) -> None:
+        """Keep ``warning`` for metrics.json and show it on the terminal now."""
+        self.warnings.append(warning)
+        to_terminal(f'warning: {warning}\n')
+
+    def __enter__(self) -> 'RunOutputs':
+        return self
+
+    def __exit__(self, kind, error, traceback) -> bool:
+        close_outputs(self.warnings, self.log, self.teleop, self.recorder, self.bag)
+        if kind is not None and issubclass(kind, KeyboardInterrupt):
+            return self.interrupt.pressed  # the user's Ctrl-C: the outputs are written
+        if kind is not None and issubclass(kind, RunStopped) and self.opened:
+            self.node_errors.append({'node': BRIDGE_NODE,
+                                     'error': f'{error} (in the simulator)'})
+            return True
+        return False
+
+    def write(self, out_dir: Path, world: World, **details: Any) -> RunResult:
+        """Write the run's outputs (see :func:`write_outputs` for ``details``); its result."""
+        return write_outputs(out_dir, self.observer, world, self.interrupt,
+                             node_errors=self.node_errors, warnings=self.warnings,
+                             ended_by=self.ended_by, log_lines=self.log.entries, **details)

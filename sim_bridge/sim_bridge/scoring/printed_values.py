@@ -1,0 +1,549 @@
+"""
+What the lab's reading nodes print, read back and compared with the scans they received.
+
+Lab tasks 1 and 3 (and the guide's closest-obstacle node) are graded on what a node prints on
+every scan: the range straight ahead, the minimum of five regions, the nearest obstacle. A log
+line (a dict ``{'t', 'node', 'level', 'text', 'line'}``: sim time s, node name, level, message
+text, console line) is compared with the truth of the scan the node had just received: the last
+scan published at or before the line's time (a process run's lines, stamped as they arrive, may
+be about a scan a little before: see :func:`score_printed`). Lines on stderr (a traceback) and
+the runner's own nodes' are not what a node prints. Numbers are read from free-form text as
+students write it ("Range ahead: 1.23", "F=1.2 m", "1.234", "inf", "front_left: 0.9 | left:
+2.1"); a scan that no line gives a value for counts as missed.
+
+Truth, as ``scan_pkg`` computes it (:mod:`scan_pkg.laser`): readings are capped at the lab's
+``max_range`` (10 m: +inf and longer readings become 10 m, -inf and readings below range_min
+become range_min, NaN is ignored), and a printed value is capped the same way (so "inf" for no
+return is right). Where the lab's definition leaves a choice, every reasonable choice is right:
+
+- range ahead: any beam within one increment of straight ahead, or any value between them
+  (one beam, their minimum or their mean);
+- regions (``right``, ``front_right``, ``front``, ``front_left``, ``left``: 36 deg bands
+  centred on -72, -36, 0, 36, 72 deg): a beam on the edge between two bands (within a quarter
+  of an increment: the lab robot's beams 7, 14, 21 and 28 are 0.03 deg from one) may belong to
+  either, so ``ranges[0:7]``, ``[7:14]``, ``[14:21]``, ``[21:28]``, ``[28:36]`` is right too;
+  a beam on the outer edge (+-90 deg: beam 35 at +89.95 deg) belongs to its band;
+- closest obstacle: the nearest valid return; with none, "nothing" (a line like "No valid
+  obstacle readings." or a printed inf) is right. Its bearing, when printed, is compared
+  modulo 2 pi. A bearing's unit is the one written after it (deg, degrees, °, rad, radians);
+  without one it is read as rad (REP-103), unless its magnitude exceeds 2 pi, which only
+  degrees can.
+
+Pure: numpy and scan_pkg's scan geometry, no rclpy.
+"""
+
+import bisect
+from dataclasses import dataclass
+import math
+import re
+from typing import Any, Callable, Iterable, Mapping, Sequence
+
+import numpy as np
+from scan_pkg.laser import (
+    ANGLE_TOLERANCE, normalize_angle, REGION_CENTRES, REGION_HALF_WIDTH, REGION_NAMES, Scan)
+
+#: The printed values a run can be scored on, by the name metrics and scenarios use.
+KINDS = ('range_ahead', 'regions', 'closest')
+#: What each kind is called in a report.
+KIND_TITLES = {'range_ahead': 'range ahead', 'regions': 'region minima',
+               'closest': 'closest obstacle'}
+#: The lab's cap (m) for no return and readings beyond it (scan_pkg's ``max_range`` default).
+LAB_MAX_RANGE = 10.0
+#: A line this much (s) later than a scan is still about it: sim times are exact to the ns.
+TIME_SLACK_S = 1e-6
+#: A beam this many increments from the edge between two regions may be in either.
+EDGE_SLACK = 0.25
+#: Characters of a line quoted in a report.
+QUOTE_CHARS = 70
+#: Log levels that are not what a node prints about a scan: a traceback goes to stderr.
+IGNORED_LEVELS = frozenset({'STDERR'})
+
+_INF = r'[-+]?(?:inf(?:inity)?|\u221e)'
+_DECIMAL = r'[-+]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][-+]?\d+)?'
+_UNIT = (r'(?:\s*(?P<unit>mm|cm|m|meters?|metres?|deg(?:rees?)?|\u00b0|rad(?:ians?)?'
+         r'|s|sec|seconds?|ms|%)(?![A-Za-z]))?')
+_NUMBER = re.compile(rf'(?<![\w.])(?P<number>{_INF}|{_DECIMAL})(?![\w.]*\d)'
+                     + _UNIT, re.IGNORECASE)
+# An index, not a value: ``ranges[17]``, ``[0:7]``, ``[len(r)//2]`` (brackets without a
+# decimal number), "beam 17", "index: 3", "#4".
+_INDEXED = re.compile(r'\[(?:[^\[\].]|\.(?!\d))*\]'
+                      r'|(?<![A-Za-z])(?:index|idx|beam|ray|sample|scan|seq|count|no\.|#)'
+                      r'\s*[:=#]?\s*\d+(?![\d.])', re.IGNORECASE)
+# Between a label and its number: "front: ", "F=", "front distance is ", "['left'] = [".
+_SEPARATOR = r"""['"\])}]*\s*(?:(?:[:=]|->|=>|\bis\b|\bwas\b|\bat\b)\s*)*\[?\s*"""
+_LENGTH_UNITS = {'m': 1.0, 'meter': 1.0, 'meters': 1.0, 'metre': 1.0, 'metres': 1.0,
+                 'cm': 0.01, 'mm': 0.001}
+_ANGLE_UNITS = {'deg': 'deg', 'degree': 'deg', 'degrees': 'deg', '\u00b0': 'deg',
+                'rad': 'rad', 'radian': 'rad', 'radians': 'rad'}
+_TIME_UNITS = frozenset({'s', 'sec', 'second', 'seconds', 'ms', '%'})
+_AHEAD_WORDS = re.compile(r'(?<![A-Za-z])(?:ahead|front|forward|straight|f|range|distance|dist'
+                          r'|d)(?![A-Za-z])' + _SEPARATOR + r'$', re.IGNORECASE)
+_DISTANCE_WORDS = re.compile(r'(?<![A-Za-z])(?:closest|nearest|min(?:imum)?|distance|dist'
+                             r'|range|obstacle|d|r)(?![A-Za-z])' + _SEPARATOR + r'$',
+                             re.IGNORECASE)
+_BEARING_WORDS = re.compile(r'(?<![A-Za-z])(?:angle|bearing|heading|direction|dir|theta|yaw'
+                            r'|\u03b8)(?![A-Za-z])' + _SEPARATOR + r'$', re.IGNORECASE)
+_AT = re.compile(r'(?<![A-Za-z])at\s*$', re.IGNORECASE)
+_NOTHING = re.compile(r'(?<![A-Za-z])(?:no|none|nothing|clear|free)(?![A-Za-z])', re.IGNORECASE)
+# Region labels as students write them, the longer first so "front-right" is not "front".
+_REGION_LABELS = (
+    ('front_right', r'front[\s_-]*right|right[\s_-]*front|fright|f[_-]?r'),
+    ('front_left', r'front[\s_-]*left|left[\s_-]*front|fleft|f[_-]?l'),
+    ('front', r'front|f'),
+    ('right', r'right|r'),
+    ('left', r'left|l'),
+)
+_REGION = re.compile(
+    r'(?<![A-Za-z])(?P<label>' + '|'.join(f'(?P<{name}>{pattern})'
+                                          for name, pattern in _REGION_LABELS)
+    + r')(?:[\s_-]*(?:min(?:imum)?|region|sector|zone|side|dist(?:ance)?|range))?(?![A-Za-z])'
+    + _SEPARATOR + rf'(?P<number>{_INF}|{_DECIMAL})(?![\w.]*\d)' + _UNIT, re.IGNORECASE)
+
+
+@dataclass(frozen=True)
+class Number:
+    """A number read from a line: its value (m for a length, as written otherwise), where."""
+
+    value: float
+    written: str
+    start: int
+    unit: str | None
+
+
+def numbers_in(text: str) -> list[Number]:
+    """
+    Return the numbers of a line of text, indices left out, lengths in m.
+
+    ``ranges[17]``, "beam 17", "index 3" are indices, not values. A length written in cm or
+    mm is converted to m; inf, infinity and the infinity sign read as +inf (or -inf).
+    """
+    blanked = _INDEXED.sub(lambda match: ' ' * len(match.group()), text)
+    found = []
+    for match in _NUMBER.finditer(blanked):
+        unit = (match['unit'] or '').lower() or None
+        value = _parse(match['number']) * _LENGTH_UNITS.get(unit, 1.0)
+        found.append(Number(value, _written(match), match.start(), unit))
+    return found
+
+
+def _written(match: re.Match) -> str:
+    return match['number'] + (f" {match['unit']}" if match['unit'] else '')
+
+
+def _parse(written: str) -> float:
+    sign = -1.0 if written.startswith('-') else 1.0
+    digits = written.lstrip('+-').lower()
+    return sign * math.inf if digits.startswith(('inf', '\u221e')) else float(written)
+
+
+def _labelled(text: str, numbers: Sequence[Number], words: re.Pattern) -> list[Number]:
+    return [number for number in numbers if words.search(text[:number.start])]
+
+
+def read_range_ahead(text: str) -> Number | None:
+    """
+    Return the range ahead a line gives, or None when it gives none (or cannot be read).
+
+    The number labelled as the range ("ahead: 1.2", "F=1.2", "distance 1.2"), else the first
+    one written in a length unit, else the only number of the line. Times, angles and
+    percentages are not ranges; neither are indices.
+    """
+    candidates = [number for number in numbers_in(text)
+                  if number.unit not in _TIME_UNITS and number.unit not in _ANGLE_UNITS]
+    labelled = _labelled(text, candidates, _AHEAD_WORDS)
+    if labelled:
+        return labelled[0]
+    lengths = [number for number in candidates if number.unit in _LENGTH_UNITS]
+    if lengths:
+        return lengths[0]
+    return candidates[0] if len(candidates) == 1 else None
+
+
+def read_regions(text: str) -> list[tuple[str, Number]]:
+    """
+    Return the (region name, value) pairs a line gives, in the line's order.
+
+    Labels are read as students write them: "front-right", "front_right", "Front Right",
+    "fright", "FR", "right front"; "min_left", "left region", "left distance is ...". A line
+    of exactly five lengths and no label (``print(min(ranges[0:7]), ...)``) gives the regions
+    right to left, in the order of the beams.
+    """
+    pairs = []
+    blanked = _INDEXED.sub(lambda match: ' ' * len(match.group()), text)
+    for match in _REGION.finditer(blanked):
+        name = next(name for name, _ in _REGION_LABELS if match[name] is not None)
+        unit = (match['unit'] or '').lower() or None
+        if unit in _TIME_UNITS or unit in _ANGLE_UNITS:
+            continue
+        value = _parse(match['number']) * _LENGTH_UNITS.get(unit, 1.0)
+        pairs.append((name, Number(value, _written(match), match.start('number'), unit)))
+    if not pairs:
+        lengths = [number for number in numbers_in(text)
+                   if number.unit not in _TIME_UNITS and number.unit not in _ANGLE_UNITS]
+        if len(lengths) == len(REGION_NAMES):
+            pairs = list(zip(REGION_NAMES, lengths))
+    return pairs
+
+
+def read_closest(text: str) -> tuple[Number | None, float | None]:
+    """
+    Return (distance, bearing in rad) of the nearest obstacle a line gives; None for missing.
+
+    A bearing is a number written in an angle unit, or labelled ("angle", "bearing", ...),
+    or the number after "at" that follows the distance ("0.87 m at -35.0"); see the module
+    text for its unit. The distance is the labelled one ("closest: 0.87"), else the first
+    in a length unit, else the first other number. A line saying there is nothing ("No valid
+    obstacle readings.") gives an infinite distance.
+    """
+    numbers = [number for number in numbers_in(text) if number.unit not in _TIME_UNITS]
+    bearings = [number for number in numbers if number.unit in _ANGLE_UNITS]
+    bearings = bearings or _labelled(text, numbers, _BEARING_WORDS)
+    others = [number for number in numbers if number not in bearings]
+    distance = next(iter(_labelled(text, others, _DISTANCE_WORDS)
+                         or [number for number in others if number.unit in _LENGTH_UNITS]
+                         or others), None)
+    if not bearings and distance is not None:
+        bearings = [number for number in others if number.start > distance.start
+                    and number.unit is None and _AT.search(text[:number.start])]
+    bearing = None
+    if bearings:
+        number = bearings[0]
+        degrees = _ANGLE_UNITS.get(number.unit) == 'deg' or (
+            number.unit is None and abs(number.value) > 2.0 * math.pi + 1e-6)
+        bearing = math.radians(number.value) if degrees else number.value
+        if not math.isfinite(bearing):
+            bearing = None
+    if distance is None and _NOTHING.search(text):
+        distance = Number(math.inf, 'nothing', 0, None)
+    return distance, bearing
+
+
+def scan_of(snapshot: Any) -> Scan:
+    """Return the :class:`Scan` of a recorded scan (a ``run_trace.ScanSnapshot``)."""
+    return Scan(snapshot.ranges, snapshot.angle_min, snapshot.angle_increment,
+                snapshot.range_min, snapshot.range_max)
+
+
+def _bounds(values: np.ndarray, cap: float) -> tuple[float, float] | None:
+    """Return (min, max) of capped ``values`` (m), NaN ignored; all NaN: the cap."""
+    if not len(values):
+        return None
+    values = values[~np.isnan(values)]
+    if not len(values):
+        return cap, cap
+    return float(values.min()), float(values.max())
+
+
+def range_ahead_truth(scan: Scan, cap: float = LAB_MAX_RANGE) -> tuple[float, float] | None:
+    """
+    Return the (lowest, highest) right range ahead (m), or None when no beam looks ahead.
+
+    The capped readings of the beams within one increment of straight ahead.
+    """
+    if not len(scan):
+        return None
+    bearings = np.abs(_normalized(scan.angles()))
+    near = bearings <= abs(scan.angle_increment) + ANGLE_TOLERANCE
+    return _bounds(scan.capped(cap)[near], cap)
+
+
+def _normalized(angles: np.ndarray) -> np.ndarray:
+    return np.mod(angles + math.pi, 2.0 * math.pi) - math.pi
+
+
+def region_truths(scan: Scan,
+                  cap: float = LAB_MAX_RANGE) -> dict[str, tuple[float, float] | None]:
+    """
+    Return each region's (lowest, highest) right minimum (m); None for a region with no beam.
+
+    A beam within EDGE_SLACK increments of the edge shared by two bands may be in either:
+    the lowest right minimum counts it in both, the highest in neither.
+    """
+    bearings = _normalized(scan.angles())
+    ranges = scan.capped(cap)
+    slack = EDGE_SLACK * abs(scan.angle_increment) + ANGLE_TOLERANCE
+    shared = np.zeros(len(ranges), dtype=bool)
+    # The bands are adjacent: each edge between two is midway between their centres.
+    for edge in ((left + right) / 2.0 for left, right in zip(REGION_CENTRES, REGION_CENTRES[1:])):
+        shared |= np.abs(bearings - edge) <= slack
+    truths = {}
+    for name, centre in zip(REGION_NAMES, REGION_CENTRES):
+        inside = (np.abs(bearings - centre) <= REGION_HALF_WIDTH + ANGLE_TOLERANCE) | (
+            shared & (np.abs(bearings - centre) <= REGION_HALF_WIDTH + slack))
+        with_edges = _bounds(ranges[inside], cap)
+        without = _bounds(ranges[inside & ~shared], cap)
+        if with_edges is None:
+            truths[name] = None
+        else:
+            truths[name] = (with_edges[0], (without or with_edges)[0])
+    return truths
+
+
+def closest_truth(scan: Scan, cap: float = LAB_MAX_RANGE) -> tuple[float, float | None]:
+    """Return (distance m, bearing rad) of the nearest valid return; (cap, None) for none."""
+    closest = scan.closest()
+    if closest is None:
+        return cap, None
+    return min(closest[0], cap), closest[1]
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """One printed value against the truth of its scan: what it is, the line, the error (m)."""
+
+    what: str
+    printed: Number
+    truth: tuple[float, float]
+    error: float
+    line: Mapping[str, Any]
+
+
+def _capped(value: float, cap: float) -> float:
+    return min(value, cap) if value >= 0.0 else 0.0
+
+
+def _compare(what: str, printed: Number, truth: tuple[float, float], cap: float,
+             line: Mapping[str, Any]) -> Comparison:
+    value = _capped(printed.value, cap)
+    low, high = truth
+    return Comparison(what, printed, truth, max(low - value, value - high, 0.0), line)
+
+
+def _bearing_error(printed: float, truth: float) -> float:
+    return abs(normalize_angle(printed - truth))
+
+
+def _lines_per_scan(kind: str, lines: Iterable[Mapping[str, Any]], times: Sequence[float],
+                    ignored: set[str], lateness_s: float, truth_of: Callable[[int], Any],
+                    cap: float) -> dict[int, list[tuple[list[Comparison], float | None]]]:
+    """
+    Return, per scan index, the comparisons (and printed bearing) of the lines about it.
+
+    A line is about the scan it matches best among those from ``lateness_s`` (s) before its
+    time ``t`` (s) to its time; of equal matches, the latest scan.
+    """
+    per_scan: dict[int, list[tuple[list[Comparison], float | None]]] = {}
+    for line in lines:
+        if line.get('node') in ignored or line.get('level') in IGNORED_LEVELS:
+            continue
+        values, bearing = _READERS[kind](str(line.get('text', '')))
+        if not values:
+            continue
+        time = float(line['t'])
+        last = bisect.bisect_right(times, time + TIME_SLACK_S) - 1
+        first = min(bisect.bisect_left(times, time - lateness_s - TIME_SLACK_S), last)
+        candidates = [(_compare_line(kind, values, truth_of(index), cap, line), index)
+                      for index in range(last, first - 1, -1)]
+        candidates = [(found, index) for found, index in candidates if found]
+        if candidates:
+            found, index = min(candidates, key=lambda item: max(c.error for c in item[0]))
+            per_scan.setdefault(index, []).append((found, bearing))
+    return per_scan
+
+
+def score_printed(kind: str, scans: Sequence[Any], lines: Iterable[Mapping[str, Any]], *,
+                  cap: float = LAB_MAX_RANGE, ignore_nodes: Iterable[str] = (),
+                  lateness_s: float = 0.0) -> dict[str, Any]:
+    """
+    Compare the values of ``kind`` (one of KINDS) the lines print with their scans' truth.
+
+    ``scans`` are the run's scans in time order (``run_trace.ScanSnapshot``: time s, ranges m,
+    angle_min and angle_increment rad, range_min and range_max m); ``lines`` the nodes' log
+    lines (dicts with ``t`` s, ``node``, ``level``, ``text``), those of ``ignore_nodes`` and
+    of stderr left out. A line is about the last scan at or before its time; with
+    ``lateness_s`` (s: a process run's lines are stamped when they arrive, and a node that
+    falls behind prints about a scan it had queued) about whichever scan of that long before
+    it it matches best. Returns a JSON-ready dict: ``scans`` (those a value is defined for),
+    ``lines`` (lines a value was read from), ``missed`` (scans with no line giving it; for
+    regions, giving all five), ``matched_fraction``, ``mae_m`` and ``worst_error_m`` (m) and
+    ``worst`` (the line of the worst error: ``t``, ``node``, ``text``, ``what``, ``printed``
+    as written, ``printed_m``, ``truth_m`` [lowest, highest right value]); for ``closest``
+    also ``bearing_lines``, ``bearing_mae_deg``, ``worst_bearing_error_deg`` and
+    ``worst_bearing``; for ``regions``, ``unprinted``: the regions no line gave.
+    """
+    if kind not in KINDS:
+        raise ValueError(f'unknown printed value {kind!r}; one of {", ".join(KINDS)}')
+    ignored = set(ignore_nodes)
+    times = [snapshot.time for snapshot in scans]
+    truths: dict[int, Any] = {}
+
+    def truth_of(index: int) -> Any:
+        if index not in truths:
+            truths[index] = _TRUTHS[kind](scan_of(scans[index]), cap)
+        return truths[index]
+
+    per_scan = _lines_per_scan(kind, lines, times, ignored, lateness_s, truth_of, cap)
+    comparisons: list[Comparison] = []
+    bearing_errors: list[tuple[float, Comparison, float]] = []
+    matched_lines = counted = missed = 0
+    printed_regions: set[str] = set()
+    for index in range(len(scans)):
+        truth = truth_of(index)
+        wanted = _wanted(kind, truth)
+        if not wanted:
+            continue
+        counted += 1
+        got = set()
+        for found, bearing in per_scan.get(index, []):
+            matched_lines += 1
+            comparisons += found
+            got |= {comparison.what for comparison in found}
+            true_bearing = truth[1] if kind == 'closest' else None
+            if bearing is not None and true_bearing is not None:
+                bearing_errors.append((_bearing_error(bearing, true_bearing), found[0],
+                                       true_bearing))
+        printed_regions |= got
+        missed += not got >= wanted
+    result: dict[str, Any] = {
+        'scans': counted, 'lines': matched_lines, 'missed': missed,
+        'matched_fraction': (counted - missed) / counted if counted else None,
+        'mae_m': None, 'worst_error_m': None, 'worst': None}
+    if comparisons:
+        worst = max(comparisons, key=lambda comparison: comparison.error)
+        result['mae_m'] = float(np.mean([comparison.error for comparison in comparisons]))
+        result['worst_error_m'] = worst.error
+        result['worst'] = _quote(worst, cap)
+    if kind == 'regions':
+        result['unprinted'] = [name for name in REGION_NAMES
+                               if _label(name) not in printed_regions]
+    if kind == 'closest':
+        result.update({'bearing_lines': len(bearing_errors), 'bearing_mae_deg': None,
+                       'worst_bearing_error_deg': None, 'worst_bearing': None})
+        if bearing_errors:
+            error, comparison, truth = max(bearing_errors, key=lambda item: item[0])
+            result['bearing_mae_deg'] = math.degrees(
+                float(np.mean([item[0] for item in bearing_errors])))
+            result['worst_bearing_error_deg'] = math.degrees(error)
+            result['worst_bearing'] = {**_quote(comparison, cap),
+                                       'truth_deg': math.degrees(truth)}
+    return result
+
+
+def _label(name: str) -> str:
+    """Return how a report names a region: 'front-left' for ``front_left``."""
+    return name.replace('_', '-')
+
+
+def _read_range_ahead_values(text: str) -> tuple[list[tuple[str, Number]], None]:
+    printed = read_range_ahead(text)
+    return ([('range ahead', printed)] if printed is not None else []), None
+
+
+def _read_region_values(text: str) -> tuple[list[tuple[str, Number]], None]:
+    return [(_label(name), printed) for name, printed in read_regions(text)], None
+
+
+def _read_closest_values(text: str) -> tuple[list[tuple[str, Number]], float | None]:
+    printed, bearing = read_closest(text)
+    return ([('closest obstacle', printed)] if printed is not None else []), bearing
+
+
+def _region_truths_by_label(scan: Scan, cap: float) -> dict[str, tuple[float, float]]:
+    return {_label(name): truth for name, truth in region_truths(scan, cap).items()
+            if truth is not None}
+
+
+def _range_ahead_by_label(scan: Scan, cap: float) -> dict[str, tuple[float, float]]:
+    truth = range_ahead_truth(scan, cap)
+    return {'range ahead': truth} if truth is not None else {}
+
+
+#: Per kind: what reads a line's values ([(what, Number)], bearing rad or None) ...
+_READERS = {'range_ahead': _read_range_ahead_values, 'regions': _read_region_values,
+            'closest': _read_closest_values}
+#: ... and what gives a scan's truth: {what: (lowest, highest) m}, or for closest
+#: (distance m, bearing rad or None).
+_TRUTHS = {'range_ahead': _range_ahead_by_label, 'regions': _region_truths_by_label,
+           'closest': closest_truth}
+
+
+def _wanted(kind: str, truth: Any) -> set[str]:
+    """Return what a line must give about a scan of ``truth``: nothing when none is defined."""
+    return {'closest obstacle'} if kind == 'closest' else set(truth)
+
+
+def _compare_line(kind: str, values: list[tuple[str, Number]], truth: Any, cap: float,
+                  line: Mapping[str, Any]) -> list[Comparison]:
+    """Return the comparisons of a line's values with a scan's truth (those it defines)."""
+    if kind == 'closest':
+        return [_compare(what, printed, (truth[0], truth[0]), cap, line)
+                for what, printed in values]
+    return [_compare(what, printed, truth[what], cap, line) for what, printed in values
+            if what in truth]
+
+
+def excerpt(text: str, at: int, chars: int = QUOTE_CHARS) -> str:
+    """Return ``text``, or the ``chars`` of it around position ``at``, cuts marked '...'."""
+    if len(text) <= chars:
+        return text
+    # The number read ends the excerpt's first two thirds: what labels it comes before it.
+    start = min(max(at - 2 * chars // 3, 0), len(text) - chars)
+    head = '...' if start > 0 else ''
+    tail = '...' if start + chars < len(text) else ''
+    return head + text[start + len(head):start + chars - len(tail)] + tail
+
+
+def _quote(comparison: Comparison, cap: float) -> dict[str, Any]:
+    line = comparison.line
+    text = str(line.get('text', ''))
+    return {'t': float(line['t']), 'node': str(line.get('node') or ''),
+            'text': excerpt(text, comparison.printed.start),
+            'what': comparison.what, 'printed': comparison.printed.written,
+            'printed_m': _capped(comparison.printed.value, cap),
+            'truth_m': list(comparison.truth)}
+
+
+def _metres(value: float) -> str:
+    return f'{value:.2f} m'
+
+
+def _error(value: float) -> str:
+    return f'{value:.3f} m'
+
+
+def _nearest_truth(worst: Mapping[str, Any]) -> float:
+    low, high = worst['truth_m']
+    return min(max(worst['printed_m'], low), high)
+
+
+def judge_printed(kind: str, scored: Mapping[str, Any] | None, *, max_error_m: float,
+                  min_matched_fraction: float,
+                  max_bearing_error_deg: float | None = None) -> tuple[bool, str]:
+    """
+    Judge a kind's scores (:func:`score_printed`) against tolerances; return (passed, why).
+
+    ``why`` is one line: the worst printed value, where and what the truth was, how many lines
+    and missed scans, e.g. ``scan_around: front-left printed 2.31 m at t=4.2 s, truth
+    1.05 m: 'front-left: 2.31 m' (worst of 38 lines; 12 of 50 scans with no line)``.
+    """
+    title = KIND_TITLES[kind]
+    if not scored or not scored.get('scans'):
+        return False, f'no scan to compare a printed {title} with'
+    scans, lines, missed = scored['scans'], scored['lines'], scored['missed']
+    fraction = scored['matched_fraction']
+    tally = f'{lines} lines; {missed} of {scans} scans with no line'
+    if kind == 'regions' and scored.get('unprinted') and lines:
+        tally += f" ({', '.join(scored['unprinted'])} never printed)"
+    worst = scored.get('worst')
+    if worst is None:
+        return False, f'no line printed the {title} ({scans} scans)'
+    who = f"{worst['node']}: " if worst['node'] else ''
+    if scored['worst_error_m'] > max_error_m:
+        return False, (f"{who}{worst['what']} printed {worst['printed']} at t={worst['t']:.1f} "
+                       f"s, truth {_metres(_nearest_truth(worst))}: {worst['text']!r} "
+                       f'(worst of {tally})')
+    bearing = scored.get('worst_bearing') if kind == 'closest' else None
+    if (bearing and max_bearing_error_deg is not None
+            and scored['worst_bearing_error_deg'] > max_bearing_error_deg):
+        return False, (f"{who}closest obstacle's bearing {bearing['text']!r} at "
+                       f"t={bearing['t']:.1f} s, truth {bearing['truth_deg']:+.1f} deg "
+                       f"(error {scored['worst_bearing_error_deg']:.1f} deg, worst of "
+                       f"{scored['bearing_lines']} lines with a bearing)")
+    if fraction < min_matched_fraction:
+        return False, (f'{who}{missed} of {scans} scans with no line giving the {title} '
+                       f'({100.0 * fraction:.0f} % printed, {100.0 * min_matched_fraction:.0f} '
+                       f"% wanted; worst error {_error(scored['worst_error_m'])} in "
+                       f'{lines} lines)')
+    bearing_text = (f", bearing within {scored['worst_bearing_error_deg']:.1f} deg"
+                    if bearing else '')
+    return True, f"worst error {_error(scored['worst_error_m'])}{bearing_text} ({tally})"
