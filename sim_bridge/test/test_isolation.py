@@ -222,22 +222,13 @@ def test_budget_grows_with_the_simulated_duration():
     assert Limits(timeout_s=5.0).budget_s(600.0) == 5.0
 
 
-def test_a_process_run_gets_a_budget_for_real_time_on_a_slow_machine():
-    # 600 s at real time after up to 20 s of the node's start: the stepped budget (660 s)
-    # would leave 40 s for start-up, outputs and a live simulator falling behind.
-    budget = Limits().budget_s(600.0, process=True)
-    assert budget == limits.BUDGET_BASE_S + 20.0 + 600.0 * limits.PROCESS_BUDGET_PER_SIM_S
-    assert budget - 20.0 >= 2 * 600.0  # half real time still ends within it
-    assert Limits(timeout_s=5.0).budget_s(600.0, process=True) == 5.0  # --timeout decides
-
-
-@pytest.mark.parametrize('node, process', [
-    ('scan_ahead', False), (str(FIXTURES / 'quitter.py'), False),
-    (str(FIXTURES / 'spin_once_loop.py'), True), (str(FIXTURES / 'sleepy_timer.py'), True)])
-def test_a_jobs_budget_follows_the_way_its_node_file_runs(tmp_path, node, process):
+@pytest.mark.parametrize('node', ['scan_ahead', str(FIXTURES / 'spin_once_loop.py'),
+                                  str(FIXTURES / 'sleepy_timer.py')])
+def test_every_jobs_budget_is_the_stepped_one_whatever_its_node_files_style(tmp_path, node):
     run = replace(scenario('budget', node), duration_s=100.0).runs()[0]
-    job = limits.Job(run, tmp_path, Limits())
-    assert job.budget_s == Limits().budget_s(100.0, process)
+    assert limits.Job(run, tmp_path, Limits()).budget_s == (
+        limits.BUDGET_BASE_S + limits.BUDGET_PER_SIM_S * 100.0)
+    assert Limits(timeout_s=5.0).budget_s(600.0) == 5.0  # --timeout decides
 
 
 def test_a_run_keeps_the_variables_that_locate_gazebo_models_and_worlds(tmp_path):
