@@ -512,7 +512,8 @@ def run(target: str, ros_args: list[str], link: Link) -> None:
     except InvalidParameterTypeException as error:
         link.send('ended', status='start', error=str(error), parameter=True)
     except BaseException as error:  # noqa: B902 the node's process would have died of it
-        node, place = lockstep.failed_in or lockstep.running or ('', 'its main()')
+        node, place = lockstep.failed_in or lockstep.running or (lockstep.only_node(),
+                                                                 'its main()')
         link.send('ended', status='error', node=node, place=place,
                   memory=isinstance(error, MemoryError),
                   error=describe(error, code)[:MAX_TRACEBACK_CHARS],

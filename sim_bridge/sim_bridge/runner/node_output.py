@@ -228,8 +228,9 @@ class StreamLines:
             self.arrived[stream].append(data[:room])
             self.kept += min(room, len(data))
         if len(data) > room:
-            if not self.dropped:  # the kept lines are shown first, in order
+            if not self.dropped:  # the kept lines are shown first, in order, the last cut short
                 self.cut(*self.last_stamp)
+                self._cut_short()
             self.dropped += len(data) - room
             write_all(1 if stream == 'STDOUT' else 2, data[room:])
 
@@ -255,6 +256,15 @@ class StreamLines:
         if not (self.quiet and self.log.pattern is not None
                 and self.log.pattern.match(_ANSI.sub('', text).rstrip('\r'))):
             write_all(1 if stream == 'STDOUT' else 2, line + b'\n')
+
+    def _cut_short(self) -> None:
+        """Keep the lines begun, as they are; show them without a newline (more follows)."""
+        for stream, rest in self.partial.items():
+            if rest:
+                t_ns, node = self.partial_stamp[stream] or self.last_stamp
+                self.log.add(t_ns, node, stream, rest.decode('utf-8', errors='replace'))
+                write_all(1 if stream == 'STDOUT' else 2, rest)
+                self.partial[stream], self.partial_stamp[stream] = b'', None
 
     def close(self, t_ns: int) -> None:
         """Cut what is left, the last line without its newline, at ``t_ns`` (ns)."""
