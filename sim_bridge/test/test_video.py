@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from sim_bridge.commands import grade
-from sim_bridge.commands import task_video as lab_video
+from sim_bridge.commands import task_video as lab_video, video as video_command
 from sim_bridge.commands.run import main as run_main
 from sim_bridge.live.lab_tasks import video_name
 from sim_bridge.media import video
@@ -170,7 +170,7 @@ def test_the_robot_moves_in_the_world_pane(tmp_path):
 
 
 def test_a_folder_without_a_run_is_one_line_error(tmp_path, capsys):
-    assert video.main([str(tmp_path)]) == 2
+    assert video_command.main([str(tmp_path)]) == 2
     err = capsys.readouterr().err
     assert err.startswith('error: ') and 'metrics.json' in err and err.count('\n') == 1
     with pytest.raises(VideoError, match=r'log.jsonl:2'):
