@@ -266,7 +266,10 @@ class Agent:
         failure's traceback.
         """
         self.wait_for_end(END_GRACE_S)
-        status = self.process.poll()
+        try:  # its pipes ended: it is exiting, or it closed them and goes on
+            status = self.process.wait(STOP_GRACE_S)
+        except subprocess.TimeoutExpired:
+            status = None
         self.lines.close(self.clock_ns())  # its last line is whole: nothing more comes
         if status is None:
             what = 'closed its pipe'

@@ -262,7 +262,9 @@ class StreamLines:
         for stream, rest in self.partial.items():
             if rest:
                 t_ns, node = self.partial_stamp[stream] or self.last_stamp
-                self.log.add(t_ns, node, stream, rest.decode('utf-8', errors='replace'))
+                text = rest.decode('utf-8', errors='replace')
+                self.tail.append(text[:1000])
+                self.log.add(t_ns, node, stream, text)
                 write_all(1 if stream == 'STDOUT' else 2, rest)
                 self.partial[stream], self.partial_stamp[stream] = b'', None
 
