@@ -144,7 +144,8 @@ def test_a_run_reports_its_progress_in_simulated_time(tmp_path):
     result = run_simulation('obstacles', [str(FIXTURES / 'function_node.py')], duration_s=2.0,
                             out_dir=tmp_path / 'out', quiet=True, plot=False,
                             progress=lambda sim_s, duration_s: seen.append((sim_s, duration_s)))
-    assert result.ok and seen == sorted(seen) and seen[-1] == (2.0, 2.0)  # the grader's stall watch sees it
+    assert result.ok
+    assert seen == sorted(seen) and seen[-1] == (2.0, 2.0)  # the grader's stall watch sees it
 
 
 def test_ctrl_c_stops_a_run_and_writes_its_outputs(tmp_path):

@@ -20,9 +20,9 @@ import sys
 import tempfile
 import time
 
+from sim_bridge.common.run_environment import keep_dds_in_process
 from sim_bridge.runner import boundary
 from sim_bridge.runner.run import run_simulation
-from sim_bridge.run_environment import keep_dds_in_process
 
 HERE = Path(__file__).parent
 FIXTURES = HERE.parent.parent / 'sim_bridge' / 'test' / 'fixtures'

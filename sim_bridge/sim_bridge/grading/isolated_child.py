@@ -246,4 +246,3 @@ def with_memory_limit(error: str | None) -> str | None:
             or memory_limit() is None):
         return error
     return f'{error} (memory limit {memory_limit()} reached)'
-

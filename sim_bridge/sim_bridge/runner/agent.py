@@ -1,10 +1,11 @@
 """
 Run a student's node file in its own process, in lockstep with the run's trusted simulator.
 
-``python -m sim_bridge.runner.agent --in FD --out FD TARGET [--ros-args ...]`` runs TARGET's ``main()``
-as ``ros2 run`` would (its ``__main__`` block, its console script, or a Node subclass spun by
-rclpy), with the command line its process would get. It imports rclpy, the standard library,
-the frame codec and the student's code: never the simulator, the scenario or the grader.
+``python -m sim_bridge.runner.agent --in FD --out FD -- TARGET [--ros-args ...]`` runs TARGET's
+``main()`` as ``ros2 run`` would (its ``__main__`` block, its console script, or a Node
+subclass spun by rclpy), with the command line its process would get. It imports rclpy, the
+standard library, the frame codec and the student's code: never the simulator, the scenario or
+the grader.
 
 Wherever the student's code would block, control comes here instead (patched in this process
 only): an executor's wait with nothing ready, ``time.sleep``, ``Rate.sleep``;
@@ -46,7 +47,7 @@ PROXY_DEPTH = 1000
 NANOSECONDS_PER_SECOND = 10 ** 9
 #: What a run says of a MultiThreadedExecutor, which the agent runs in lockstep.
 MULTITHREADED_NOTE = ('its MultiThreadedExecutor ran its callbacks one at a time, in lockstep '
-                      'with the simulator (their order is the executor\'s, every time)')
+                      "with the simulator (their order is the executor's, every time)")
 
 
 def message_class(name: str) -> type:
@@ -537,8 +538,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv[:split])
     os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'OFF'
     sys.stdout.reconfigure(line_buffering=True)
-    # A node stuck in its code: the trusted side asks where (sim_bridge.runner.boundary); in C code,
-    # where Python's handler cannot run, faulthandler says (SIGUSR2).
+    # A node stuck in its code: the trusted side asks where (sim_bridge.runner.boundary); in C
+    # code, where Python's handler cannot run, faulthandler says (SIGUSR2).
     faulthandler.register(signal.SIGUSR2, all_threads=False)
     faulthandler.enable()  # a crash's stack, as the trusted side reads it from stderr
     run(args.target, argv[split:], Link(args.in_fd, args.out_fd))

@@ -1,14 +1,14 @@
 """
 The trust boundary: each student node file in a process of its own, in lockstep over pipes.
 
-The simulator and the runner's nodes run here (sim_bridge.runner.stepped_run); each target node file
-runs in a process of its own (sim_bridge.runner.agent).
+The simulator and the runner's nodes run here (sim_bridge.runner.stepped_run); each target
+node file runs in a process of its own (sim_bridge.runner.agent).
 
 Nothing of the node's process runs here and nothing it sends is code: frames
-(sim_bridge.runner.frames) carrying the CDR bytes of its nodes' messages, the ROS time it wakes at, and
-what its nodes are (names, topics, parameter names); and its printed text, read from its
-stdout and stderr. Each message is checked before it is published here: its topic's name, its
-type one of the installed message packages of INTERFACE_PACKAGES, its bytes deserialized as
+(sim_bridge.runner.frames) carrying the CDR bytes of its nodes' messages, the ROS time it wakes
+at, and what its nodes are (names, topics, parameter names); and its printed text, read from
+its stdout and stderr. Each message is checked before it is published here: its topic's name,
+its type one of the installed message packages of INTERFACE_PACKAGES, its bytes deserialized as
 that type. Anything else fails that run, with a one-line reason, and nothing else.
 
 Lockstep: the simulator steps physics; after a step that published something a node process
@@ -459,8 +459,8 @@ class Agent:
 def agent_command(target: str, in_fd: int, out_fd: int,
                   node_arguments: Sequence[str]) -> list[str]:
     """Return the command line of the process that runs TARGET with ``node_arguments``."""
-    return [sys.executable, '-m', 'sim_bridge.runner.agent', '--in', str(in_fd), '--out', str(out_fd),
-            '--', str(target), *node_arguments]
+    return [sys.executable, '-m', 'sim_bridge.runner.agent', '--in', str(in_fd),
+            '--out', str(out_fd), '--', str(target), *node_arguments]
 
 
 def agent_environment(base: dict[str, str]) -> dict[str, str]:

@@ -2,10 +2,11 @@
 A stepped run's trusted side: the simulator and the runner's nodes, the targets' processes.
 
 The SimBridge node, the recorder and the teleop run here on real rclpy, stepped (every ready
-callback runs before physics advances, see sim_bridge.runner.stepping); each target node file runs in
-a process of its own (sim_bridge.runner.agent) in lockstep with them (sim_bridge.runner.boundary), with the
-command line its process would get (``--ros-args --params-file <params.yaml> -p
-use_sim_time:=true -r FROM:=TO ...``). This process never imports a target's code.
+callback runs before physics advances, see sim_bridge.runner.stepping); each target node file
+runs in a process of its own (sim_bridge.runner.agent) in lockstep with them
+(sim_bridge.runner.boundary), with the command line its process would get (``--ros-args
+--params-file <params.yaml> -p use_sim_time:=true -r FROM:=TO ...``). This process never
+imports a target's code.
 """
 
 from contextlib import contextmanager
