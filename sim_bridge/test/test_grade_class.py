@@ -30,13 +30,19 @@ from sim_bridge.grading.scenario import load_scenarios
 WORKSPACE = Path(__file__).resolve().parents[2]
 SCENARIOS = [WORKSPACE / 'scenarios' / name for name in CLASS_SCENARIOS]
 EXPECTED_TABLE = [
-    ['student', 'scan_ahead', 'wall_follow_box_cw', 'runs', 'task 1 (of 2)', 'task 4 (of 3)',
-     'marks (of 5)'],
-    ['ana', '1/1', '3/3', '4/4', '2', '3', '5'],
-    ['ben', '1/1', '0/3 criteria failed', '1/4 criteria failed', '2', '0', '2'],
-    ['cleo', '0/1 node error', '0/3 not submitted', '0/4 not submitted', '0', '0', '0'],
-    ['dev', '0/1 node error', '0/3 error', '0/4 error', '0', '0', '0'],
+    ['student', 'marks (of 5)', 'task 1 (of 2)', 'task 4 (of 3)', 'scan_ahead',
+     'wall_follow_box_cw', 'runs'],
+    ['ana', '5', '2', '3', '1/1', '3/3', '4/4'],
+    ['ben', '2', '2', '0', '1/1', '0/3 criteria failed', '1/4 criteria failed'],
+    ['cleo', '0', '0', '0', '0/1 node error', '0/3 not submitted', '0/4 not submitted'],
+    ['dev', '0', '0', '0', '0/1 node error', '0/3 error', '0/4 error'],
 ]
+#: class.csv adds the marks of each point, and why it was lost, after the tasks' marks.
+POINT_COLUMNS = ['task 1: prints the range ahead for each scan (of 1)',
+                 'task 1: the range ahead printed right (no return as 10 m or inf) (of 1)',
+                 'task 4: loops the object in one direction (of 1)',
+                 'task 4: keeps the wall at the distance it chose (of 1)',
+                 'task 4: no collision (of 1)']
 
 
 @pytest.fixture(scope='module')
@@ -56,7 +62,19 @@ def test_the_class_table_is_printed_and_written_as_csv(graded):
     out, status, stdout = graded
     assert status == 1
     with open(out / CSV_NAME, newline='', encoding='utf-8') as file:
-        assert list(csv.reader(file)) == EXPECTED_TABLE
+        rows = list(csv.reader(file))
+    points = slice(4, 4 + len(POINT_COLUMNS))
+    assert [row[:points.start] + row[points.stop:] for row in rows] == EXPECTED_TABLE
+    assert rows[0][points] == POINT_COLUMNS
+    ana, ben, cleo, _ = (dict(zip(POINT_COLUMNS, row[points])) for row in rows[1:])
+    assert set(ana.values()) == {'1'}
+    assert ben['task 4: no collision (of 1)'].startswith('0: ')
+    assert 'collision(s) (wall_follow_box_cw/seed_1; lost in 3 of 3 runs)' in ben[
+        'task 4: no collision (of 1)']
+    assert cleo['task 1: prints the range ahead for each scan (of 1)'].startswith(
+        "0: node error: node 'straight_ahead' raised AssertionError: The 'z' field")
+    assert cleo['task 4: no collision (of 1)'].startswith(
+        '0: not submitted: no wall_follow.py in cleo/ (found: scan_ahead.py; expected')
     for row in EXPECTED_TABLE:
         assert ' '.join(row) == ' '.join(next(line for line in stdout.splitlines()
                                               if line.startswith(row[0])).split())
@@ -64,18 +82,30 @@ def test_the_class_table_is_printed_and_written_as_csv(graded):
 
 def test_the_class_page_and_each_students_report_show_the_marks(graded):
     out, _, stdout = graded
-    assert '  task 1: 2 marks when its run passes' in stdout.splitlines()
-    assert '  task 4: 3 marks x runs passed / 3 runs' in stdout.splitlines()
+    assert '  task 1: 2 marks, 1 for each of its 2 points, x the runs showing it' in \
+        stdout.splitlines()
+    assert ('  task 4: 3 marks, 1 for each of its 3 points, x the runs showing it, the '
+            'clockwise starts') in stdout.splitlines()
     index = (out / INDEX_NAME).read_text(encoding='utf-8')
-    assert '<th>task 1</th><th>task 4</th><th>marks</th>' in index
+    # The marks come first, the scenarios' runs after them.
+    assert ('<th>student</th><th>marks</th><th>task 1</th><th>task 4</th><th>scan_ahead</th>'
+            in index)
     assert '<td class="pass"><b>5/5</b></td>' in index  # ana
     assert '<td class="some"><b>2/5</b></td>' in index  # ben
+    assert ('<td class="fail">0/3<span class="why">lost: loops the object in one direction, '
+            'keeps the wall at the distance it chose, no collision</span></td>') in index
     ben = json.loads((out / STUDENTS_DIR / 'ben' / grade.REPORT_NAME).read_text())['marks']
     assert (ben['total'], ben['max']) == (2.0, 5.0)
     assert [(task['task'], task['marks'], task['max'], task['runs'], task['passed'])
             for task in ben['tasks']] == [('1', 2.0, 2.0, 1, 1), ('4', 0.0, 3.0, 3, 0)]
+    assert [point['point'] for point in ben['tasks'][1]['points'] if point['lost'] == 3] == [
+        'loops the object in one direction', 'keeps the wall at the distance it chose',
+        'no collision']
     page = (out / STUDENTS_DIR / 'ben' / grade.PAGE_NAME).read_text(encoding='utf-8')
-    assert '<b>marks 2/5</b>' in page and '<td class="fail">0/3</td>' in page
+    # The page opens with the marks, a row per point with why it was lost.
+    assert page.index('<b>marks 2/5</b>') < page.index('runs passed</p>')
+    assert '<td class="fail"><b>0/3</b></td>' in page
+    assert '<td>&nbsp;&nbsp;no collision</td><td class="fail">0/1</td>' in page
 
 
 def test_each_student_has_a_report_with_the_reasons(graded):
@@ -85,8 +115,10 @@ def test_each_student_has_a_report_with_the_reasons(graded):
     assert [run['run'] for run in reports['ana']['runs']] == [
         'scan_ahead/seed_1', *(f'wall_follow_box_cw/seed_{seed}' for seed in (1, 2, 3))]
     cleo = {run['run']: run for run in reports['cleo']['runs']}
-    assert cleo['wall_follow_box_cw/seed_2']['error'] == \
-        'not submitted: no wall_follow.py in cleo/'
+    assert cleo['wall_follow_box_cw/seed_2']['error'] == (
+        'not submitted: no wall_follow.py in cleo/ (found: scan_ahead.py; expected '
+        'scan_ahead.py, wall_follow.py at the top, in a folder, in scan_pkg/scan_pkg/ or in a '
+        'zip)')
     [node_error] = cleo['scan_ahead/seed_1']['metrics']['node_errors']
     assert "The 'z' field must be of type 'float'" in node_error['error']
     dev = {run['run']: run for run in reports['dev']['runs']}
@@ -120,6 +152,19 @@ def test_each_job_is_named_after_its_student_and_a_missing_file_is_not_run(tmp_p
         tmp_path / 'out' / STUDENTS_DIR / 'ana' / job.run.name for job in ana]
     assert all(node.endswith('/ana/wall_follow.py') or node.endswith('/ana/scan_ahead.py')
                for job in ana for node in job.run.scenario.nodes)
+
+
+def test_an_extra_task_without_marks_is_never_not_submitted(tmp_path):
+    """The guide's closest-obstacle node is graded for those who hand it in, no one else."""
+    scenarios = load_scenarios([*SCENARIOS, WORKSPACE / 'scenarios' / 'closest_obstacle.yaml'])
+    submissions = make_class(tmp_path / 'class', WORKSPACE)
+    shutil.copy(WORKSPACE / 'scan_pkg' / 'scan_pkg' / 'closest_obstacle.py',
+                submissions / 'ana' / 'closest_obstacle.py')
+    batch = ClassBatch(scenarios, submissions, tmp_path / 'out')
+    extra = [job.name for job in batch.jobs if 'closest_obstacle' in job.name]
+    assert extra == ['ana/closest_obstacle/seed_1']
+    assert not [report for _, report in batch.missing
+                if report.run.scenario.name == 'closest_obstacle']
 
 
 def test_only_folders_are_students_and_an_out_folder_inside_the_class_is_none(tmp_path):

@@ -95,6 +95,43 @@ def test_results_score_the_marks_with_a_test_per_scenario_ordered_by_task(
     assert 'marks 1.67/5' in (tmp_path / 'out' / grade.PAGE_NAME).read_text()
 
 
+def fake_wall_follow(world, targets, **options):
+    """Stand in for run_simulation: a clockwise follower at 0.7 m; seed 2 touches the box."""
+    seed = options['seed']
+    evidence = {'laps': -1, 'direction': 'clockwise', 'winding': -1.2, 'distance_m': 12.0,
+                'chosen_m': 0.7, 'declared_m': None, 'following': 0.9, 'mae_m': 0.05}
+    return SimpleNamespace(metrics={'laps': -1, 'sim_time_s': 30.0, 'node_errors': [],
+                                    'collisions': 1 if seed == 2 else 0,
+                                    'wall_follow': evidence})
+
+
+def test_a_task_marked_by_points_has_a_test_per_point_saying_why_it_was_lost(
+        tmp_path, monkeypatch):
+    folder = tmp_path / 'scenarios'
+    folder.mkdir()
+    (folder / 'box_cw.yaml').write_text(SCENARIO.format(task=4, marks=3)
+                                        + 'points: wall_follow\ndirection: clockwise\n')
+    submission = tmp_path / 'submission'
+    submission.mkdir()
+    (submission / 'wall_follow.py').write_text('# graded by the stand-in simulator\n')
+    monkeypatch.setattr(grade, 'grade_runs', lambda jobs, **options: [
+        run_scenario(job.run, job.out_dir, simulate=fake_wall_follow) for job in jobs])
+    results = tmp_path / 'results.json'
+    grade.main([str(folder), '--submission', str(submission), '--gradescope', str(results),
+                '--out', str(tmp_path / 'out'), '--quiet'])
+    results = json.loads(results.read_text(encoding='utf-8'))
+    assert results['score'] == pytest.approx(3 - 1 / 3, abs=1e-4)
+    assert [(test['name'], test['score'], test['max_score'], test['status'])
+            for test in results['tests']] == [
+        ('task 4: loops the object in one direction', 1.0, 1.0, 'passed'),
+        ('task 4: keeps the wall at the distance it chose', 1.0, 1.0, 'passed'),
+        ('task 4: no collision', pytest.approx(2 / 3, abs=1e-4), 1.0, 'failed'),
+        ('task 4: runs', 0.0, 0.0, 'failed')]
+    assert results['tests'][2]['output'] == \
+        '1 collision(s) (box_cw/seed_2; lost in 1 of 3 runs)'
+    assert 'shown in every run (3)' == results['tests'][0]['output']
+
+
 def test_a_submission_without_the_node_file_scores_0_saying_which_file(
         tmp_path, monkeypatch, scenarios):
     submission = tmp_path / 'submission'
@@ -105,8 +142,8 @@ def test_a_submission_without_the_node_file_scores_0_saying_which_file(
     assert results['score'] == 0
     assert [(test['score'], test['max_score'], test['status']) for test in results['tests']] \
         == [(0, 2.0, 'failed'), (0, 3.0, 'failed')]
-    assert results['tests'][1]['output'].splitlines()[1] == \
-        'a_box/seed_1: not submitted: no wall_follow.py in submission/'
+    assert results['tests'][1]['output'].splitlines()[1].startswith(
+        'a_box/seed_1: not submitted: no wall_follow.py in submission/ (found: wallfollow.py; ')
 
 
 @pytest.mark.parametrize('arguments, says', [
@@ -220,12 +257,15 @@ def test_the_zip_holds_setup_run_autograder_the_kit_and_the_scenarios(autograder
                          'scenarios/wander.yaml']
     assert modes['run_autograder'] & stat.S_IXUSR and modes['setup.sh'] & stat.S_IXUSR
     for name in ('kit/lab', 'kit/requirements-ros.txt', 'kit/worlds/room.yaml',
-                 'kit/scan_pkg/scan_pkg/wanderbot.py', 'kit/sim_bridge/sim_bridge/grade.py',
+                 'kit/scan_pkg/scan_pkg/wanderbot.py',
+                 'kit/sim_bridge/sim_bridge/grade/__main__.py',
                  'kit/sim_bridge/setup.py'):
         assert name in names
     assert modes['kit/lab'] & stat.S_IXUSR
     assert not [name for name in names if '/test/' in name or '__pycache__' in name]
-    assert 'kit/lab" setup' in setup and 'python3-venv' in setup
+    # What grading needs, nothing for development: no colcon, pytest or linters.
+    assert 'python3-venv' in setup and '-r "$kit/requirements.txt"' in setup
+    assert 'requirements-dev' not in setup and 'ament-(flake8|pep257)' in setup
 
 
 def test_run_autograder_grades_the_projects_nodes_full_marks(autograder, tmp_path):

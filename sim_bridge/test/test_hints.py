@@ -7,6 +7,7 @@ import os
 import pytest
 from sim_bridge.runner.hints import (
     direction, geometry, printed_scan_hint, ros_module_hint, ROS_MODULES, turtlebot3_lidar)
+from sim_bridge.runner.targets import describe, invisible_character_hint
 
 
 @pytest.mark.skipif(bool(os.environ.get('ROS_DISTRO')), reason='a sourced ROS installation')
@@ -78,3 +79,24 @@ def test_a_process_runs_printed_scan_error_gets_the_simulators_scan_geometry(
     # On the Burger itself, only its own geometry: nothing else to compare with.
     assert hint == ('this scan has 360 ranges from 0 rad (index 0, ahead) to +6.28 rad (index '
                     '359, ahead)' if hinted else '')
+
+
+@pytest.mark.parametrize('character, name, instead', [
+    ('\u00a0', 'no-break space (U+00A0)', 'a space'),
+    ('\u200b', 'zero width space (U+200B)', 'nothing (delete it)'),
+])
+def test_an_invisible_character_gets_the_line_and_what_to_replace_it_with(
+        character, name, instead):
+    source = f'def main():\n    x = 1\n{character * 4}return x\n'
+    with pytest.raises(SyntaxError) as raised:
+        compile(source, 'wanderbot.py', 'exec')
+    hint = invisible_character_hint(raised.value)
+    assert hint == (f'line 3 holds a {name}, as text copied from a document does: replace '
+                    f'every one in the file with {instead}')
+    assert hint in describe(raised.value)
+
+
+def test_other_syntax_errors_get_no_invisible_character_hint():
+    with pytest.raises(SyntaxError) as raised:
+        compile('def main(:\n', 'wanderbot.py', 'exec')
+    assert invisible_character_hint(raised.value) == ''

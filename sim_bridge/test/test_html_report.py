@@ -1,5 +1,6 @@
 """The HTML pages of a grading: links that resolve, counts, escaping, well-formed tags."""
 
+from html import escape
 from html.parser import HTMLParser
 import os
 from pathlib import Path
@@ -218,9 +219,21 @@ def test_warnings_long_lines_and_measured_values_read_well(tmp_path):
     run = make_run(tmp_path / 'seed_1', criteria=criteria)
     run['metrics']['warnings'] = ['a thread kept the run alive: Thread-1 (spin)']
     page = Page(write_runs_page(tmp_path / 'report.html', 'batch', [run]))
-    assert [[cell[0] for cell in row] for row in page.rows[1:3]] == [
-        ['wall/seed_1', 'warning: a thread kept the run alive: Thread-1 (spin)', '', 'warn'],
-        ['', 'min_clearance_m >= 0', '0.000 m', 'pass']]
+    assert [[cell[0] for cell in row] for row in page.rows[1:2]] == [
+        ['wall/seed_1', 'min_clearance_m >= 0', '0.000 m', 'pass']]
     text = (tmp_path / 'report.html').read_text()
     assert '<li>a thread kept the run alive: Thread-1 (spin)</li>' in text
+
+
+def test_a_warning_repeated_in_many_runs_is_listed_once_with_its_count(tmp_path):
+    ignored = "no node declared parameter 'side' (given for every node, /**); it was ignored"
+    runs = []
+    for seed in range(48):
+        run = make_run(tmp_path / f'seed_{seed}')
+        run['metrics']['warnings'] = [ignored, ignored, ignored]
+        runs.append(run)
+    text = write_runs_page(tmp_path / 'report.html', 'ana', runs).read_text()
+    head = text[:text.index('<section')]
+    assert head.count(escape(ignored)) == 1
+    assert f'<li>{escape(ignored)} <span class="why">(48 runs)</span></li>' in head
     assert 'white-space: pre-wrap' in text and 'overflow-wrap: anywhere' in text

@@ -104,6 +104,8 @@ def test_five_regions_are_read_in_any_order_and_spelling(text):
     ('Front Left: inf', 'front_left', INF),
     ('front: 2.00', 'front', 2.0),
     ('left: 10', 'left', 10.0),
+    ('Range ahead: 2.0', 'front', 2.0),  # the handout's scan_around: 'ahead' is the front
+    ('Range front-left: 1.5', 'front_left', 1.5),
 ])
 def test_a_region_on_a_line_of_its_own_is_read(text, name, value):
     assert [(found, number.value) for found, number in read_regions(text)] == [(name, value)]
@@ -252,6 +254,13 @@ def test_stderr_and_the_simulator_are_not_what_a_node_prints():
              line(0.0, 'cmd_vel: 5', node='sim_bridge'), line(0.0, '1.0')]
     scored = score_printed('range_ahead', scans, lines, ignore_nodes={'sim_bridge'})
     assert (scored['lines'], scored['worst_error_m']) == (1, 0.0)
+
+
+def test_the_handouts_five_labelled_lines_make_one_scan():
+    scans = [snapshot([2.0] * BEAMS, 0.0)]
+    names = ('ahead', 'right', 'front-right', 'front-left', 'left')  # its order and words
+    scored = score_printed('regions', scans, [line(0.0, f'Range {name}: 2.0') for name in names])
+    assert (scored['lines'], scored['missed'], scored['unprinted']) == (5, 0, [])
 
 
 def test_five_lines_per_scan_make_one_scan_and_a_missing_region_is_named():

@@ -20,10 +20,11 @@ from sim_bridge.commands import grade
 from sim_bridge.commands import task_video as lab_video, video as video_command
 from sim_bridge.commands.run import main as run_main
 from sim_bridge.live.lab_tasks import video_name
-from sim_bridge.media import video
+from sim_bridge.media import terminal_text, video
+from sim_bridge.media.terminal_text import LogLine, terminal_rows
 from sim_bridge.media.video import (
-    BANNER_HEIGHT, FRAME_HEIGHT, FRAME_WIDTH, FrameRenderer, load_footage, LogLine,
-    render_video, terminal_rows, VideoError, WORLD_WIDTH)
+    BANNER_HEIGHT, FRAME_HEIGHT, FRAME_WIDTH, FrameRenderer, load_footage, render_video,
+    VideoError, WORLD_WIDTH)
 from sim_bridge.runner.run import run_simulation
 
 FIXTURES = Path(__file__).parent / 'fixtures'
@@ -119,24 +120,24 @@ def test_the_terminal_shows_the_known_line_and_the_nodes_command(run_dir):
     with_line, before = np.asarray(pane.image(count)), np.asarray(pane.image(count - 1))
     rows = np.flatnonzero(np.any(with_line != before, axis=(1, 2)))
     # The new line is drawn below the command and the earlier lines, in one text row.
-    assert rows.min() >= pane.header_height + 3 * video.TERMINAL_LINE_HEIGHT
-    assert rows.max() - rows.min() < video.TERMINAL_LINE_HEIGHT
+    assert rows.min() >= pane.header_height + 3 * terminal_text.TERMINAL_LINE_HEIGHT
+    assert rows.max() - rows.min() < terminal_text.TERMINAL_LINE_HEIGHT
     alone = FrameRenderer(footage, NAMES).terminal
     alone.log = [LogLine(KNOWN_T, 'INFO', KNOWN_LINE)]
     alone.times = np.array([KNOWN_T])
     drawn = np.asarray(alone.image(1))
     # The same text drawn alone is the same pixels, one row up (nothing above it but the header).
     top = pane.header_height
-    shift = rows.min() - top - (rows.min() - top) % video.TERMINAL_LINE_HEIGHT
-    assert np.array_equal(with_line[top + shift:top + shift + video.TERMINAL_LINE_HEIGHT],
-                          drawn[top:top + video.TERMINAL_LINE_HEIGHT])
+    shift = rows.min() - top - (rows.min() - top) % terminal_text.TERMINAL_LINE_HEIGHT
+    assert np.array_equal(with_line[top + shift:top + shift + terminal_text.TERMINAL_LINE_HEIGHT],
+                          drawn[top:top + terminal_text.TERMINAL_LINE_HEIGHT])
 
 
 def test_the_terminal_scrolls_and_wraps_as_a_terminal_does():
     assert terminal_rows('ab\tc\x1b[31mred\x1b[0m', 80) == ['ab      cred']
     assert terminal_rows('x' * 25, 10) == ['x' * 10, 'x' * 10, 'x' * 5]
-    pane = video.TerminalPane((400, 200), ['my_node --ros-args'],
-                              [LogLine(k, 'INFO', f'line {k}') for k in range(100)])
+    pane = terminal_text.TerminalPane((400, 200), ['my_node --ros-args'],
+                                      [LogLine(k, 'INFO', f'line {k}') for k in range(100)])
     assert pane.capacity < 100
     full, later = np.asarray(pane.image(50)), np.asarray(pane.image(51))
     body = np.s_[pane.header_height:]
@@ -252,7 +253,9 @@ def test_a_recorded_live_session_has_a_runs_outputs_and_its_video(tmp_path):
     # while DDS discovery completes, told from the wall clock).
     times = [entry.t for entry in ranges]
     assert times == sorted(times) and 0 < times[-1] <= metrics['sim_time_s']
-    assert len(set(times)) == len(times)  # scan_ahead logs once a scan, every 0.1 s
+    # A line is stamped when it reaches this process: lines a busy machine delivers together
+    # share a stamp, but scan_ahead logs every 0.1 s of a 6 s session: they spread over it.
+    assert times[-1] - times[0] > 1.0
     # The node's lines, as the terminal showed them (launch's prefix aside); not the simulator's.
     assert all(f'[scan_ahead-2] {entry.line}' in result.stdout for entry in log)
     assert not any('[sim_bridge]' in entry.line for entry in log)
@@ -316,3 +319,65 @@ def test_a_real_runs_console_lines_reach_its_video_at_their_time(tmp_path):
     decoded = frames[index][terminal][rows]
     assert difference(decoded, shown[terminal][rows]) < difference(
         decoded, without[terminal][rows]) / 4
+
+
+STUDENT_NODE = """
+import rclpy
+from rclpy.node import Node
+from sensor_msgs.msg import LaserScan
+
+
+class ZedsReader(Node):
+
+    def __init__(self):
+        super().__init__('zeds_reader')
+        self.create_subscription(LaserScan, 'scan', self.on_scan, 10)
+
+    def on_scan(self, msg):
+        self.get_logger().info(f'ZED SAYS ahead: {min(msg.ranges[17:19]):.2f}')
+
+
+def main(args=None):
+    rclpy.init(args=args)
+    rclpy.spin(ZedsReader())
+
+
+if __name__ == '__main__':
+    main()
+"""
+
+
+def test_the_handouts_video_of_a_students_own_node(tmp_path, monkeypatch, capfd):
+    """``./lab video 1 --node FILE``: the student's node, driven, its lines, 3-D, the teleop."""
+    node = tmp_path / 'my_scan_ahead.py'
+    node.write_text(STUDENT_NODE)
+    monkeypatch.chdir(tmp_path)
+    out = tmp_path / 'out'
+    assert lab_video.main(['1', '--node', str(node), '--names', NAMES, '--out', str(out)]) == 0
+    meta, frames = decode(tmp_path / 'labscan_task1.mp4')
+    metrics = json.loads((out / 'metrics.json').read_text())
+    # Real time: a 26 s run is 26 s of video, no longer than 2 minutes.
+    assert meta['duration'] == pytest.approx(metrics['sim_time_s'], abs=0.2)
+    footage = load_footage(out, teleop=True)
+    said = [entry for entry in footage.log if 'ZED SAYS ahead' in entry.line]
+    assert len(said) > 200  # a line a scan, 10 scans a second
+    # Stamped as a live run prints them: a scan's 0.1 s apart, whatever the stepped run took.
+    stamps = [float(entry.line.split('] [')[1]) for entry in said[:11]]
+    assert stamps[10] - stamps[0] == pytest.approx(said[10].t - said[0].t, abs=1e-6)
+    # The teleop drove the robot: its keys, forward first; its terminal is in the frames.
+    assert footage.teleop and "key 'i'" in footage.teleop[1].line
+    renderer = FrameRenderer(footage, NAMES, view3d=True)
+    teleop = np.s_[FRAME_HEIGHT - video.TELEOP_HEIGHT:, WORLD_WIDTH:]
+    index = len(frames) - 1
+    shown = renderer.frame((index + 1) / video.DEFAULT_FPS)
+    assert difference(frames[index][teleop], shown[teleop]) < 8
+    # The 3-D view under the top view: the robot in its world, drawn and moving.
+    view = np.s_[BANNER_HEIGHT + video.TOP_VIEW_HEIGHT:, :WORLD_WIDTH]
+    assert difference(frames[10][view], frames[-1][view]) > 5
+    assert 'labscan_task1.mp4' in capfd.readouterr().out
+
+
+def test_a_long_run_is_sped_up_to_a_video_of_two_minutes_unless_told():
+    assert lab_video.video_speed(76.2, None) == 1.0
+    assert lab_video.video_speed(180.0, None) == 1.5
+    assert lab_video.video_speed(180.0, 4.0) == 4.0

@@ -244,7 +244,7 @@ def write_videos(jobs: list[GradeJob], names: str | None, note: Callable[[str], 
             continue
         banner = names if names is not None else job.label.partition('/')[0] if job.label else ''
         try:
-            render_video(job.out_dir, video, banner)
+            render_video(job.out_dir, video, banner, teleop=bool(job.run.scenario.drive))
         except (VideoError, OSError) as error:
             note(f'no video of {job.name}: {error}')
 

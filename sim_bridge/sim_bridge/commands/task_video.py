@@ -1,12 +1,14 @@
 """
 The handout's video of a lab task in one command: ``./lab video TASK --names "..."``.
 
-``python -m sim_bridge.commands.task_video TASK --names "Ada Lovelace 123, ..." [--speed N] [--out
-DIR]`` runs the first seed of the task's shipped scenario
-(sim_bridge.live.lab_tasks.TASK_SCENARIOS, with its ``drive:`` segments where it has them, as the
-grader runs it), its outputs in ``--out`` (default ``out/video/<task>``), and writes its video
-(sim_bridge.media.video) named as the handout names it, ``labscan_task1.mp4`` ...
-``labscan_task4.mp4``, in the current folder (or ``-o FILE``).
+``python -m sim_bridge.commands.task_video TASK --node FILE --names "Ada Lovelace 123, ..."
+[--speed N] [--out DIR]`` runs the student's node FILE (without ``--node``, the kit's example)
+in the first seed of the task's shipped scenario (sim_bridge.live.lab_tasks.TASK_SCENARIOS, with
+its ``drive:`` segments where it has them, as the grader runs it), its outputs in ``--out``
+(default ``out/video/<task>``), and writes its video (sim_bridge.media.video) named as the
+handout names it, ``labscan_task1.mp4`` ... ``labscan_task4.mp4``, in the current folder (or
+``-o FILE``). It lasts at most MAX_VIDEO_S (sped up, the speed shown on every frame) unless
+``--speed`` says otherwise.
 """
 
 import argparse
@@ -19,6 +21,16 @@ from sim_bridge.grading.runs import run_scenario
 from sim_bridge.grading.scenario import load_scenario
 from sim_bridge.live.lab_tasks import HANDOUT_NUMBERS, TASK_SCENARIOS, video_name
 from sim_bridge.media.video import render_video, VideoError
+
+#: The longest video (s) a TA watches without ``--speed``: a longer run is sped up to fit.
+MAX_VIDEO_S = 120.0
+
+
+def video_speed(duration_s: float, speed: float | None) -> float:
+    """Return ``speed``, or the least of 1 and faster that fits ``duration_s`` in MAX_VIDEO_S."""
+    if speed is not None:
+        return speed
+    return max(1.0, duration_s / MAX_VIDEO_S)
 
 
 def task_name(text: str) -> str:
@@ -39,8 +51,11 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     parser.add_argument('task', type=task_name, metavar='TASK',
                         help=f"{', '.join(TASK_SCENARIOS)}, or the handout's task number")
     parser.add_argument('--names', required=True, help="the students' names, on every frame")
-    parser.add_argument('--speed', type=float, default=1.0, metavar='N',
-                        help='simulated seconds per second of video (default 1: real time)')
+    parser.add_argument('--node', type=Path, metavar='FILE',
+                        help="the student's node file to run (default: the kit's example node)")
+    parser.add_argument('--speed', type=float, metavar='N',
+                        help='simulated seconds per second of video (default: real time, faster '
+                        f'for a run that would last more than {MAX_VIDEO_S:g} s of video)')
     parser.add_argument('--out', type=Path, metavar='DIR',
                         help="the run's output folder (default out/video/TASK)")
     parser.add_argument('-o', '--output', type=Path, metavar='FILE.mp4',
@@ -60,6 +75,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     output = args.output or Path(video_name(args.task))
     try:
         scenario = load_scenario(scenarios / TASK_SCENARIOS[args.task])
+        if args.node is not None:
+            if not args.node.is_file():
+                raise ValueError(f'--node {args.node}: no such file')
+            scenario = scenario.with_node_override(str(args.node.resolve()))
         run = scenario.runs()[0]
         print(f'{args.task}: {scenario.description or scenario.name} (seed {run.seed}, '
               f'{scenario.duration_s:g} s simulated)', file=sys.stderr)
@@ -67,7 +86,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         if report.metrics is None:
             print(f'error: {report.error}', file=sys.stderr)
             return 2
-        info = render_video(out_dir, output, args.names, speed=args.speed)
+        speed = video_speed(scenario.duration_s, args.speed)
+        info = render_video(out_dir, output, args.names, speed=speed,
+                            teleop=bool(scenario.drive), view3d=True)
     except (ValueError, VideoError) as error:
         print(f'error: {error}', file=sys.stderr)
         return 2
@@ -75,7 +96,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f'error: cannot write {error.filename or output}: {error.strerror or error}',
               file=sys.stderr)
         return 2
-    print(f'{info.path}: {info.duration_s:.1f} s of video ({args.speed:g}x simulated time); '
+    print(f'{info.path}: {info.duration_s:.1f} s of video ({speed:g}x simulated time); '
           f"the run's outputs are in {out_dir}")
     return 0 if report.passed else 1
 

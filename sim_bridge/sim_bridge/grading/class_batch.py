@@ -22,6 +22,7 @@ from sim_bridge.grading.marks import format_marks, task_marks, TaskMarks, total
 from sim_bridge.grading.runs import (
     GradeJob, PAGE_NAME, REPORT_NAME, reuse_notes, RunReport, write_outputs, write_report)
 from sim_bridge.grading.scenario import Scenario
+from sim_bridge.grading.submission_files import find_node_files, missing_text
 from sim_bridge.runner.targets import target_name
 
 CSV_NAME = 'class.csv'
@@ -29,6 +30,8 @@ INDEX_NAME = 'index.html'
 #: The folder of ``--out`` holding a folder per student: no student's name can collide with
 #: the class's own outputs.
 STUDENTS_DIR = 'students'
+#: The folder of a submission's outputs its zips are unpacked in.
+UNPACKED_DIR = '.unpacked'
 
 
 class ClassBatch:
@@ -96,29 +99,41 @@ class ClassBatch:
         """Return each student's marks per task from their run entries."""
         return {student: task_marks(self.scenarios, runs) for student, runs in entries.items()}
 
-    def table(self, entries: dict[str, list[dict]]) -> list[list[str]]:
+    def table(self, entries: dict[str, list[dict]], *,
+              points: bool = False) -> list[list[str]]:
         """
-        Return the class table: a header, then per student a cell per scenario and the runs.
+        Return the class table: a header, then per student the marks, then the runs.
 
-        ``entries`` are each student's run entries (``RunReport.as_dict``). A cell is
-        'passed/total' runs, followed by the worst reason of a failed one: ``0/3 not
-        submitted`` (see :data:`OUTCOME_LEGEND`). When the scenarios carry marks, a column per
-        task with marks (``task 1 (of 2)``) and the total (``marks (of 5)``) follow.
+        ``entries`` are each student's run entries (``RunReport.as_dict``). When the scenarios
+        carry marks, the total (``marks (of 10)``) and a column per task with marks (``task 1
+        (of 2)``) come first; with ``points``, a column per point of each task marked by the
+        handout's points (``task 2: no collision (of 0.5)``), its marks and, when lost, why
+        (``0: 1 collision(s)``). Then a cell per scenario, 'passed/total' runs followed by the
+        worst reason of a failed one (``0/3 not submitted``, see :data:`OUTCOME_LEGEND`), and
+        the runs in all.
         """
         marks = self.marks(entries)
         marked = [task for task in task_marks(self.scenarios, []) if task.marks is not None]
         _, maximum = total(marked)
-        rows = [['student', *(scenario.name for scenario in self.scenarios), 'runs',
-                 *(f'{task.title} (of {format_marks(task.marks)})' for task in marked),
-                 *([f'marks (of {format_marks(maximum)})'] if marked else [])]]
+        header = [*([f'marks (of {format_marks(maximum)})'] if marked else []),
+                  *(f'{task.title} (of {format_marks(task.marks)})' for task in marked)]
+        students = {student: [task for task in marks[student] if task.marks is not None]
+                    for student in entries}
+        if points:
+            header += [f'{task.title}: {point.point} (of {format_marks(point.marks)})'
+                       for task in next(iter(students.values()), []) for point in task.points]
+        rows = [['student', *header, *(scenario.name for scenario in self.scenarios), 'runs']]
         for student, runs in entries.items():
-            cells = [' '.join(filter(None, count_cell(
+            tasks = students[student]
+            cells = [*([format_marks(total(tasks)[0])] if tasks else []),
+                     *(format_marks(task.earned) for task in tasks)]
+            if points:
+                cells += [format_marks(point.earned) + (f': {point.why()}' if point.lost else '')
+                          for task in tasks for point in task.points]
+            cells += [' '.join(filter(None, count_cell(
                 [run for run in runs if run['scenario'] == scenario.name])))
                 for scenario in self.scenarios]
-            tasks = [task for task in marks[student] if task.marks is not None]
-            rows.append([one_line(student), *cells, ' '.join(filter(None, count_cell(runs))),
-                         *(format_marks(task.earned) for task in tasks),
-                         *([format_marks(total(tasks)[0])] if tasks else [])])
+            rows.append([one_line(student), *cells, ' '.join(filter(None, count_cell(runs)))])
         return rows
 
     def write_outputs(self, reports: list[RunReport],
@@ -146,7 +161,8 @@ class ClassBatch:
                     path, f'Grading report: {student}', entries[student], up=index,
                     root=self.out, notes=notes, marks=marks[student]))
         rows = self.table(entries)
-        writers[self.out / CSV_NAME] = lambda path: write_csv(path, rows)
+        with_points = self.table(entries, points=True)
+        writers[self.out / CSV_NAME] = lambda path: write_csv(path, with_points)
         writers[index] = lambda path: html_report.write_class_index(
             path, 'Class grading report', entries,
             [scenario.name for scenario in self.scenarios],
@@ -170,24 +186,35 @@ def submission_runs(scenarios: list[Scenario], source: Path, out: Path,
     """
     Return the runs of one submission: the jobs to run, and the failed runs of missing files.
 
-    Each scenario's node is replaced by the file of the same name in the folder ``source``
-    (``wall_follow`` by ``source/wall_follow.py``); a scenario with a file missing is not
-    run and its runs fail as ``not submitted: no wall_follow.py in <name>/``. Outputs go to
-    ``out/<scenario>/seed_<n>``; the progress calls a run ``<name>/<run>``.
+    Each scenario's node is replaced by the student's file of the same name
+    (``wall_follow`` by ``wall_follow.py``), found in the folder ``source`` as students hand
+    it in (:func:`sim_bridge.submission_files.find_node_files`: at the top, in a folder, in
+    ``scan_pkg/scan_pkg/``, in a zip, which is unpacked below ``out``); a scenario with a file
+    missing is not run and its runs fail as ``not submitted: no wall_follow.py in <name>/ (found:
+    ...; expected ...)``, unless the scenario carries no marks (an extra task the instructor did
+    not ask for): then the student simply has no runs of it (``-`` in the class table).
+    Outputs go to ``out/<scenario>/seed_<n>``; the progress calls a run ``<name>/<run>``.
     """
+    wanted = list(dict.fromkeys(f'{target_name(node)}.py' for scenario in scenarios
+                                for node in scenario.nodes))
+    found = find_node_files(source, wanted, out / UNPACKED_DIR)
     jobs, missing = [], []
     for scenario in scenarios:
-        files = {target_name(node): source / f'{target_name(node)}.py' for node in scenario.nodes}
-        absent = [path.name for path in files.values() if not path.is_file()]
+        files = {target_name(node): found.files.get(f'{target_name(node)}.py')
+                 for node in scenario.nodes}
+        absent = [f'{node}.py' for node, path in files.items() if path is None]
+        if absent and scenario.marks is None:
+            continue
         graded = scenario
         for node, path in files.items():
-            # An existing file is taken as a file whatever its path holds (targets).
-            graded = graded.with_node_override(f'{node}={os.path.abspath(path)}')
+            if path is not None:
+                # An existing file is taken as a file whatever its path holds (targets).
+                graded = graded.with_node_override(f'{node}={os.path.abspath(path)}')
         for run in graded.runs():
             job = GradeJob(run, out / run.name, f'{name}/{run.name}')
             if absent:
-                missing.append(RunReport(run, job.out_dir, [], None,
-                                         f"not submitted: no {', '.join(absent)} in {name}/",
+                missing.append(RunReport(run, job.out_dir, [], None, 'not submitted: '
+                                         + missing_text(absent, found, wanted, name),
                                          0.0))
             else:
                 jobs.append(job)

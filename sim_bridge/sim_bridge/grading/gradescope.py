@@ -8,13 +8,14 @@ specification: https://gradescope-autograders.readthedocs.io/en/latest/specs/). 
 ``/autograder/submission``; it must write ``/autograder/results/results.json``.
 
 ``python -m sim_bridge.grade SCENARIO... --submission DIR --gradescope results.json`` writes
-the results (:func:`results`): the marks as the score, a test per scenario, ordered by task.
-``python -m sim_bridge.commands.autograder build SCENARIO... -o autograder.zip`` (``./lab
-autograder``) builds the zip: the kit (the two packages, worlds, models, ``lab`` and its
-requirements), the chosen scenario files, ``setup.sh`` (``./lab setup``: a venv with ROS 2 Jazzy's
-wheels and the kit, as on a machine with only Python) and ``run_autograder``. ``AUTOGRADER_ROOT``
-(default ``/autograder``) moves the root ``run_autograder`` works in, so it can be tried on a
-folder laid out as Gradescope lays it out.
+the results (:func:`results`): the marks as the score, a test per point (or per scenario),
+ordered by task. ``python -m sim_bridge.commands.autograder build SCENARIO... -o
+autograder.zip`` (``./lab autograder``) builds the zip: the kit (the two packages, worlds,
+models, ``lab`` and its requirements), the chosen scenario files, ``setup.sh`` (a venv with what
+grading needs: the runtime requirements, ROS 2 Jazzy's runtime wheels and the kit; no
+development tools) and ``run_autograder``. ``AUTOGRADER_ROOT`` (default ``/autograder``) moves
+the root ``run_autograder`` works in, so it can be tried on a folder laid out as Gradescope
+lays it out.
 """
 
 from collections.abc import Callable
@@ -27,7 +28,8 @@ import zipfile
 
 from sim_bridge.common.paths import WORLD_FILE_SUFFIXES, world_names
 from sim_bridge.common.text import cap_text, PathNames, printable, reason
-from sim_bridge.grading.marks import format_marks, summary as marks_summary, task_marks, total
+from sim_bridge.grading.marks import (
+    format_marks, summary as marks_summary, task_marks, TaskMarks, total)
 from sim_bridge.grading.runs import RunReport
 from sim_bridge.grading.scenario import load_scenarios, Scenario, ScenarioError
 
@@ -44,16 +46,26 @@ KIT_DIR = 'kit'
 SCENARIOS_DIR = 'scenarios'
 
 SETUP_SH = r"""#!/usr/bin/env bash
-# Gradescope runs this once, as root, when it builds the autograder's image (Ubuntu): Python 3
-# with venv, then ./lab setup: a venv in kit/.venv with ROS 2 Jazzy from PyPI
-# (requirements-ros.txt) and the kit, as on any machine with only Python. No display needed.
+# Gradescope runs this once, as root, when it builds the autograder's image (Ubuntu 22.04,
+# Python 3.10): Python 3 with venv, then a venv in kit/.venv with what grading needs and
+# nothing for development: the kit's runtime requirements (requirements.txt), ROS 2 Jazzy's
+# runtime wheels (requirements-ros.txt without the ament linters) and the two packages. No
+# colcon, no linters, no pytest; no display needed.
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+kit=$here/kit
 export DEBIAN_FRONTEND=noninteractive
 apt-get update
+# python3-dev and build-essential: pip compiles pybullet where it has no wheel (Python >= 3.12);
+# bubblewrap: the sandbox each student run is in.
 apt-get install -y --no-install-recommends python3 python3-venv python3-pip python3-dev \
-    build-essential
-PYTHON=python3 "$here/kit/lab" setup
+    build-essential bubblewrap
+python3 -m venv "$kit/.venv"
+ros=$(grep -v -E '^[[:space:]]*(#|$)|ament-(flake8|pep257)' "$kit/requirements-ros.txt")
+# shellcheck disable=SC2086  # one requirement a word
+"$kit/.venv/bin/python" -m pip install --quiet --no-cache-dir -r "$kit/requirements.txt" $ros
+"$kit/.venv/bin/python" -m pip install --quiet --no-cache-dir --no-deps "$kit/scan_pkg" \
+    "$kit/sim_bridge"
 """
 
 RUN_AUTOGRADER = r"""#!/usr/bin/env bash
@@ -97,43 +109,68 @@ def results(reports: list[RunReport], scenarios: list[Scenario],
     """
     Return Gradescope's results of one submission's graded runs.
 
-    The score is the marks (:mod:`sim_bridge.grading.marks`); a test per scenario, ordered by task,
-    named ``task 1: scan_ahead``, scores its share of its task's marks (a scenario without
-    marks scores 0 of 0), passes when every run of it passed, and its output says why the
-    runs failed, how the task is marked and the runs' ``table`` (grade's pass/fail table),
-    without the grader's paths (``names``), cut to OUTPUT_LIMIT_BYTES.
+    The score is the marks (:mod:`sim_bridge.grading.marks`). A task marked by the handout's points
+    has a test per point, named ``task 2: no collision``, scoring the point's marks, its
+    output saying why it was lost, and a test of its runs (``task 2: runs``, no score) with
+    their ``table`` (grade's pass/fail table). Another task has a test per scenario, named
+    ``task 1: scan_ahead``, scoring its share of its task's marks (a scenario without marks
+    scores 0 of 0), passing when every run of it passed, its output saying why the runs
+    failed, how the task is marked and the runs' ``table``. Tests are ordered by task,
+    without the grader's paths (``names``), each output cut to OUTPUT_LIMIT_BYTES.
     """
     names = names or PathNames({})
     entries = [report.as_dict(names) for report in reports]
     tasks = task_marks(scenarios, entries)
     tests = []
     for task in tasks:
-        for scenario in task.scenarios:
-            runs = [report for report in reports if report.run.scenario.name == scenario]
+        runs = [report for report in reports if report.run.scenario.name in task.scenarios]
+        if task.points:
+            tests += [_test(f'{task.title}: {point.point}', point.earned, point.marks,
+                            not point.lost,
+                            [point.why() or f'shown in every run ({point.runs})'])
+                      for point in task.points]
             passed = sum(report.passed for report in runs)
-            score, maximum = task.share(len(runs), passed)
-            failed = [entry for entry in entries if entry['scenario'] == scenario
-                      and not entry['passed']]
-            lines = [f'{passed} of {len(runs)} runs passed'
-                     + (f', {format_marks(score)} of {format_marks(maximum)} marks'
-                        if task.marks is not None else '')]
-            lines += [f"{entry['run']}: {reason(entry)}" for entry in failed[:REASONS_SHOWN]]
-            if len(failed) > REASONS_SHOWN:
-                lines.append(f'... and {len(failed) - REASONS_SHOWN} more failed runs')
-            lines += [task.rule(), '', names(table(runs))]
-            lines += tracebacks(runs, names)
-            tests.append({
-                'name': f'{task.title}: {scenario}', 'score': round(score, 4),
-                'max_score': round(maximum, 4),
-                'status': 'passed' if runs and passed == len(runs) else 'failed',
-                'output': cap_text('\n'.join(lines), OUTPUT_LIMIT_BYTES),
-                'visibility': 'visible'})
+            lines = [f'{passed} of {len(runs)} runs passed', task.rule(), '',
+                     names(table(runs)), *tracebacks(runs, names)]
+            tests.append(_test(f'{task.title}: runs', 0.0, 0.0, passed == len(runs), lines))
+            continue
+        for scenario in task.scenarios:
+            tests.append(_scenario_test(task, scenario, reports, entries, table, names))
     earned, _ = total(tasks)
     runs_passed = sum(report.passed for report in reports)
     output = [marks_summary(tasks) or 'no scenario carries marks',
               f'{runs_passed} of {len(reports)} runs passed', *map(printable, notes)]
     return {'score': round(earned, 4), 'output': '\n'.join(output), 'output_format': 'text',
             'visibility': 'visible', 'tests': tests}
+
+
+def _test(name: str, score: float, maximum: float, passed: bool,
+          lines: list[str]) -> dict[str, Any]:
+    """Return one test of results.json: its marks (rounded), status and output."""
+    return {'name': name, 'score': round(score, 4), 'max_score': round(maximum, 4),
+            'status': 'passed' if passed else 'failed',
+            'output': cap_text('\n'.join(lines), OUTPUT_LIMIT_BYTES), 'visibility': 'visible'}
+
+
+def _scenario_test(task: TaskMarks, scenario: str, reports: list[RunReport],
+                   entries: list[dict[str, Any]], table: Callable[[list[RunReport]], str],
+                   names: PathNames) -> dict[str, Any]:
+    """Return the test of one scenario of a task not marked by points (see results)."""
+    runs = [report for report in reports if report.run.scenario.name == scenario]
+    passed = sum(report.passed for report in runs)
+    score, maximum = task.share(len(runs), passed)
+    failed = [entry for entry in entries if entry['scenario'] == scenario
+              and not entry['passed']]
+    lines = [f'{passed} of {len(runs)} runs passed'
+             + (f', {format_marks(score)} of {format_marks(maximum)} marks'
+                if task.marks is not None else '')]
+    lines += [f"{entry['run']}: {reason(entry)}" for entry in failed[:REASONS_SHOWN]]
+    if len(failed) > REASONS_SHOWN:
+        lines.append(f'... and {len(failed) - REASONS_SHOWN} more failed runs')
+    lines += [task.rule(), '', names(table(runs))]
+    lines += tracebacks(runs, names)
+    return _test(f'{task.title}: {scenario}', score, maximum,
+                 bool(runs) and passed == len(runs), lines)
 
 
 def tracebacks(reports: list[RunReport], names: PathNames) -> list[str]:

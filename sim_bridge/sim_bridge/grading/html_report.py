@@ -11,12 +11,13 @@ output); paths in a run that are not absolute are relative to the ``root`` a pag
 and a text that is not valid UTF-8 (a lone surrogate) shows its bytes as ``\xNN``.
 """
 
+from collections import Counter
 from html import escape
 from html.parser import HTMLParser
 import json
 import os
 from pathlib import Path
-from typing import Any
+from typing import Any, Sequence
 from urllib.parse import quote, unquote_to_bytes, urlsplit
 
 from sim_bridge.common.text import count_cell, format_measured, outcome, OUTCOME_LEGEND, printable
@@ -83,7 +84,8 @@ def _run_rows(index: int, run: dict[str, Any]) -> list[str]:
     """
     Return the table rows of one run, as grade prints them.
 
-    Its error, node errors, warnings (which fail nothing) and criteria with measured values.
+    Its error, node errors and criteria with measured values; its warnings (which fail
+    nothing) are listed once for the page (:func:`_warnings_list`).
     """
     metrics = run['metrics'] or {}
     cells = []
@@ -91,7 +93,6 @@ def _run_rows(index: int, run: dict[str, Any]) -> list[str]:
         cells.append((f"error: {run['error']}", '', 'fail'))
     for node_error in metrics.get('node_errors', []):
         cells.append((f"node error: {node_error['node']}: {node_error['error']}", '', 'fail'))
-    cells += [(f'warning: {warning}', '', 'warn') for warning in metrics.get('warnings') or []]
     cells += [(result['criterion'], format_measured(result['criterion'], result['value']),
                'pass' if result['passed'] else 'fail') for result in run['criteria']]
     if not cells:
@@ -137,8 +138,7 @@ def _run_section(index: int, run: dict[str, Any], folder: Path, root: Path) -> s
              _link(root / run['log'] if run.get('log') else None, folder, 'log')]
     parts.append(f"<p>outputs: {' | '.join(link for link in links if link) or 'none'}</p>")
     if metrics.get('warnings'):
-        parts.append('<h3>warnings</h3>\n<ul class="warn">' + ''.join(
-            f'<li>{escape(warning)}</li>' for warning in metrics['warnings']) + '</ul>')
+        parts.append('<h3>warnings</h3>\n' + _warnings_list([run]))
     for node_error in metrics.get('node_errors', []):
         parts.append(f'<h3>node error in {escape(node_error["node"])}</h3>'
                      f'<pre>{escape(node_error["error"])}</pre>')
@@ -149,24 +149,55 @@ def _run_section(index: int, run: dict[str, Any], folder: Path, root: Path) -> s
     return '\n'.join([*parts, '</section>'])
 
 
+def _warnings_list(runs: list[dict]) -> str:
+    """Return the runs' warnings as a list, each once with the number of runs it was in."""
+    counts = Counter(warning for run in runs
+                     for warning in dict.fromkeys((run['metrics'] or {}).get('warnings') or []))
+    if not counts:
+        return ''
+    items = [f'<li>{escape(warning)}'
+             + (f' <span class="why">({count} runs)</span>' if count > 1 else '') + '</li>'
+             for warning, count in counts.items()]
+    return '<ul class="warn">' + ''.join(items) + '</ul>'
+
+
 def _marks_table(tasks: list[TaskMarks]) -> list[str]:
-    """Return the marks line and table of a page: per task its runs passed and marks."""
+    """
+    Return the marks line and table of a page: per task its marks and runs passed.
+
+    A task marked by the handout's points has a row per point under it: its marks and, when
+    lost, why.
+    """
     marked = [task for task in tasks if task.marks is not None]
     if not marked:
         return []
     earned, maximum = marks_total(marked)
-    rows = [f'<tr><td>{escape(task.title)}</td><td>{escape(", ".join(task.scenarios))}</td>'
-            f'<td>{task.passed}/{task.runs}</td>{_marks_cell(task.earned, task.marks)}'
-            f'<td>{escape(task.rule())}</td></tr>' for task in marked]
+    rows = []
+    for task in marked:
+        rows.append(f'<tr><td><b>{escape(task.title)}</b></td>'
+                    f'{_marks_cell(task.earned, task.marks, bold=True)}'
+                    f'<td>{escape(task.rule())}</td><td>{task.passed}/{task.runs}</td>'
+                    f'<td>{escape(", ".join(task.scenarios))}</td></tr>')
+        rows += [f'<tr><td>&nbsp;&nbsp;{escape(point.point)}</td>'
+                 f'{_marks_cell(point.earned, point.marks)}'
+                 f'<td class="why">{escape(point.why())}</td><td></td><td></td></tr>'
+                 for point in task.points]
     return [f'<p><b>marks {format_marks(earned)}/{format_marks(maximum)}</b></p>',
-            _table(['task', 'scenarios', 'runs passed', 'marks', 'how'], rows)]
+            _table(['task', 'marks', 'how, or why marks were lost', 'runs passed',
+                    'scenarios'], rows)]
 
 
-def _marks_cell(earned: float, maximum: float, bold: bool = False) -> str:
-    """Return a cell 'earned/maximum' marks: green when all, amber when some, red when none."""
+def _marks_cell(earned: float, maximum: float, bold: bool = False,
+                lost: Sequence[str] = ()) -> str:
+    """
+    Return a cell 'earned/maximum' marks: green when all, amber when some, red when none.
+
+    ``lost`` names the points lost, listed under the marks.
+    """
     colour = 'pass' if earned >= maximum else 'some' if earned > 0 else 'fail'
     text = f'{format_marks(earned)}/{format_marks(maximum)}'
-    return f'<td class="{colour}">{f"<b>{text}</b>" if bold else text}</td>'
+    why = f'<span class="why">lost: {escape(", ".join(lost))}</span>' if lost else ''
+    return f'<td class="{colour}">{f"<b>{text}</b>" if bold else text}{why}</td>'
 
 
 def write_runs_page(path: Path, title: str, runs: list[dict], *, up: Path | None = None,
@@ -175,19 +206,22 @@ def write_runs_page(path: Path, title: str, runs: list[dict], *, up: Path | None
     """
     Write one page of runs (a student's report, or one grading batch) and return its path.
 
-    The page holds a summary line, ``notes`` (e.g. runs reused from an earlier invocation), the
-    pass/fail table (a row per criterion of each run, the error of a run that did not complete)
-    and a section per run with its plot and outputs; ``marks`` (per task) add the marks earned
-    and how. ``up`` is the index page to link back to;
+    The page opens with the marks (``marks``, per task and point, with why marks were lost),
+    then a summary line, ``notes`` (e.g. runs reused from an earlier invocation), the runs'
+    warnings (each once, with the number of runs it was in), the pass/fail table (a row per
+    criterion of each run, the error of a run that did not complete) and a section per run
+    with its plot and outputs. ``up`` is the index page to link back to;
     it is linked even if not written yet. Relative paths in ``runs`` are relative to ``root``.
     """
     folder = path.parent
     root = Path(root) if root is not None else Path()
     passed = sum(bool(run['passed']) for run in runs)
     rows = [row for index, run in enumerate(runs) for row in _run_rows(index, run)]
-    body = [f'<p>{passed} of {len(runs)} runs passed</p>',
-            *_marks_table(marks or []),
+    warnings = _warnings_list(runs)
+    body = [*_marks_table(marks or []),
+            f'<p>{passed} of {len(runs)} runs passed</p>',
             *(f'<p class="warn">{escape(note)}</p>' for note in notes),
+            *([f'<h3>warnings</h3>\n{warnings}'] if warnings else []),
             _table(['run', 'criterion', 'measured', 'result'], rows),
             *(_run_section(index, run, folder, root) for index, run in enumerate(runs))]
     return _page(path, title, body, up)
@@ -210,30 +244,33 @@ def write_class_index(path: Path, title: str, students: dict[str, list[dict]],
     """
     Write the class index and return its path.
 
-    One row per student (sorted by name) with 'passed/total' runs per scenario and in all,
-    and the worst reason a run failed (see :data:`OUTCOME_LEGEND`, under the table), then,
-    with ``marks`` (each student's, per task), the marks per task and in all out of the
-    maximum; a student's name links to ``pages[student]`` when that page exists.
+    One row per student (sorted by name): with ``marks`` (each student's, per task), first the
+    marks in all and per task out of the maximum, with the points lost; then 'passed/total'
+    runs per scenario and in all, and the worst reason a run failed (see
+    :data:`OUTCOME_LEGEND`, under the table); a student's name links to ``pages[student]``
+    when that page exists.
     """
     marks = marks or {}
     marked = [task for task in next(iter(marks.values()), []) if task.marks is not None]
-    header = ['student', *scenarios, 'runs', *(task.title for task in marked)]
+    header = ['student', *(['marks'] if marked else []), *(task.title for task in marked),
+              *scenarios, 'runs']
     rows = []
     for student in sorted(students, key=lambda name: (name.casefold(), name)):
         runs = students[student]
         name = _link(pages.get(student), path.parent, student) or escape(student)
-        cells = [_count_cell([run for run in runs if run['scenario'] == scenario])
-                 for scenario in scenarios]
         tasks = [task for task in marks.get(student, []) if task.marks is not None]
-        cells += [_count_cell(runs), *(_marks_cell(task.earned, task.marks) for task in tasks)]
-        if tasks:
-            cells.append(_marks_cell(*marks_total(tasks), bold=True))
+        cells = [_marks_cell(*marks_total(tasks), bold=True)] if tasks else []
+        cells += [_marks_cell(task.earned, task.marks, lost=[
+            point.point for point in task.points if point.lost]) for task in tasks]
+        cells += [_count_cell([run for run in runs if run['scenario'] == scenario])
+                  for scenario in scenarios]
+        cells.append(_count_cell(runs))
         rows.append(f"<tr><td>{name}</td>{''.join(cells)}</tr>")
     total = sum(len(runs) for runs in students.values())
     passed = sum(bool(run['passed']) for runs in students.values() for run in runs)
     rate = f', {passed} passed ({100.0 * passed / total:.0f} %)' if total else ''
     body = [f'<p>{len(students)} students, {total} runs{rate}</p>',
-            _table(header + (['marks'] if marked else []), rows),
+            _table(header, rows),
             *(f'<p>{escape(task.rule())}</p>' for task in marked),
             '<p>' + '<br>\n'.join(f'<b>{escape(name)}</b>: {escape(text)}'
                                   for name, text in OUTCOME_LEGEND.items()) + '</p>']

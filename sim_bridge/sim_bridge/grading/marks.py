@@ -6,13 +6,47 @@ A scenario's ``task:`` names the lab task it grades and its ``marks:`` are that 
 task's marks are earned over every run of its scenarios in the batch: ``marking: all`` gives
 them when every run passed and none otherwise; ``proportional`` gives marks x runs passed /
 runs. A run that was not submitted is a run that failed. A scenario without ``marks:`` counts
-in no total: it is reported by its runs only. Plain values in, plain values out: no rclpy.
+in no total: it is reported by its runs only. A task whose scenarios name the handout's
+``points:`` (:mod:`sim_bridge.task_points`) is marked point by point instead: each point is
+worth an equal share of the task's marks and earns it in proportion to the runs that show it;
+each point lost says why in one line. When the task's starts are set up for a ``direction:``
+and the task takes ``directions: one``, only the runs of the direction that earns more count.
+Plain values in, plain values out: no rclpy.
 """
 
 from dataclasses import dataclass
 from typing import Any, Iterable
 
-from sim_bridge.grading.scenario import Scenario
+from sim_bridge.common.text import reason as failure_reason
+from sim_bridge.grading.scenario import LOOP_DIRECTIONS, Scenario
+from sim_bridge.grading.task_points import unearned_points
+
+
+@dataclass(frozen=True)
+class PointMarks:
+    """One of a task's points over the runs that count: its marks, earned, and why lost."""
+
+    point: str
+    #: The point's share of the task's marks, and what its runs earn of it.
+    marks: float
+    earned: float
+    runs: int
+    #: (run name, reason) of each counted run that did not show the point.
+    lost: tuple[tuple[str, str], ...] = ()
+
+    def why(self) -> str:
+        """Return in one line why the point was lost ('' when earned in every run)."""
+        if not self.lost:
+            return ''
+        run, reason = self.lost[0]
+        if self.runs == 1:
+            return reason
+        return f'{reason} ({run}; lost in {len(self.lost)} of {self.runs} runs)'
+
+    def as_dict(self) -> dict[str, Any]:
+        """Return the point for a JSON report."""
+        return {'point': self.point, 'marks': self.earned, 'max': self.marks,
+                'runs': self.runs, 'lost': len(self.lost), 'why': self.why()}
 
 
 @dataclass(frozen=True)
@@ -27,6 +61,10 @@ class TaskMarks:
     marking: str
     runs: int
     passed: int
+    #: The handout's points, when the task is marked by them (else empty).
+    points: tuple[PointMarks, ...] = ()
+    #: The loop direction whose runs were marked (directions: one), or None.
+    direction: str | None = None
 
     @property
     def title(self) -> str:
@@ -38,6 +76,8 @@ class TaskMarks:
         """Return the marks the runs earn (0 for a task without marks)."""
         if not self.marks or not self.runs:
             return 0.0
+        if self.points:
+            return sum(point.earned for point in self.points)
         if self.marking == 'proportional':
             return self.marks * self.passed / self.runs
         return self.marks if self.passed == self.runs else 0.0
@@ -61,6 +101,11 @@ class TaskMarks:
         """Say in a line how the task's runs become its marks."""
         if self.marks is None:
             return f'{self.title} carries no marks'
+        if self.points:
+            share = format_marks(self.marks / len(self.points))
+            mine = f', the {self.direction} starts' if self.direction else ''
+            return (f'{self.title}: {format_marks(self.marks)} marks, {share} for each of its '
+                    f'{len(self.points)} points, x the runs showing it{mine}')
         runs = f'{self.runs} runs' if self.runs != 1 else '1 run'
         if self.marking == 'proportional':
             return f'{self.title}: {format_marks(self.marks)} marks x runs passed / {runs}'
@@ -95,9 +140,60 @@ def task_marks(scenarios: Iterable[Scenario], entries: Iterable[dict[str, Any]]
     for name, members in tasks.items():
         runs = sum(counts.get(scenario.name, [0, 0])[0] for scenario in members)
         passed = sum(counts.get(scenario.name, [0, 0])[1] for scenario in members)
-        result.append(TaskMarks(name, tuple(scenario.name for scenario in members),
-                                members[0].marks, members[0].marking, runs, passed))
+        task = TaskMarks(name, tuple(scenario.name for scenario in members),
+                         members[0].marks, members[0].marking, runs, passed)
+        if members[0].points and members[0].marks:
+            task = marked_by_points(task, members, entries)
+        result.append(task)
     return result
+
+
+def marked_by_points(task: TaskMarks, members: list[Scenario],
+                     entries: list[dict[str, Any]]) -> TaskMarks:
+    """
+    Return ``task`` marked by its scenarios' points over the run ``entries`` that count.
+
+    With ``directions: one`` and starts set up for a direction, the runs that count are those
+    of the direction whose runs earn the larger share of the points (the first of
+    LOOP_DIRECTIONS on a tie), with those of scenarios set up for none.
+    """
+    groups: dict[str | None, list[str]] = {None: [scenario.name for scenario in members]}
+    if members[0].directions == 'one' and any(scenario.direction for scenario in members):
+        groups = {direction: [scenario.name for scenario in members
+                              if scenario.direction in (direction, None)]
+                  for direction in LOOP_DIRECTIONS}
+    best: tuple[float, tuple[PointMarks, ...], str | None] | None = None
+    for direction, names in groups.items():
+        points = point_marks(task.marks, members[0].points,
+                             [entry for entry in entries if entry['scenario'] in names])
+        earned = sum(point.earned for point in points)
+        if best is None or earned > best[0]:
+            best = (earned, points, direction)
+    return TaskMarks(task.task, task.scenarios, task.marks, task.marking, task.runs,
+                     task.passed, best[1], best[2])
+
+
+def point_marks(marks: float, point_set: str,
+                entries: list[dict[str, Any]]) -> tuple[PointMarks, ...]:
+    """
+    Return each point of ``point_set`` over the run ``entries``: an equal share of ``marks``.
+
+    A run without judged points (not submitted, or it could not start) loses each point for
+    the reason it failed.
+    """
+    judged = [(entry.get('run', entry['scenario']),
+               entry.get('points') or [point.as_dict() for point in unearned_points(
+                   point_set, failure_reason(entry) or 'no points judged')])
+              for entry in entries]
+    names = [point.point for point in unearned_points(point_set, '')]
+    share = marks / len(names)
+    result = []
+    for index, name in enumerate(names):
+        lost = tuple((run, points[index]['reason']) for run, points in judged
+                     if not points[index]['earned'])
+        earned = share * (len(judged) - len(lost)) / len(judged) if judged else 0.0
+        result.append(PointMarks(name, share, earned, len(judged), lost))
+    return tuple(result)
 
 
 def total(tasks: Iterable[TaskMarks]) -> tuple[float, float]:
@@ -127,5 +223,6 @@ def as_dict(tasks: list[TaskMarks]) -> dict[str, Any]:
     earned, maximum = total(tasks)
     return {'total': earned, 'max': maximum, 'tasks': [
         {'task': task.task, 'scenarios': list(task.scenarios), 'marks': task.earned,
-         'max': task.marks, 'marking': task.marking, 'runs': task.runs, 'passed': task.passed}
+         'max': task.marks, 'marking': task.marking, 'runs': task.runs, 'passed': task.passed,
+         'direction': task.direction, 'points': [point.as_dict() for point in task.points]}
         for task in tasks]}

@@ -20,10 +20,12 @@ import traceback
 from typing import Any
 
 from sim_bridge.common.errors import RunError
-from sim_bridge.common.text import cap_text, json_safe, outcome, PathNames, printable
+from sim_bridge.common.text import (
+    cap_text, first_line, json_safe, outcome, PathNames, printable)
 from sim_bridge.grading.criteria import CriterionResult
 from sim_bridge.grading.marks import as_dict as marks_as_dict, TaskMarks
 from sim_bridge.grading.scenario import ScenarioRun
+from sim_bridge.grading.task_points import judge_points, Point, unearned_points
 from sim_bridge.runner.run import run_simulation
 
 #: Each run's captured output (stdout and stderr of its process), in its folder.
@@ -55,6 +57,29 @@ class RunReport:
     def passed(self) -> bool:
         """Return True when the run completed and every criterion holds."""
         return self.error is None and all(result.passed for result in self.results)
+
+    @property
+    def points(self) -> list[Point]:
+        """
+        Return the handout's points of the scenario's ``points:`` judged on this run.
+
+        A run that failed as a whole (not submitted, could not start, ended early) shows no
+        point: each is lost for that reason; a point a node that raised did not show is lost
+        for its node error. Judged from the metrics, so a report read back
+        judges them the same way. Empty for a scenario without points.
+        """
+        point_set = self.run.scenario.points
+        if point_set is None:
+            return []
+        if self.error is not None or self.metrics is None:
+            return unearned_points(point_set, first_line(self.error or 'no metrics'))
+        points = judge_points(point_set, self.metrics)
+        node_errors = self.metrics.get('node_errors') or []
+        if node_errors:  # what the node did not show, it did not show for this reason
+            why = first_line(f"node error: {node_errors[0].get('error')}")
+            points = [point if point.earned else Point(point.point, False, why)
+                      for point in points]
+        return points
 
     @property
     def sim_time_s(self) -> float:
@@ -101,6 +126,7 @@ class RunReport:
             'drive': [segment.as_dict() for segment in scenario.drive], 'passed': self.passed,
             'error': self.error, 'traceback': self.traceback,
             'criteria': [result.as_dict() for result in self.results],
+            'points': [point.as_dict() for point in self.points],
             'out_dir': names.path(self.out_dir), 'wall_time_s': self.wall_time_s,
             'metrics': self.metrics, 'log': names.path(log) if log.is_file() else None,
             'reused': self.reused,

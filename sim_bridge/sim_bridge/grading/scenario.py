@@ -11,6 +11,13 @@ A scenario is a YAML mapping; every key not listed here is an error::
     marks: 3                      # optional: the task's marks (> 0), shared by its scenarios
     marking: proportional         # optional: how runs become marks: 'all' (default: every run
                                   # of the task passes, or none) or 'proportional'
+    points: wall_follow           # optional: the handout's points of the task, each earning
+                                  # its share of the marks (sim_bridge.task_points): one of
+                                  # range_ahead, wander, regions, wall_follow, closest
+    direction: clockwise          # optional: the loop the start is set up for (the target on
+                                  # the robot's right: clockwise; on its left: counterclockwise)
+    directions: one               # optional, per task: 'one' (default: the student's choice,
+                                  # its better direction counts) or 'both' (every start counts)
     world: wall_follow_box        # a shipped world's name, or a world file's path
     nodes: [wall_follow]          # TARGETs run with the simulator: a console script, a module
                                   # or a file path.py[:ClassName]
@@ -41,6 +48,12 @@ A scenario is a YAML mapping; every key not listed here is an error::
 
 Relative paths (a world file, a node file) are relative to the scenario file. The scenario's
 name is the file name without ``.yaml``. A seed is an integer from 0 to MAX_SEED (2**63 - 1).
+
+With ``points:``, a task's marks are its points' (:mod:`sim_bridge.marks`), each point earning
+its share of the marks over the task's runs, whatever the criteria say; the criteria still say
+whether each run passed. A task whose scenarios state a ``direction:`` is marked on the runs of
+one direction, the one whose runs earn more (the handout lets the student choose), unless
+``directions: both``.
 
 ``marks:`` are the marks of the scenario's ``task:`` (default: a task of its own, named after
 the scenario): every scenario of a task states the same ``marks:`` and ``marking:``, and the
@@ -87,6 +100,7 @@ from sim_bridge.common.yaml_loader import load_yaml, read_text
 from sim_bridge.grading.criteria import (
     Criterion, CriterionResult, format_value, parse_criterion, parse_printed_criterion,
     PrintedCriterion)
+from sim_bridge.grading.task_points import POINT_SETS
 from sim_bridge.ros.drive import DriveError, parse_drive, Segment
 from sim_bridge.runner.options import EVERY_NODE, is_seed, MAX_SEED, remap_problem
 from sim_bridge.runner.targets import split_target, target_name
@@ -102,9 +116,13 @@ MAX_DURATION_S = 86400.0
 #: What a NODE of ``--node-override NODE=TARGET`` can be: a node's name, no path.
 _OVERRIDE_NODE = re.compile(r'[\w.-]+')
 _KEYS = ('description', 'world', 'nodes', 'params', 'duration', 'seed', 'seeds', 'start',
-         'robot', 'remap', 'setpoint', 'drive', 'criteria', 'task', 'marks', 'marking')
+         'robot', 'remap', 'setpoint', 'drive', 'criteria', 'task', 'marks', 'marking', 'points',
+         'direction', 'directions')
 #: How a task's runs become marks: all must pass for its marks, or marks in proportion.
 MARKINGS = ('all', 'proportional')
+#: The loops a wall-following start is set up for, and which of them a task marks.
+LOOP_DIRECTIONS = ('clockwise', 'counterclockwise')
+DIRECTION_CHOICES = ('one', 'both')
 #: What a scenario's ``setpoint:`` can set, and the unit of each.
 SETPOINTS = {'wall_distance_m': 'm'}
 _REQUIRED = ('world', 'nodes', 'duration', 'criteria')
@@ -149,7 +167,9 @@ class Scenario:
     of SETPOINTS to the value (m) they measure against; ``drive`` the segments the runner's
     teleop drives the robot by (sim_bridge.ros.drive), none when empty; ``task`` the lab task it
     grades (None: a task of its own), ``marks`` that task's marks (None: no marks) and
-    ``marking`` one of MARKINGS.
+    ``marking`` one of MARKINGS; ``points`` the task's point set (task_points.POINT_SETS) or
+    None, ``direction`` the loop its start is for (LOOP_DIRECTIONS) or None, ``directions``
+    one of DIRECTION_CHOICES.
     """
 
     name: str
@@ -169,6 +189,9 @@ class Scenario:
     task: str | None = None
     marks: float | None = None
     marking: str = MARKINGS[0]
+    points: str | None = None
+    direction: str | None = None
+    directions: str = DIRECTION_CHOICES[0]
 
     @property
     def task_name(self) -> str:
@@ -323,7 +346,8 @@ def scenario_from_dict(data: Any, name: str, path: Path | None = None) -> Scenar
                     robot=_robot(data, fail), remap=_remap(data, fail),
                     setpoint={str(metric): float(value) for metric, value in setpoint.items()},
                     drive=_drive(data, fail), task=str(task).strip() if task is not None else None,
-                    marks=float(marks) if marks is not None else None, marking=marking)
+                    marks=float(marks) if marks is not None else None, marking=marking,
+                    **_points(data, fail))
 
 
 def _world_and_nodes(data: Mapping[Any, Any], fail: Fail) -> tuple[str, list[str]]:
@@ -479,6 +503,16 @@ def _grading(data: Mapping[Any, Any], fail: Fail) -> tuple[str, Any, Any, str]:
     return description, task, marks, marking
 
 
+def _points(data: Mapping[Any, Any], fail: Fail) -> dict[str, Any]:
+    """Return the points, the start's direction and the directions marked (Scenario's keys)."""
+    for key, allowed in (('points', POINT_SETS), ('direction', LOOP_DIRECTIONS),
+                         ('directions', DIRECTION_CHOICES)):
+        if data.get(key) is not None and data[key] not in allowed:
+            raise fail(key, f"must be one of {', '.join(allowed)}, got {described(data[key])}")
+    return {'points': data.get('points'), 'direction': data.get('direction'),
+            'directions': data.get('directions') or DIRECTION_CHOICES[0]}
+
+
 def load_scenarios(paths: list[str | os.PathLike]) -> list[Scenario]:
     """Load scenario files; a folder stands for every ``*.yaml`` in it, sorted by name."""
     files = []
@@ -513,7 +547,7 @@ def check_tasks(scenarios: list[Scenario]) -> None:
     first: dict[str, Scenario] = {}
     for scenario in scenarios:
         other = first.setdefault(scenario.task_name, scenario)
-        for key in ('marks', 'marking'):
+        for key in ('marks', 'marking', 'points', 'directions'):
             mine, theirs = getattr(scenario, key), getattr(other, key)
             if mine != theirs:
                 raise ScenarioError(

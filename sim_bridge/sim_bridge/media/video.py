@@ -14,8 +14,12 @@ H.264 MP4 (yuv420p, faststart: it plays in a browser and in common players):
 Frames are at simulated time: a 76 s run is a 76 s video at ``speed`` 1, 19 s at 4. Each frame
 shows the world from above as the robot could hit it (drawn once by sim_bridge.media.plot, then the
 moving parts drawn on a copy), the path so far, the robot's outline, the beams of the last scan
-and the simulated clock; beside it a terminal with the node's command at its top and the console
-lines that were written by then, scrolling as a terminal does; the names on a banner over both.
+and the simulated clock (with the speed when it is not real time); under it, when asked, the
+robot in 3-D as a simulator's window shows it (media.view3d, rendered on the CPU); beside them a
+terminal with the node's command at its top and the console lines that were written by then,
+at the pace a live run prints them and stamped as it stamps them (media.terminal_text), scrolling
+as a terminal does, and for a teleoperated run the teleop's terminal under it, with the keys
+held; the names on a banner over all.
 Rendering uses matplotlib's Agg canvas and Pillow (no display), the encoder is the FFmpeg that
 imageio-ffmpeg ships on PyPI. Pure: no rclpy.
 """
@@ -25,15 +29,16 @@ import json
 import math
 import os
 from pathlib import Path
-import re
-from typing import Iterator, Sequence
+from typing import Iterator
 
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
-from matplotlib.font_manager import findfont, FontProperties
 import numpy as np
-from PIL import Image, ImageDraw, ImageFont
+from PIL import Image, ImageDraw
 from sim_bridge.media.plot import _draw_world
+from sim_bridge.media.terminal_text import (
+    font, live_stamped, LogLine, teleop_lines, TerminalPane)
+from sim_bridge.media.view3d import View3D
 from sim_bridge.simulation.geometry import point_in_world
 from sim_bridge.simulation.sdf import LidarConfig
 from sim_bridge.simulation.world import World, WorldError
@@ -44,17 +49,8 @@ FRAME_WIDTH, FRAME_HEIGHT = 1280, 720
 BANNER_HEIGHT = 40
 WORLD_WIDTH = 640
 DEFAULT_FPS = 10.0
-#: Console text (px); DejaVu Sans Mono, the font matplotlib ships.
-TERMINAL_FONT_SIZE = 13
-TERMINAL_LINE_HEIGHT = 16
-TERMINAL_MARGIN = 8
 BANNER_FONT_SIZE = 18
 MIN_NAMES_FONT_SIZE = 12
-TERMINAL_BACKGROUND = (24, 24, 24)
-TERMINAL_HEADER = (56, 56, 64)
-TERMINAL_TEXT = (210, 210, 210)
-LEVEL_COLOURS = {'DEBUG': (140, 140, 140), 'WARN': (240, 200, 60), 'ERROR': (240, 90, 80),
-                 'FATAL': (240, 90, 80), 'STDERR': (240, 150, 120)}
 BANNER_BACKGROUND = (21, 57, 110)
 PATH_COLOUR = (21, 101, 192)
 ROBOT_COLOUR = (46, 125, 50)
@@ -64,25 +60,21 @@ MISS_COLOUR = (225, 225, 225)
 HIT_COLOUR = (198, 40, 40)
 COLLISION_COLOUR = (213, 0, 0)
 #: Bag topics the video reads.
-ODOM_TOPIC, SCAN_TOPIC = '/odom', '/scan'
+ODOM_TOPIC, SCAN_TOPIC, CMD_VEL_TOPIC = '/odom', '/scan', '/cmd_vel'
+#: The command the teleop's terminal shows, and its height (px) under the node's terminal.
+TELEOP_COMMAND = 'ros2 run teleop_twist_keyboard teleop_twist_keyboard'
+TELEOP_HEIGHT = 200
+#: The height (px) of the top view when the 3-D view is under it, and the 3-D view's image
+#: size (px), rendered smaller and scaled up: TinyRenderer's cost grows with the pixels.
+TOP_VIEW_HEIGHT = 400
+RENDERED_3D = (400, 175)
 LOG_FILE = 'log.jsonl'
 #: The video's file in a run's folder, when no other is named.
 VIDEO_NAME = 'video.mp4'
-#: Escape sequences a terminal interprets rather than shows (rcutils colours, cursor moves).
-ANSI_ESCAPE = re.compile(r'\x1b\[[0-9;?]*[A-Za-z]')
 
 
 class VideoError(Exception):
     """A run's outputs from which no video can be made; the text names the file and why."""
-
-
-@dataclass(frozen=True)
-class LogLine:
-    """A console line as the terminal showed it, at sim time ``t`` (s), of ``level``."""
-
-    t: float
-    level: str
-    line: str
 
 
 @dataclass
@@ -111,17 +103,21 @@ class Footage:
     commands: list[str] = field(default_factory=list)
     collisions: list[tuple[float, float, float]] = field(default_factory=list)
     title: str = ''
+    #: The teleop's lines (keys held), when the run was teleoperated (a scenario's drive:).
+    teleop: list[LogLine] = field(default_factory=list)
 
 
 # ---------------------------------------------------------------------------------------------
 # Reading a run's outputs.
 
-def read_log(path: Path) -> list[LogLine]:
+def read_log(path: Path, restamp: bool = False) -> list[LogLine]:
     """
     Return the console lines of a ``log.jsonl`` in time order; [] when there is none.
 
     One JSON object a line: ``t`` (sim s), ``node``, ``level``, ``text`` and ``line`` (what the
-    terminal showed). VideoError names the line that is not such an object.
+    terminal showed); with ``restamp`` (a run faster than real time), its rcutils stamp made
+    the one a live run at real time prints (terminal_text.live_stamped). VideoError names the
+    line that is not such an object.
     """
     if not path.is_file():
         return []
@@ -137,7 +133,10 @@ def read_log(path: Path) -> list[LogLine]:
             except (ValueError, TypeError, KeyError) as error:
                 raise VideoError(f'{path}:{number}: not a log line ({error!r})') from None
     lines.sort(key=lambda entry: entry.t)  # stable: lines of one time keep their order
-    return lines
+    if not restamp:
+        return lines
+    stamped = live_stamped([(entry.t, entry.line) for entry in lines])
+    return [LogLine(entry.t, entry.level, line) for entry, line in zip(lines, stamped)]
 
 
 def _json(path: Path) -> dict:
@@ -166,11 +165,12 @@ def simulator_parameters(out_dir: Path) -> dict:
     return values
 
 
-def read_recording(bag: Path) -> tuple[tuple, tuple]:
+def read_recording(bag: Path) -> tuple[tuple, tuple, list]:
     """
-    Return ((pose times s, poses), (scan times s, ranges, geometry)) of a bag.
+    Return ((pose times s, poses), (scan times s, ranges, geometry), commands) of a bag.
 
-    ``geometry`` is the scans' (angle_min rad, angle_increment rad, range_max m).
+    ``geometry`` is the scans' (angle_min rad, angle_increment rad, range_max m); ``commands``
+    each /cmd_vel message's (time s, linear.x m/s, angular.z rad/s), Twist or TwistStamped.
 
     Read with rosbags' reader and Jazzy type store; times are the messages' bag stamps (sim
     time: the runner stamps each message with the step that sent it).
@@ -178,14 +178,18 @@ def read_recording(bag: Path) -> tuple[tuple, tuple]:
     from rosbags.rosbag2 import Reader
     from rosbags.typesys import get_typestore, Stores
     store = get_typestore(Stores.ROS2_JAZZY)
-    pose_t, poses, scan_t, scans = [], [], [], []
+    pose_t, poses, scan_t, scans, commands = [], [], [], [], []
     geometry = (0.0, 0.0, 0.0)
     try:
         with Reader(bag) as reader:
-            wanted = [c for c in reader.connections if c.topic in (ODOM_TOPIC, SCAN_TOPIC)]
+            wanted = [c for c in reader.connections
+                      if c.topic in (ODOM_TOPIC, SCAN_TOPIC, CMD_VEL_TOPIC)]
             for connection, stamp, raw in reader.messages(connections=wanted):
                 msg = store.deserialize_cdr(raw, connection.msgtype)
-                if connection.topic == ODOM_TOPIC:
+                if connection.topic == CMD_VEL_TOPIC:
+                    twist = getattr(msg, 'twist', msg)
+                    commands.append((stamp * 1e-9, twist.linear.x, twist.angular.z))
+                elif connection.topic == ODOM_TOPIC:
                     pose = msg.pose.pose
                     yaw = 2.0 * math.atan2(pose.orientation.z, pose.orientation.w)
                     pose_t.append(stamp * 1e-9)
@@ -199,11 +203,22 @@ def read_recording(bag: Path) -> tuple[tuple, tuple]:
     if not poses:
         raise VideoError(f"{bag}: the recording has no {ODOM_TOPIC} (the robot's pose)")
     return ((np.array(pose_t), np.array(poses).reshape(-1, 3)),
-            (np.array(scan_t), scans, tuple(map(float, geometry))))
+            (np.array(scan_t), scans, tuple(map(float, geometry))), commands)
 
 
-def load_footage(out_dir: str | os.PathLike) -> Footage:
-    """Read what the video of the run in ``out_dir`` shows; VideoError when it cannot."""
+def _run_mode(metrics: dict) -> str | None:
+    """Return how the run went ('stepped', 'process', 'live'), or None when not said."""
+    mode = metrics.get('run_mode')
+    return mode.get('mode') if isinstance(mode, dict) else None
+
+
+def load_footage(out_dir: str | os.PathLike, teleop: bool = False) -> Footage:
+    """
+    Read what the video of the run in ``out_dir`` shows; VideoError when it cannot.
+
+    ``teleop``: the run was teleoperated (a scenario's ``drive:``), its /cmd_vel the teleop's:
+    the keys held are the teleop terminal's lines.
+    """
     out_dir = Path(out_dir)
     metrics = _json(out_dir / 'metrics.json')
     sim = simulator_parameters(out_dir)
@@ -215,7 +230,7 @@ def load_footage(out_dir: str | os.PathLike) -> Footage:
     bag = out_dir / 'run'
     if not bag.is_dir():
         raise VideoError(f'{bag}: no recording (was the run made with --no-record?)')
-    (pose_t, poses), (scan_t, scans, geometry) = read_recording(bag)
+    (pose_t, poses), (scan_t, scans, geometry), commands = read_recording(bag)
     lidar = world.robot.lidar or LidarConfig()
     mount = (lidar.pose[0], lidar.pose[1], lidar.pose[5])
     duration = metrics.get('sim_time_s')
@@ -223,88 +238,15 @@ def load_footage(out_dir: str | os.PathLike) -> Footage:
         duration = float(max(pose_t[-1], scan_t[-1] if len(scan_t) else 0.0))
     collisions = [(event['time'], event['x'], event['y'])
                   for event in metrics.get('collision_events') or []]
+    keys = [LogLine(t, 'INFO', text) for t, text in teleop_lines(commands)] if teleop else []
     return Footage(world, float(duration), pose_t, poses, scan_t, scans, *geometry, mount,
-                   read_log(out_dir / LOG_FILE), list(metrics.get('commands') or []),
-                   collisions, title=getattr(world, 'name', ''))
+                   read_log(out_dir / LOG_FILE, restamp=_run_mode(metrics) != 'live'),
+                   list(metrics.get('commands') or []),
+                   collisions, title=getattr(world, 'name', ''), teleop=keys)
 
 
 # ---------------------------------------------------------------------------------------------
 # Drawing frames.
-
-def _font(family: str, size: int, weight: str = 'normal') -> ImageFont.FreeTypeFont:
-    path = findfont(FontProperties(family=family, weight=weight), fallback_to_default=True)
-    return ImageFont.truetype(path, size)
-
-
-def terminal_rows(text: str, columns: int) -> list[str]:
-    """Return ``text`` as the rows a terminal ``columns`` wide shows (escapes out, wrapped)."""
-    text = ANSI_ESCAPE.sub('', text).expandtabs(8)
-    text = ''.join(char if char.isprintable() else '?' for char in text)
-    return [text[start:start + columns] for start in range(0, len(text), columns)] or ['']
-
-
-class TerminalPane:
-    """
-    The terminal of a video: the command at its top, the console lines below, scrolling.
-
-    ``size`` (px); :meth:`image` of the first ``count`` lines is cached, so that frames with no
-    new line cost nothing.
-    """
-
-    def __init__(self, size: tuple[int, int], commands: Sequence[str], log: Sequence[LogLine]):
-        self.size = size
-        self.font = _font('DejaVu Sans Mono', TERMINAL_FONT_SIZE)
-        advance = self.font.getlength('M')
-        self.columns = max(20, int((size[0] - 2 * TERMINAL_MARGIN) // advance))
-        self.header = [row for command in commands
-                       for row in terminal_rows(f'$ {command}', self.columns)]
-        self.header_height = TERMINAL_LINE_HEIGHT * len(self.header) + 2 * TERMINAL_MARGIN
-        self.capacity = max(1, (size[1] - self.header_height - TERMINAL_MARGIN)
-                            // TERMINAL_LINE_HEIGHT)
-        self.log = list(log)
-        self.times = np.array([entry.t for entry in self.log])
-        self._cached: tuple[int, Image.Image] | None = None
-        self._entry_rows: dict[int, list[tuple[str, tuple[int, int, int]]]] = {}
-        self._row_images: dict[tuple[str, tuple[int, int, int]], Image.Image] = {}
-        self._header = Image.new('RGB', self.size, TERMINAL_BACKGROUND)
-        draw = ImageDraw.Draw(self._header)
-        draw.rectangle((0, 0, self.size[0], self.header_height - TERMINAL_MARGIN // 2),
-                       fill=TERMINAL_HEADER)
-        for number, row in enumerate(self.header):
-            draw.text((TERMINAL_MARGIN, TERMINAL_MARGIN + number * TERMINAL_LINE_HEIGHT), row,
-                      font=self.font, fill=(255, 255, 255))
-
-    def count_at(self, t: float) -> int:
-        """Return how many lines had been written by sim time ``t`` (s)."""
-        return int(np.searchsorted(self.times, t, side='right'))
-
-    def image(self, count: int) -> Image.Image:
-        """Return the pane after the first ``count`` lines: the last rows that fit."""
-        if self._cached is not None and self._cached[0] == count:
-            return self._cached[1]
-        rows = []
-        for index in range(max(0, count - self.capacity), count):
-            if index not in self._entry_rows:
-                entry = self.log[index]
-                colour = LEVEL_COLOURS.get(entry.level.upper(), TERMINAL_TEXT)
-                self._entry_rows[index] = [(row, colour)
-                                           for row in terminal_rows(entry.line, self.columns)]
-            rows += self._entry_rows[index]
-        pane = self._header.copy()
-        # Text is the costly part of a frame: each row is drawn once, then moved as it scrolls.
-        drawn = {}
-        for number, key in enumerate(rows[-self.capacity:]):
-            drawn[key] = self._row_images.get(key) or drawn.get(key) or self._row(*key)
-            pane.paste(drawn[key], (0, self.header_height + number * TERMINAL_LINE_HEIGHT))
-        self._row_images = drawn
-        self._cached = (count, pane)
-        return pane
-
-    def _row(self, text: str, colour: tuple[int, int, int]) -> Image.Image:
-        row = Image.new('RGB', (self.size[0], TERMINAL_LINE_HEIGHT), TERMINAL_BACKGROUND)
-        ImageDraw.Draw(row).text((TERMINAL_MARGIN, 0), text, font=self.font, fill=colour)
-        return row
-
 
 class WorldPane:
     """
@@ -415,18 +357,28 @@ class FrameRenderer:
     """
     Draw a run's frames (FRAME_WIDTH x FRAME_HEIGHT, RGB) at any sim time.
 
-    The banner holds ``names`` and the simulated clock, the left the world, the right the
-    terminal. Frames are quickest drawn in time order (the path grows on a kept copy).
+    The banner holds ``names`` and the simulated clock (and the speed, when not real time), the
+    left the world from above and, with ``view3d``, under it the robot in 3-D as a simulator's
+    window shows it (media.view3d); the right the node's terminal and, for a teleoperated run,
+    the teleop's terminal under it. Frames are quickest drawn in time order (the path grows on
+    a kept copy).
     """
 
-    def __init__(self, footage: Footage, names: str, speed: float = 1.0):
+    def __init__(self, footage: Footage, names: str, speed: float = 1.0, view3d: bool = False):
         self.footage = footage
         self.names = names
         self.speed = speed
-        body = (FRAME_WIDTH - WORLD_WIDTH, FRAME_HEIGHT - BANNER_HEIGHT)
-        self.world = WorldPane((WORLD_WIDTH, FRAME_HEIGHT - BANNER_HEIGHT), footage)
-        self.terminal = TerminalPane(body, footage.commands, footage.log)
-        self.clock_font = _font('DejaVu Sans Mono', BANNER_FONT_SIZE)
+        body = FRAME_HEIGHT - BANNER_HEIGHT
+        top = TOP_VIEW_HEIGHT if view3d else body
+        self.world = WorldPane((WORLD_WIDTH, top), footage)
+        self.view3d = View3D(footage.world, RENDERED_3D) if view3d else None
+        self.view3d_size = (WORLD_WIDTH, body - top)
+        node_height = body - (TELEOP_HEIGHT if footage.teleop else 0)
+        self.terminal = TerminalPane((FRAME_WIDTH - WORLD_WIDTH, node_height),
+                                     footage.commands, footage.log)
+        self.teleop = TerminalPane((FRAME_WIDTH - WORLD_WIDTH, TELEOP_HEIGHT),
+                                   [TELEOP_COMMAND], footage.teleop) if footage.teleop else None
+        self.clock_font = font('DejaVu Sans Mono', BANNER_FONT_SIZE)
         longest = self.clock(footage.duration_s)
         self.names_image = names_banner(
             names, FRAME_WIDTH - 40 - int(self.clock_font.getlength(longest)))
@@ -444,8 +396,16 @@ class FrameRenderer:
         """
         frame = Image.new('RGB', (FRAME_WIDTH, FRAME_HEIGHT), BANNER_BACKGROUND)
         frame.paste(self.world.image(t), (0, BANNER_HEIGHT))
+        if self.view3d is not None:
+            index = int(np.searchsorted(self.footage.pose_t, t, side='right'))
+            pose = tuple(self.footage.poses[max(index - 1, 0)])
+            frame.paste(self.view3d.image(pose).resize(self.view3d_size),
+                        (0, BANNER_HEIGHT + self.world.size[1]))
         count = self.terminal.count_at(t) if log else 0
         frame.paste(self.terminal.image(count), (WORLD_WIDTH, BANNER_HEIGHT))
+        if self.teleop is not None:
+            frame.paste(self.teleop.image(self.teleop.count_at(t)),
+                        (WORLD_WIDTH, FRAME_HEIGHT - TELEOP_HEIGHT))
         draw = ImageDraw.Draw(frame)
         if names:
             frame.paste(self.names_image, (10, 0))
@@ -465,8 +425,8 @@ def names_banner(names: str, width: int) -> Image.Image:
     draw = ImageDraw.Draw(image)
     lines = [names]
     for size in range(BANNER_FONT_SIZE, MIN_NAMES_FONT_SIZE - 1, -1):
-        font = _font('DejaVu Sans', size, 'bold')
-        if font.getlength(names) <= width:
+        face = font('DejaVu Sans', size, 'bold')
+        if face.getlength(names) <= width:
             break
     else:
         middle = len(names) // 2
@@ -474,10 +434,10 @@ def names_banner(names: str, width: int) -> Image.Image:
         cut = min(commas, key=lambda index: abs(index - middle)) if commas else middle
         lines = [names[:cut + 1].strip(), names[cut + 1:].strip()]
         for size in range(BANNER_HEIGHT // 2 - 2, 5, -1):
-            font = _font('DejaVu Sans', size, 'bold')
-            if max(font.getlength(line) for line in lines) <= width:
+            face = font('DejaVu Sans', size, 'bold')
+            if max(face.getlength(line) for line in lines) <= width:
                 break
-    draw.multiline_text((0, BANNER_HEIGHT // 2), '\n'.join(lines), font=font,
+    draw.multiline_text((0, BANNER_HEIGHT // 2), '\n'.join(lines), font=face,
                         fill=(255, 255, 255), anchor='lm', spacing=0)
     return image
 
@@ -537,20 +497,26 @@ def encode(frames: Iterator[np.ndarray], path: Path, fps: float) -> int:
 
 
 def render_video(out_dir: str | os.PathLike, path: str | os.PathLike, names: str = '', *,
-                 speed: float = 1.0, fps: float = DEFAULT_FPS) -> VideoInfo:
+                 speed: float = 1.0, fps: float = DEFAULT_FPS, teleop: bool = False,
+                 view3d: bool = False) -> VideoInfo:
     """
     Write the video of the run in ``out_dir`` to ``path`` and return what was written.
 
     ``speed``: simulated seconds per second of video (1: real time); ``fps``: frames per
-    second of video. VideoError when the run's outputs lack what the video shows; OSError when
-    ``path`` cannot be written.
+    second of video; ``teleop``: the run was teleoperated, its terminal is shown;
+    ``view3d``: the 3-D view is shown (FrameRenderer). VideoError when the run's outputs lack
+    what the video shows; OSError when ``path`` cannot be written.
     """
     if not (math.isfinite(speed) and speed > 0 and math.isfinite(fps) and fps > 0):
         raise VideoError(f'speed and fps must be positive numbers, got {speed} and {fps}')
-    footage = load_footage(out_dir)
-    renderer = FrameRenderer(footage, names, speed)
+    footage = load_footage(out_dir, teleop)
+    renderer = FrameRenderer(footage, names, speed, view3d)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     times = frame_times(footage.duration_s, speed, fps)
-    count = encode((renderer.frame(t) for t in times), path, fps)
+    try:
+        count = encode((renderer.frame(t) for t in times), path, fps)
+    finally:
+        if renderer.view3d is not None:
+            renderer.view3d.close()
     return VideoInfo(path, count, fps, (FRAME_WIDTH, FRAME_HEIGHT))

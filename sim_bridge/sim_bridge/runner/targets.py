@@ -19,12 +19,14 @@ import importlib.util
 import inspect
 import os
 from pathlib import Path
+import re
 import site
 import sys
 import sysconfig
 import traceback
 from types import FrameType, ModuleType
 from typing import Iterable
+import unicodedata
 
 from sim_bridge.runner.node_styles import node_class
 
@@ -47,6 +49,10 @@ class TargetError(LookupError):
     def __init__(self, message: str, file: str | None = None):
         super().__init__(message)
         self.file = file
+
+
+#: What Python says of a character it refuses that a reader cannot see (its code point).
+INVISIBLE_CHARACTER = re.compile(r'invalid non-printable character U\+(?P<code>[0-9A-Fa-f]{4,6})')
 
 
 def split_target(target: str, base: Path | None = None) -> tuple[str, str | None]:
@@ -192,7 +198,30 @@ def describe(error: BaseException, code: StudentCode = StudentCode()) -> str:
         text = f'SystemExit (sys.exit({error.code!r}))'
     elif isinstance(error, SyntaxError):
         text = f'{type(error).__name__}: {error.msg}'  # str() has the file's name and line
+        hint = invisible_character_hint(error)
+        if hint:
+            return f'{text}{code.origin(error)} ({hint})'
     return text + code.origin(error)
+
+
+def invisible_character_hint(error: SyntaxError) -> str:
+    """
+    Return how to fix a line that holds a character Python refuses and nobody sees, or ''.
+
+    Code copied from a document (the handout's is indented with no-break spaces, U+00A0) or a
+    web page (zero-width spaces, U+200B) looks right and does not compile; the hint names the
+    line, the character and what to replace it with.
+    """
+    found = INVISIBLE_CHARACTER.search(error.msg or '')
+    if found is None:
+        return ''
+    character = chr(int(found['code'], 16))
+    name = unicodedata.name(character, 'an invisible character').lower()
+    blank = unicodedata.category(character) == 'Zs'
+    instead = 'a space' if blank else 'nothing (delete it)'
+    where = f'line {error.lineno}' if error.lineno else 'the file'
+    return (f"{where} holds a {name} (U+{found['code'].upper()}), as text copied from a "
+            f'document does: replace every one in the file with {instead}')
 
 
 def module_file(where: str) -> str | None:

@@ -89,7 +89,7 @@ _NOTHING = re.compile(r'(?<![A-Za-z])(?:no|none|nothing|clear|free)(?![A-Za-z])'
 _REGION_LABELS = (
     ('front_right', r'front[\s_-]*right|right[\s_-]*front|fright|f[_-]?r'),
     ('front_left', r'front[\s_-]*left|left[\s_-]*front|fleft|f[_-]?l'),
-    ('front', r'front|f'),
+    ('front', r'front|ahead|f'),
     ('right', r'right|r'),
     ('left', r'left|l'),
 )
@@ -164,7 +164,8 @@ def read_regions(text: str) -> list[tuple[str, Number]]:
     Return the (region name, value) pairs a line gives, in the line's order.
 
     Labels are read as students write them: "front-right", "front_right", "Front Right",
-    "fright", "FR", "right front"; "min_left", "left region", "left distance is ...". A line
+    "fright", "FR", "right front"; "min_left", "left region", "left distance is ..."; "ahead"
+    is the front ("Range ahead: 1.2", the handout's label, one region a line). A line
     of exactly five lengths and no label (``print(min(ranges[0:7]), ...)``) gives the regions
     right to left, in the order of the beams.
     """
