@@ -37,7 +37,8 @@ setup(
     ],
     install_requires=['setuptools', 'numpy>=1.26,<2', 'pybullet', 'mcap>=1.1', 'matplotlib',
                       'contourpy', 'PyYAML', 'trimesh', 'pycollada', 'shapely', 'pillow',
-                      'imageio-ffmpeg', 'jinja2', 'pydantic>=2', 'rich'],
+                      'imageio-ffmpeg', 'jinja2', 'pydantic>=2', 'rich', 'lxml', 'xacro',
+                      'urdfdom-py'],
     extras_require={
         'test': [
             'pytest',

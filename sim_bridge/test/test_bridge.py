@@ -33,9 +33,9 @@ from sensor_msgs.msg import LaserScan
 from sim_bridge.common.paths import find_world
 from sim_bridge.live import live
 from sim_bridge.ros import bridge as bridge_module
-from sim_bridge.ros.bridge import NO_TF_WARNING, SimBridge
+from sim_bridge.ros.bridge import command_type, NO_TF_WARNING, SimBridge
 from sim_bridge.runner.stepping import spin_until_idle, SteppedExecutor
-from sim_bridge.simulation.robot import DiffDriveConfig, DriveLimits
+from sim_bridge.simulation.robot import DiffDriveConfig, DriveLimits, pose_from
 from sim_bridge.simulation.simulator import Simulator
 from sim_bridge.simulation.world import World
 import yaml
@@ -104,8 +104,17 @@ class Session:
         for _ in range(round(seconds * NANOSECONDS_PER_SECOND / self.bridges[0].step_ns)):
             self.step()
 
+    def command_publisher(self, node, msg_type=Twist):
+        """Return a new cmd_vel publisher of ``node``, subscribed to by the bridges."""
+        publisher = node.create_publisher(msg_type, 'cmd_vel', 10)
+        for bridge in self.bridges:  # what they would see on the graph at their next look
+            bridge.check_command_publishers()
+        return publisher
+
     def drive(self, publisher, message, seconds):
         """Publish ``message`` now and every COMMAND_PERIOD_S for ``seconds``, like teleop."""
+        for bridge in self.bridges:  # as the runner has them look once its nodes are up
+            bridge.check_command_publishers()
         for _ in range(round(seconds / COMMAND_PERIOD_S)):
             publisher.publish(message)
             self.run_for(COMMAND_PERIOD_S)
@@ -161,10 +170,12 @@ def tf_sent(monkeypatch):
                 self.node = node
                 self.pub_tf = node.create_publisher(TransformStamped, f'/test_{kind}', 10)
 
-            def sendTransform(self, transform):  # noqa: N802 tf2_ros's name
-                # The bridge refills its transform in place; tf2_ros copies it by publishing.
-                sent[kind].append((self.node.now_ns, copy.deepcopy(transform)))
-                self.pub_tf.publish(transform)
+            def sendTransform(self, transforms):  # noqa: N802 tf2_ros's name
+                # One transform or a list, as tf2_ros takes. The bridge refills its transform
+                # in place; tf2_ros copies it by publishing.
+                for transform in transforms if isinstance(transforms, list) else [transforms]:
+                    sent[kind].append((self.node.now_ns, copy.deepcopy(transform)))
+                    self.pub_tf.publish(transform)
 
         return RecordingBroadcaster
 
@@ -303,8 +314,8 @@ def test_scan_ranges_are_the_simulators(session):
             assert np.array_equal(np.asarray(scan.ranges, dtype=np.float32), expected)
 
 
-def test_odometry_follows_the_simulated_robot(session):
-    bridge = session.bridge()
+def test_odometry_follows_the_simulated_robot_from_zero_at_its_spawn_pose(session):
+    bridge = session.bridge(robot_pose=[-0.5, 0.4, 1.0])
     probe = session.probe()
     odometry = session.listen(probe, Odometry, 'odom')
     session.drive(probe.create_publisher(Twist, 'cmd_vel', 10), twist(0.2, 0.5), 1.0)
@@ -312,9 +323,13 @@ def test_odometry_follows_the_simulated_robot(session):
     t, odom = odometry[-1]
     assert (odom.header.frame_id, odom.child_frame_id) == ('odom', 'base_link')
     assert stamp_ns(odom.header.stamp) == t
-    x, y, yaw = bridge.sim.pose
+    # Gazebo's DiffDrive: odometry from (0, 0, 0) in odom, the spawn pose's frame.
+    x, y, yaw = pose_from(bridge.sim.world.robot_start, bridge.sim.pose)
     assert (odom.pose.pose.position.x, odom.pose.pose.position.y) == (x, y)
     assert yaw_of(odom.pose.pose.orientation) == pytest.approx(yaw, abs=1e-9)
+    first = odometry[0][1].pose.pose
+    assert math.hypot(first.position.x, first.position.y) < 0.01
+    assert (x, y) != pytest.approx(bridge.sim.pose[:2], abs=0.1)
     assert (odom.twist.twist.linear.x, odom.twist.twist.angular.z) == bridge.sim.velocity
     assert bridge.sim.velocity == pytest.approx((0.2, 0.5))
     # The bridge refills one message in place: what was received earlier must not change.
@@ -445,6 +460,22 @@ def test_static_laser_transform_is_sent_once_at_start_from_the_robot_model(sessi
         bridge_module.quaternion_from_euler(*laser[3:]))
 
 
+def test_a_turtlebot3_has_the_tf_tree_robot_state_publisher_and_the_diff_drive_give(
+        session, tf_sent):
+    bridge = session.bridge(robot='turtlebot3_burger', robot_pose=[0.5, 0.5, 0.0])
+    session.run_for(0.1)
+    static = {(t.header.frame_id, t.child_frame_id): t.transform for _, t in tf_sent['tf_static']}
+    assert {('base_footprint', 'base_link'), ('base_link', 'base_scan'),
+            ('base_link', 'wheel_left_link')} <= set(static)
+    assert not any(child == 'base_scan' for parent, child in static if parent != 'base_link')
+    # The scan frame where the lidar sensor is, seen from base_link.
+    lidar = bridge.sim.lidar_config.pose
+    offset = static[('base_link', 'base_scan')].translation
+    assert (offset.x, offset.y, offset.z) == pytest.approx(lidar[:3])
+    (_, odom), *_ = tf_sent['tf']
+    assert (odom.header.frame_id, odom.child_frame_id) == ('odom', 'base_footprint')
+
+
 def test_odom_transform_goes_with_each_odometry_message(session, tf_sent):
     bridge = session.bridge()
     probe = session.probe()
@@ -553,6 +584,33 @@ def test_twist_stamped_drives_a_bridge_with_cmd_vel_stamped(session):
         0.2 - ramp_loss(0.2, DriveLimits().max_linear_accel), abs=1e-9)
 
 
+@pytest.mark.parametrize('msg_type', [Twist, TwistStamped])
+def test_cmd_vel_takes_the_type_its_publisher_uses(msg_type, session):
+    bridge = session.bridge()
+    probe = session.probe()
+    assert probe.get_subscriptions_info_by_topic('/cmd_vel') == []  # none until one publishes
+    # A node of either type can start in the bridge's process (one DDS participant).
+    publisher = session.command_publisher(probe, msg_type)
+    (info,) = probe.get_subscriptions_info_by_topic('/cmd_vel')
+    assert info.topic_type == f'geometry_msgs/msg/{msg_type.__name__}'
+    command = msg_type()
+    getattr(command, 'twist', command).linear.x = 0.2
+    session.drive(publisher, command, 1.0)
+    assert bridge.sim.pose[0] == pytest.approx(
+        0.2 - ramp_loss(0.2, DriveLimits().max_linear_accel), abs=1e-9)
+
+
+def test_publishers_of_both_command_types_are_one_error_naming_them():
+    assert command_type('/cmd_vel', {}) == (None, '')
+    assert command_type('/cmd_vel', {'geometry_msgs/msg/TwistStamped': ['driver']}) == \
+        (TwistStamped, '')
+    assert command_type('/cmd_vel', {'geometry_msgs/msg/Twist': ['teleop', 'ns/helper'],
+                                     'geometry_msgs/msg/TwistStamped': ['driver']}) == \
+        (None, '/cmd_vel has publishers of both command types (teleop, ns/helper publish Twist;'
+         ' driver publish TwistStamped): the simulator takes one; publish Twist or '
+         'TwistStamped from every node')
+
+
 def test_twist_publisher_on_a_stamped_bridge_is_refused_in_the_same_process(session):
     from rclpy.impl.implementation_singleton import rclpy_implementation
     if rclpy.utilities.get_rmw_implementation_identifier() != 'rmw_fastrtps_cpp':
@@ -633,7 +691,7 @@ def test_a_robot_without_a_plugin_keeps_the_kits_drive(session):
 def test_without_a_new_command_the_robot_keeps_the_last_one_as_in_gazebo(session):
     bridge = session.bridge()
     probe = session.probe()
-    probe.create_publisher(Twist, 'cmd_vel', 10).publish(twist(0.2, 0.1))
+    session.command_publisher(probe).publish(twist(0.2, 0.1))
     session.run_for(5.0)
     assert bridge.sim.command == (0.2, 0.1)
     assert bridge.sim.velocity == pytest.approx((0.2, 0.1))
@@ -650,7 +708,7 @@ def test_robot_stops_when_commands_stop_for_cmd_vel_timeout(timeout_s, session):
     bridge = session.bridge(cmd_vel_timeout=timeout_s)
     probe = session.probe()
     odometry = session.listen(probe, Odometry, 'odom')
-    probe.create_publisher(Twist, 'cmd_vel', 10).publish(twist(0.2))
+    session.command_publisher(probe).publish(twist(0.2))
     session.run_for(timeout_s + 1.0)
     moving = [t for t, odom in odometry if odom.twist.twist.linear.x > 0.0]
     stop_time_s = 0.2 / DriveLimits().max_linear_accel
@@ -696,12 +754,14 @@ def test_huge_command_is_clamped_with_a_warning(linear, angular, limit, session,
 # --- parameters ------------------------------------------------------------------------------
 
 def first_pose(session, **params):
-    """Start a bridge with ``params`` and return (bridge, the pose of its first odometry)."""
+    """Start a bridge with ``params``; return (bridge, its robot's world pose at first odom)."""
     bridge = session.bridge(**params)
     odometry = session.listen(session.probe(), Odometry, 'odom')
     session.run_for(ODOM_PERIOD_NS / NANOSECONDS_PER_SECOND)
     pose = odometry[0][1].pose.pose
-    return bridge, (pose.position.x, pose.position.y, yaw_of(pose.orientation))
+    assert (pose.position.x, pose.position.y, yaw_of(pose.orientation)) == \
+        pytest.approx((0.0, 0.0, 0.0))  # odometry from the spawn pose, as Gazebo's DiffDrive
+    return bridge, bridge.sim.pose
 
 
 def test_world_parameter_takes_a_name(session):

@@ -27,6 +27,7 @@ from sim_bridge.live.lab_tasks import LAB_TASKS
 from sim_bridge.runner import processes
 from sim_bridge.runner.options import split_param
 from sim_bridge.simulation.geometry import signed_distance
+from sim_bridge.simulation.robot import pose_in_world
 from sim_bridge.simulation.world import World
 
 FIXTURES = Path(__file__).parent / 'fixtures'
@@ -413,12 +414,15 @@ def test_wall_follow_live_circles_the_box_at_the_set_distance_and_stops_the_robo
     assert scans[-1, 1] - scans[0, 1] > 35.0
     assert np.median(np.diff(scans[:, 1])) == pytest.approx(1.0 / SCAN_RATE_HZ)
     assert (scans[-1, 1] - scans[0, 1]) / (scans[-1, 0] - scans[0, 0]) < 2.0 * 1.15
-    # odom is the world frame: the robot centre keeps the set distance from the box's surface,
-    # going clockwise (the box on its right) for more than half a turn.
+    # odom starts at 0 at the spawn pose (Gazebo's DiffDrive); in the world frame the robot
+    # centre keeps the set distance from the box's surface, going clockwise (the box on its
+    # right) for more than half a turn.
     odom = np.array(seen['odom'])
     following = odom[odom[:, 0] > 5.0]
     assert following[-1, 0] > 40.0
-    distance = signed_distance(following[:, 1:3], World.load('wall_follow_box').footprints())
+    world = World.load('wall_follow_box')
+    x, y, _ = pose_in_world(world.robot_start, following[:, 1:4].T)
+    distance = signed_distance(np.column_stack((x, y)), world.footprints())
     assert np.median(distance) == pytest.approx(WALL_DISTANCE_M, abs=0.1)
     assert np.all(np.abs(distance - WALL_DISTANCE_M) < 0.25)
     heading = np.unwrap(following[:, 3])

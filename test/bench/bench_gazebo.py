@@ -16,7 +16,12 @@ users set them, and prints:
    with this checkout and, with ``--compare CHECKOUT``, another checkout of the project (e.g. a
    ``git worktree`` of the commit before a change), side by side.
 
+``--speed`` measures only the two real-time factors, side by side in one sitting: the Burger
+(Sim files) in turtlebot3_world.world with wanderbot (360 beams, meshes, recorded) and the lab
+robot's recorded wall_follow in wall_follow_box; the issue's bar is 50x for the Burger.
+
 Run: python test/bench/bench_gazebo.py [--assets DIR] [--duration S] [--compare CHECKOUT]
+     [--speed]
 """
 
 import argparse
@@ -150,14 +155,41 @@ def wall_follow_rtf(checkout: Path, duration_s: float) -> float:
     return float(output.split()[-1])
 
 
+def burger_rtf(assets: Path, duration_s: float) -> float:
+    """Return the real-time factor of the recorded Burger wanderbot run in turtlebot3_world."""
+    world_file = assets / 'turtlebot3_gazebo_sim' / 'worlds' / 'turtlebot3_world.world'
+    with tempfile.TemporaryDirectory() as out, environment_set(model_paths(assets, 'Sim')):
+        start = time.perf_counter()
+        run_simulation(str(world_file), ['wanderbot'], duration_s=duration_s, seed=1,
+                       start=SPAWN, robot='turtlebot3_burger', out_dir=out, quiet=True,
+                       plot=False)
+        return duration_s / (time.perf_counter() - start)
+
+
+def speed(assets: Path, duration_s: float) -> None:
+    """Print the Burger's and the lab robot's real-time factors, measured one after the other."""
+    burger = burger_rtf(assets, duration_s)
+    lab = wall_follow_rtf(ROOT, duration_s)
+    print(f'Burger, turtlebot3_world, wanderbot, 360 beams, recorded, {duration_s:g} s: '
+          f'{burger:.1f}x real time (bar: 50x)')
+    print(f'lab robot, wall_follow_box, wall_follow, 36 beams, recorded, {duration_s:g} s: '
+          f'{lab:.1f}x real time')
+    print(f'Burger / lab robot: {burger / lab:.2f}')
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[1])
     parser.add_argument('--assets', type=Path, default=ASSETS)
     parser.add_argument('--duration', type=float, default=120.0)
     parser.add_argument('--compare', type=Path, metavar='CHECKOUT')
+    parser.add_argument('--speed', action='store_true',
+                        help='only the two real-time factors, side by side')
     args = parser.parse_args()
     if not args.assets.is_dir():
         print(f'no assets folder at {args.assets}; nothing to run')
+        return 0
+    if args.speed:
+        speed(args.assets, args.duration)
         return 0
     burger_rtf = drive_turtlebots(args.assets, args.duration)
     under_the_table_and_the_cone(args.assets)

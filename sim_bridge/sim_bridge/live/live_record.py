@@ -4,9 +4,10 @@ Record a live session (``./lab live TASK --record OUT_DIR``) as a stepped run's 
 A node of this process listens to the live simulator over DDS, as ``ros2 bag record`` would:
 ``/scan``, ``/odom``, ``/cmd_vel`` and ``/clock`` go into the rosbag2 recording ``run/``
 (stamped with sim time: a message's header stamp, else the last /clock), ``/odom`` (the
-simulator's ground-truth pose and velocity) and ``/collisions`` into the run's trace. Each line
-the task's node writes is kept (sim_bridge.runner.node_output: ``log.jsonl`` and ``/rosout``) with
-the sim time it arrives at, as a process run keeps its node's. When the
+simulator's exact pose and velocity from the spawn pose, put back in the world frame) and
+``/collisions`` into the run's trace. Each line the task's node writes is kept
+(sim_bridge.runner.node_output: ``log.jsonl`` and ``/rosout``) with the sim time it arrives at,
+as a process run keeps its node's. When the
 session ends, the trace is scored and plotted as a stepped run's (``metrics.json``,
 ``trajectory.png``; sim_bridge.runner.run.write_outputs), and ``params.yaml`` holds the simulator's
 world and robot: ``python -m sim_bridge.commands.video OUT_DIR`` then makes the session's video.
@@ -25,6 +26,7 @@ from sim_bridge.runner.node_output import NodeLog, ROSOUT_TOPIC, ROSOUT_TYPE
 from sim_bridge.runner.options import load_world, write_params_file
 from sim_bridge.runner.outputs import open_outputs, write_outputs
 from sim_bridge.scoring.run_trace import CollisionEvent, Trace
+from sim_bridge.simulation.robot import pose_in_world
 
 #: Topics recorded, as the stepped runner records them (tf aside: the live bridge's TF needs
 #: tf2_ros, and the video does not read it).
@@ -125,12 +127,13 @@ class LiveRecorder:
                     self.keep_early()
             if topic == '/odom':
                 pose, twist = msg.pose.pose, msg.twist.twist
-                x, y = pose.position.x, pose.position.y
-                gap, _ = self.world.floor_slice.clearance(
-                    (x, y, 2.0 * math.atan2(pose.orientation.z, pose.orientation.w)))
-                self.trace.append(self.clock_ns * 1e-9, x, y,
-                                  2.0 * math.atan2(pose.orientation.z, pose.orientation.w),
-                                  twist.linear.x, twist.angular.z, gap)
+                # Odometry starts at 0 in odom, the spawn pose's frame: the trace is the world's.
+                x, y, yaw = pose_in_world(self.world.robot_start, (
+                    pose.position.x, pose.position.y,
+                    2.0 * math.atan2(pose.orientation.z, pose.orientation.w)))
+                gap, _ = self.world.floor_slice.clearance((x, y, yaw))
+                self.trace.append(self.clock_ns * 1e-9, x, y, float(yaw), twist.linear.x,
+                                  twist.angular.z, gap)
             if not self.bag.closed:
                 self.write_log()
                 self.bag.write(topic, message_type_name(msg), serialize_message(msg),
@@ -142,10 +145,10 @@ class LiveRecorder:
             self.bag.write(ROSOUT_TOPIC, ROSOUT_TYPE, data, t_ns)
 
     def on_collision(self, msg) -> None:
-        """Keep a contact the simulator reports (where, when; not with what)."""
+        """Keep a contact the simulator reports (where in odom, when; not with what)."""
+        x, y, _ = pose_in_world(self.world.robot_start, (msg.point.x, msg.point.y, 0.0))
         with self.lock:
-            self.trace.collisions.append(CollisionEvent(self.clock_ns * 1e-9, msg.point.x,
-                                                        msg.point.y, ''))
+            self.trace.collisions.append(CollisionEvent(self.clock_ns * 1e-9, x, y, ''))
 
     def line(self, stream: str, line: str) -> None:
         """Keep a line the node wrote on ``stream`` at the sim time it arrives (last /clock)."""

@@ -40,6 +40,7 @@ from sim_bridge.media.terminal_text import (
     font, live_stamped, LogLine, teleop_lines, TerminalPane)
 from sim_bridge.media.view3d import View3D
 from sim_bridge.simulation.geometry import point_in_world
+from sim_bridge.simulation.robot import pose_in_world
 from sim_bridge.simulation.sdf import LidarConfig
 from sim_bridge.simulation.world import World, WorldError
 import yaml
@@ -240,7 +241,9 @@ def load_footage(out_dir: str | os.PathLike, teleop: bool = False, world: World 
     bag = out_dir / 'run'
     if not bag.is_dir():
         raise VideoError(f'{bag}: no recording (was the run made with --no-record?)')
-    (pose_t, poses), (scan_t, scans, geometry), commands = read_recording(bag)
+    (pose_t, odometry), (scan_t, scans, geometry), commands = read_recording(bag)
+    # Odometry starts at 0 in odom, the spawn pose's frame (see SimBridge.odometry).
+    poses = np.column_stack(pose_in_world(world.robot_start, odometry.T))
     lidar = world.robot.lidar or LidarConfig()
     mount = (lidar.pose[0], lidar.pose[1], lidar.pose[5])
     duration = metrics.get('sim_time_s') if duration_s is None else duration_s

@@ -5,9 +5,13 @@ Publishes ``scan`` (sensor_msgs/LaserScan) at the lidar's ``update_rate``, in th
 the odometry (nav_msgs/Odometry) on the drive plugin's odometry topic (``odom``) with TF
 odom -> base, static TF base -> lidar frame, ``clock`` (rosgraph_msgs/Clock) and
 ``collisions`` (geometry_msgs/PointStamped); obeys the drive plugin's command topic
-(``cmd_vel``: geometry_msgs/Twist, or TwistStamped when ``cmd_vel_stamped`` is true) and,
-as Gazebo's DiffDrive does, keeps the last command until the next one (``cmd_vel_timeout``
-> 0 stops the robot after that many s without one). Live, a timer on the steady clock steps
+(``cmd_vel``) in the type its publishers use: geometry_msgs/Twist, or TwistStamped as
+TurtleBot3's Jazzy packages publish it. The bridge subscribes once a publisher shows on the ROS
+graph, with that publisher's type (a node of another type in the same process could not even
+create its publisher otherwise); ``cmd_vel_stamped`` true or false fixes the type instead.
+Publishers of both types at once are an error naming them. As Gazebo's DiffDrive does, it
+keeps the last command until the next one (``cmd_vel_timeout`` > 0 stops the robot after that
+many s without one). Live, a timer on the steady clock steps
 the physics at ``physics_rate`` (Hz), paced at ``real_time_factor`` x wall-clock speed; the
 other nodes run with ``use_sim_time:=true``. Stepped (``SimBridge(stepped=True)``), the runner
 calls :meth:`SimBridge.step` itself, as Gazebo's lockstep does with its clients.
@@ -43,8 +47,8 @@ try:
 except ImportError:  # tf2_ros is part of a ROS 2 installation, not of the PyPI wheels
     StaticTransformBroadcaster = TransformBroadcaster = None
 
-from sim_bridge.simulation.robot import DiffDriveConfig, DriveLimits
-from sim_bridge.simulation.sdf import LidarConfig
+from sim_bridge.simulation.robot import DiffDriveConfig, DriveLimits, pose_from
+from sim_bridge.simulation.sdf import LidarConfig, relative_pose
 from sim_bridge.simulation.simulator import Simulator
 from sim_bridge.simulation.world import World
 
@@ -52,6 +56,10 @@ NANOSECONDS_PER_SECOND = 10 ** 9
 #: Hz, when neither the world (its physics step) nor the physics_rate parameter sets one: ten
 #: times a lab lidar's rate (Gazebo's own default step, 1 ms, would be 1000 Hz).
 DEFAULT_PHYSICS_RATE = 100.0
+#: Simulated seconds between looks at the command topic's publishers on the ROS graph: until
+#: the bridge subscribes, and after (when a second type is an error).
+COMMAND_GRAPH_CHECK_S = (0.1, 1.0)
+COMMAND_TYPES = {'geometry_msgs/msg/Twist': Twist, 'geometry_msgs/msg/TwistStamped': TwistStamped}
 NO_TF_WARNING = ('tf2_ros is not installed (it comes with a ROS 2 installation, not from PyPI): '
                  'publishing no TF (odom -> base, base -> lidar frame); odometry, scans and '
                  '/clock are published as usual')
@@ -80,6 +88,23 @@ def float32_array(values: np.ndarray) -> array:
 def relative(topic: str) -> str:
     """Return a plugin's topic as a relative ROS name: in the node's namespace, remappable."""
     return topic.lstrip('/')
+
+
+def command_type(topic: str, publishers: dict[str, list[str]]) -> tuple[type | None, str]:
+    """
+    Return (the message type to subscribe to ``topic`` with, an error line) for its publishers.
+
+    ``publishers`` maps each ROS type name on the topic to the names of the nodes publishing
+    it. (None, '') while none publishes Twist or TwistStamped; one type: (its class, '');
+    both: (None, the error naming each type's publishers).
+    """
+    kinds = {name: nodes for name, nodes in publishers.items() if name in COMMAND_TYPES}
+    if len(kinds) > 1:
+        who = '; '.join(f"{', '.join(nodes)} publish {name.rpartition('/')[2]}"
+                        for name, nodes in kinds.items())
+        return None, (f'{topic} has publishers of both command types ({who}): the simulator '
+                      'takes one; publish Twist or TwistStamped from every node')
+    return next((COMMAND_TYPES[name] for name in kinds), None), ''
 
 
 class UpdateSchedule:
@@ -146,7 +171,7 @@ class SimBridge(Node):
                                  else DEFAULT_PHYSICS_RATE)
         odom_rate = self.rate('odom_rate', float(drive.odometry_rate))
         real_time_factor = self.rate('real_time_factor', 1.0)
-        stamped = self.declare_parameter('cmd_vel_stamped', False).value
+        stamped = self.declare_parameter('cmd_vel_stamped', Parameter.Type.BOOL).value
         publish_tf = self.declare_parameter('publish_tf', bool(drive.publish_tf)).value
         # 0: keep the last command until the next, as Gazebo's DiffDrive does.
         command_timeout = self.declare_parameter('cmd_vel_timeout',
@@ -163,6 +188,9 @@ class SimBridge(Node):
             lidar_noise_stddev=self.optional('lidar_noise_stddev', -1.0),
             gui=self.declare_parameter('gui', False).value,
             draw_rays=self.declare_parameter('draw_rays', False).value)
+        #: The spawn pose (x m, y m, yaw rad in the world): odometry's origin, as Gazebo's
+        #: DiffDrive starts odometry at (0, 0, 0) in odom wherever the robot was spawned.
+        self.odom_origin = self.sim.pose
         self.step_ns = round(NANOSECONDS_PER_SECOND / physics_rate)
         self.step_s = self.step_ns / NANOSECONDS_PER_SECOND
         self.scan_schedule = self.schedule(
@@ -189,16 +217,35 @@ class SimBridge(Node):
         else:
             if publish_tf:
                 self.tf_broadcaster = TransformBroadcaster(self)
-            StaticTransformBroadcaster(self).sendTransform(self.laser_transform())
+            StaticTransformBroadcaster(self).sendTransform(self.static_transforms())
         # Messages published every step are filled in place: publishing copies them.
         self.clock = Clock()
         self.odom = Odometry(child_frame_id=self.frames['base_link'])
         self.odom.header.frame_id = self.frames['odom']
-        self.odom_transform = self.transform(self.clock.clock, 'odom', 'base_link',
-                                             (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
-        self.create_subscription(TwistStamped if stamped else Twist,
-                                 relative(drive.command_topic), self.on_cmd_vel, 10,
-                                 **cmd_vel_events)
+        self.odom_transform = self.transform(self.clock.clock, self.frames['odom'],
+                                             self.frames['base_link'], (0.0, 0.0, 0.0),
+                                             (0.0, 0.0, 0.0))
+        self.command_topic = self.resolve_topic_name(relative(drive.command_topic))
+        self.command_events = cmd_vel_events
+        self.command_subscription = None
+        #: Called as ``listener(msg_type)`` when the bridge subscribes to its commands, and as
+        #: ``listener(None)`` before it drops that subscription for one of the other type.
+        self.command_listeners = []
+        self.command_publisher_count = 0
+        self.command_check_steps = [max(1, round(period / self.step_s))
+                                    for period in COMMAND_GRAPH_CHECK_S]
+        self.next_command_check = 0
+        #: Whether the command type may follow the publishers (cmd_vel_stamped unset).
+        self.command_type_follows = stamped is None
+        if stamped is not None:
+            self.subscribe_command(TwistStamped if stamped else Twist)
+        elif not stepped:
+            # Live, the nodes are other processes (other DDS participants): subscribe now, as
+            # Gazebo's bridge does, so that discovery runs while they start; a publisher of the
+            # other type shows on the graph and the subscription follows it.
+            self.subscribe_command(Twist)
+        else:
+            self.check_command_publishers()
         if not stepped:
             # The steady clock: this timer makes sim time, so it cannot wait for it.
             self.create_timer(1.0 / physics_rate / real_time_factor, self.step,
@@ -243,6 +290,59 @@ class SimBridge(Node):
         value = self.declare_parameter(name, unset).value
         return None if value == unset else value
 
+    def subscribe_command(self, msg_type=None):
+        """
+        Subscribe to the command topic (once) and return the message type it takes.
+
+        ``msg_type`` (Twist or TwistStamped) when none is on the graph yet; default Twist.
+        """
+        if self.command_subscription is None:
+            self.command_subscription = self.create_subscription(
+                msg_type or Twist, self.command_topic, self.on_cmd_vel, 10,
+                **self.command_events)
+            for listener in self.command_listeners:
+                listener(self.command_subscription.msg_type)
+        return self.command_subscription.msg_type
+
+    def resubscribe_command(self, msg_type) -> None:
+        """
+        Take commands of ``msg_type`` instead of the type subscribed to.
+
+        The old subscription, and the listeners' (who are told None first), go before the new
+        one is made: one DDS participant holds one type per topic.
+        """
+        for listener in self.command_listeners:
+            listener(None)
+        self.destroy_subscription(self.command_subscription)
+        self.command_subscription = None
+        self.subscribe_command(msg_type)
+
+    def check_command_publishers(self) -> None:
+        """
+        Subscribe with the type the command topic's publishers use, once one shows.
+
+        Publishers of both types at once: one error line naming them, logged when the
+        publishers change; the bridge keeps the type it has. The graph is asked only when the
+        number of publishers changed.
+        """
+        count = self.count_publishers(self.command_topic)
+        if count == self.command_publisher_count:
+            return
+        self.command_publisher_count = count
+        publishers: dict[str, list[str]] = {}
+        for info in self.get_publishers_info_by_topic(self.command_topic):
+            name = '/'.join(part for part in (info.node_namespace.strip('/'), info.node_name)
+                            if part)
+            publishers.setdefault(info.topic_type, []).append(name)
+        msg_type, error = command_type(self.command_topic, publishers)
+        if error:
+            self.get_logger().error(error)
+        elif msg_type is not None and self.command_subscription is None:
+            self.subscribe_command(msg_type)
+        elif msg_type is not None and self.command_type_follows and \
+                msg_type is not self.command_subscription.msg_type:
+            self.resubscribe_command(msg_type)
+
     def on_cmd_vel(self, msg):
         twist = getattr(msg, 'twist', msg)
         warning = self.sim.set_command(twist.linear.x, twist.angular.z)
@@ -254,17 +354,45 @@ class SimBridge(Node):
         """Return the simulated time (ns) of the last physics step."""
         return self.steps * self.step_ns
 
-    def step(self, clock_due: bool = True) -> bool:
+    def quiet_steps(self, until_ns: int) -> int:
         """
-        Advance the physics one step and publish what is due; return True if anyone hears it.
+        Return how many physics steps the next :meth:`step` can take as one (at least 1).
 
+        The steps up to the first at or after ``until_ns`` (the caller's next event: a node's
+        timer, the run's end), the next scan or odometry, or the next look at the command
+        topic: no message goes out and no command can come in before the last of them. Driven
+        in one piece, the motion is the motion driven in many when the drive holds its
+        command's velocity (one arc), or only speeds up or slows down in a straight line or
+        turning on the spot (the mean velocity covers the same distance or angle). A drive
+        changing both while moving, or with a command timeout to keep, takes one step at a time.
+        """
+        sim = self.sim
+        (linear, angular), command = sim.velocity, sim.command
+        steady = (linear, angular) == command
+        straight_ramp = angular == command[1] == 0.0
+        spin_ramp = linear == command[0] == 0.0
+        if not (steady or straight_ramp or spin_ramp) or sim.command_timeout is not None:
+            return 1
+        next_ns = min(until_ns, self.scan_schedule.next_ns, self.odom_schedule.next_ns,
+                      self.next_command_check * self.step_ns)
+        return max(1, -(-next_ns // self.step_ns) - self.steps)
+
+    def step(self, clock_due: bool = True, steps: int = 1) -> bool:
+        """
+        Advance the physics ``steps`` steps in one and publish what is due after them.
+
+        Returns True if anyone hears it. ``steps`` > 1 only as :meth:`quiet_steps` allows.
         /clock goes out with every other message, and on its own when ``clock_due`` (live: every
         step; a stepped runner asks for it only when a node's timer falls due). The return
         value tells a stepped runner whether a callback may now be ready: a message went to a
         topic with a subscriber, or /clock did.
         """
-        self.sim.step(self.step_s)
-        self.steps += 1
+        if self.steps >= self.next_command_check:
+            self.check_command_publishers()
+            self.next_command_check = self.steps + self.command_check_steps[
+                self.command_subscription is not None]
+        self.sim.step(self.step_s * steps)
+        self.steps += steps
         now_ns = self.now_ns
         stamp = self.clock.clock
         stamp.sec, stamp.nanosec = divmod(now_ns, NANOSECONDS_PER_SECOND)
@@ -319,7 +447,7 @@ class SimBridge(Node):
 
     def odometry(self, stamp) -> Odometry:
         """Fill the odometry message (and the odom → base_link transform) for ``stamp``."""
-        x, y, yaw = self.sim.pose
+        x, y, yaw = pose_from(self.odom_origin, self.sim.pose)
         linear, angular = self.sim.velocity
         # A rotation about z only: (0, 0, sin(yaw / 2), cos(yaw / 2)).
         half_yaw_sin, half_yaw_cos = math.sin(yaw / 2.0), math.cos(yaw / 2.0)
@@ -335,15 +463,38 @@ class SimBridge(Node):
         rotation.z, rotation.w = half_yaw_sin, half_yaw_cos
         return odom
 
-    def laser_transform(self) -> TransformStamped:
-        pose = self.sim.lidar_config.pose
-        return self.transform(Time().to_msg(), 'base_link', 'laser', pose[:3], pose[3:])
+    def static_transforms(self) -> list[TransformStamped]:
+        """
+        Return the robot's fixed frames, as robot_state_publisher sends them from its joints.
+
+        Each joint between two of the model's links, from the drive's base frame down (e.g.
+        base_footprint -> base_link -> base_scan), the laser frame at the lidar sensor's own
+        pose; a robot without such a tree: base frame -> laser frame.
+        """
+        stamp = Time().to_msg()
+        base, laser = self.frames['base_link'], self.frames['laser']
+        lidar = self.sim.lidar_config.pose
+        transforms, reached = [], {base}
+        joints = list(self.sim.world.robot.joints)
+        while joints:  # breadth first from the base: only its subtree, parents first
+            below = [joint for joint in joints if joint[0] in reached]
+            if not below:
+                break
+            for parent, child, parent_pose, child_pose in below:
+                pose = relative_pose(parent_pose, lidar if child == laser else child_pose)
+                transforms.append(self.transform(stamp, parent, child, pose[:3], pose[3:]))
+                reached.add(child)
+                joints.remove((parent, child, parent_pose, child_pose))
+        if laser not in reached:
+            transforms.append(self.transform(stamp, base, laser, lidar[:3], lidar[3:]))
+        return transforms
 
     def transform(self, stamp, parent, child, translation, rotation_rpy) -> TransformStamped:
+        """Return the transform from frame ``parent`` to ``child`` (names) at a pose (m, rad)."""
         transform = TransformStamped()
         transform.header.stamp = stamp
-        transform.header.frame_id = self.frames[parent]
-        transform.child_frame_id = self.frames[child]
+        transform.header.frame_id = parent
+        transform.child_frame_id = child
         offset = transform.transform.translation
         offset.x, offset.y, offset.z = (float(value) for value in translation)
         rotation = transform.transform.rotation
@@ -358,7 +509,8 @@ class SimBridge(Node):
         point = PointStamped()
         point.header.stamp = stamp
         point.header.frame_id = self.frames['odom']
-        point.point.x, point.point.y = float(collision.x), float(collision.y)
+        x, y, _ = pose_from(self.odom_origin, (collision.x, collision.y, 0.0))
+        point.point.x, point.point.y = float(x), float(y)
         return point
 
     def destroy_node(self):

@@ -65,6 +65,27 @@ ROS_MODULES = {
     'turtlebot3_msgs': '',
 }
 
+#: rcl's refusal of a second message type on a topic within one DDS participant.
+TYPE_CLASH = re.compile(r'existing topic name rt(/\S+) with incompatible type (\w+)::(\w+)::'
+                        r'dds_::(\w+)_')
+
+
+def topic_type_hint(error: BaseException) -> str:
+    """
+    Return what to do when rcl refused a publisher or subscription of a second type, or ''.
+
+    The stepped runner runs every node in one process (one DDS participant), where Fast DDS
+    refuses a topic's second type; across processes the two would never connect.
+    """
+    if type(error).__name__ != 'RCLError':  # rclpy's; a student's error may not even str()
+        return ''
+    found = TYPE_CLASH.search(str(error))
+    if found is None:
+        return ''
+    topic, package, kind, name = found.groups()
+    return (f'another node of this run already uses {topic} with another type than '
+            f'{package}/{kind}/{name}: every node of a run must use one type on a topic')
+
 
 def ros_module_hint(error: BaseException) -> str:
     """

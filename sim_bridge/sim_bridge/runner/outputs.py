@@ -29,11 +29,6 @@ from sim_bridge.simulation.geometry import point_in_world
 from sim_bridge.simulation.world import World
 
 
-#: A process run stamps a line when it arrives; its node, on a busy machine behind the live
-#: simulator, may be printing about a scan it had queued this long (s) before.
-PROCESS_LINE_LATENESS_S = 0.5
-
-
 def close_outputs(warnings: list[str], log: NodeLog, teleop: 'Teleop | None',
                   recorder: 'RunRecorder | None', bag: BagRecorder | None) -> None:
     """Add the log's and the teleop's warnings to ``warnings``; write the lines to ``bag``."""
@@ -103,16 +98,37 @@ class RunRecorder:
         # Its view of the run's graph gives the bag each topic's offered QoS.
         self.node = node = run.node('sim_bridge_recorder')
         bridge_topics = {publisher.topic_name for publisher in bridge.publishers}
-        subscribed = {sub.topic_name: sub.msg_type for sub in bridge.subscriptions}
+        subscribed = {sub.topic_name: sub.msg_type for sub in bridge.subscriptions
+                      if sub is not bridge.command_subscription}
         for publisher in bridge.publishers:
             subscribed.setdefault(publisher.topic_name, publisher.msg_type)
         latched = QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        self.node = node
         for topic, msg_type in subscribed.items():
-            if topic in DEFAULT_TOPICS and (topic not in bridge_topics or topic.startswith('/tf')):
-                write = functools.partial(self.write, topic, self.type_name(msg_type))
-                node.create_subscription(
-                    msg_type, topic, write, latched if topic == '/tf_static' else 10, raw=True,
-                    event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False))
+            if topic not in bridge_topics or topic.startswith('/tf'):
+                self.subscribe(topic, msg_type, latched if topic == '/tf_static' else 10)
+        # The command topic's type is the one its publishers use (see SimBridge).
+        self.command_subscription = None
+        if bridge.command_subscription is not None:
+            self.follow_command_type(bridge.command_subscription.msg_type)
+        bridge.command_listeners.append(self.follow_command_type)
+
+    def follow_command_type(self, msg_type: type | None) -> None:
+        """Record the bridge's command topic in ``msg_type``; None: drop its subscription."""
+        if self.command_subscription is not None:
+            self.node.destroy_subscription(self.command_subscription)
+            self.command_subscription = None
+        if msg_type is not None:
+            self.command_subscription = self.subscribe(self.run.bridge.command_topic, msg_type)
+
+    def subscribe(self, topic: str, msg_type: type, qos: Any = 10) -> Any:
+        """Record ``topic`` (a default topic) as DDS delivers it, raw; return the subscription."""
+        if topic not in DEFAULT_TOPICS:
+            return None
+        write = functools.partial(self.write, topic, self.type_name(msg_type))
+        return self.node.create_subscription(
+            msg_type, topic, write, qos, raw=True,
+            event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False))
 
     def type_name(self, msg_type: type) -> str:
         """Return (and keep) the ROS type name of a message class."""
@@ -185,9 +201,7 @@ def write_outputs(out_dir: Path, observer: Observer, world_model: World,
         metrics = compute_metrics(observer.finish(), world_model, setpoint=setpoint,
                                   wall_time_s=time.perf_counter() - wall_start,
                                   node_errors=node_errors, log_lines=log_lines,
-                                  printed=printed, runner_nodes=(BRIDGE_NODE, TELEOP_NODE),
-                                  printed_lateness_s=PROCESS_LINE_LATENESS_S
-                                  if run_mode.get('mode') == 'process' else 0.0)
+                                  printed=printed, runner_nodes=(BRIDGE_NODE, TELEOP_NODE))
         metrics['warnings'] = [*metrics.get('warnings', []), *warnings]
         metrics['ended_by'] = ended_by
         metrics['ignored'] = world_model.ignored

@@ -83,6 +83,9 @@ class FloorSlice:
             self._offsets = np.array([fp.radius if fp.kind == 'circle' else 0.0
                                       for fp in self.footprints])
             shapely.prepare(self._geometries)
+            # With its origin inside its outline, the robot is nearest to a footprint no
+            # farther from its origin than the nearest one plus its radius (see _polygon_gap).
+            self._origin_inside = bool(shapely.contains_xy(self.robot_polygon, 0.0, 0.0))
 
     def probe(self, pose: tuple[float, float, float]) -> tuple[float, int, bool]:
         """
@@ -113,9 +116,18 @@ class FloorSlice:
     def _polygon_gap(self, pose: tuple[float, float, float]) -> tuple[float, int]:
         if not len(self._geometries):
             return math.inf, -1
-        gaps = shapely.distance(self.robot_at(pose), self._geometries) - self._offsets
-        index = int(np.argmin(gaps))
-        return float(gaps[index]), index
+        candidates = np.arange(len(self._geometries))
+        if self._origin_inside:
+            # A footprint's gap lies between its distance from the robot's origin less the
+            # robot's radius and that distance (the origin is part of the robot): only those
+            # whose lower bound is below the least upper bound can be nearest.
+            from_origin = shapely.distance(self._geometries,
+                                           shapely.Point(pose[0], pose[1])) - self._offsets
+            candidates = np.flatnonzero(from_origin - self.robot_radius <= from_origin.min())
+        gaps = (shapely.distance(self.robot_at(pose), self._geometries[candidates])
+                - self._offsets[candidates])
+        best = int(np.argmin(gaps))
+        return float(gaps[best]), int(candidates[best])
 
     def robot_at(self, pose: tuple[float, float, float]) -> shapely.Geometry:
         """Return the robot's outline (shapely, m) at ``pose`` (x m, y m, yaw rad)."""

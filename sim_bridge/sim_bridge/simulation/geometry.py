@@ -16,15 +16,14 @@ Units: m and rad; angles counter-clockwise (REP-103).
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
-from functools import reduce
 import math
 
 import numpy as np
 import shapely
 from shapely.geometry.base import BaseGeometry
+from sim_bridge.simulation.mesh_slice import clip_triangles, mesh_slice
 import trimesh
 from trimesh import transformations
-from trimesh.intersections import mesh_plane
 
 SHAPE_KINDS = ('box', 'cylinder', 'sphere', 'capsule', 'ellipsoid', 'mesh')
 FOOTPRINT_KINDS = ('circle', 'box', 'polygon')
@@ -32,9 +31,6 @@ FOOTPRINT_KINDS = ('circle', 'box', 'polygon')
 MESH_TOLERANCE = 2e-4
 #: Cap on the segments around a round mesh, so huge radii stay affordable.
 MAX_MESH_SEGMENTS = 720
-#: Smallest projected area (m^2) of a triangle that counts in a slice: a wall standing on edge
-#: projects to a line, which only adds noise to the union.
-MIN_TRIANGLE_AREA = 1e-12
 #: Segments per quarter circle of a circle footprint turned into a polygon (see
 #: :meth:`Footprint.geometry`): 0.03 mm off a 0.1 m radius.
 CIRCLE_QUARTER_SEGMENTS = 32
@@ -271,12 +267,14 @@ class Mesh:
     """
     A triangle mesh in its shape's frame: (V, 3) ``vertices`` (m, scale applied), (F, 3) ``faces``.
 
-    ``source`` names the file it was read from, for messages.
+    ``source`` names the file it was read from, for messages; ``notes`` are the reader's
+    warnings about what it could not read besides the triangles (textures).
     """
 
     vertices: np.ndarray
     faces: np.ndarray
     source: str = ''
+    notes: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -515,78 +513,15 @@ def slice_polygon(shape: Shape, low: float, high: float) -> BaseGeometry:
     """
     Return the vertical projection of the part of ``shape`` between low and high (m), in m.
 
-    The shape's triangles are clipped to the band and projected on the floor. A primitive is
-    convex, so its slice is the convex hull of the clipped triangles' corners. A mesh's is the
-    union (shapely) of its projected triangles and of its sections at the band's limits, a
-    section holding what lies inside a closed mesh (a leg's walls stand on edge and project to
-    lines: the section is its area). An empty geometry when nothing is in the band.
+    A primitive is convex, so its slice is the convex hull of its triangles' corners clipped
+    to the band. A mesh's is :func:`~.mesh_slice.mesh_slice`: its clipped faces, those
+    standing on edge included, and the area it encloses. An empty geometry when nothing is in
+    the band.
     """
     mesh = shape.world_mesh()
-    pieces = _clip_triangles(mesh.triangles, low, high)
+    if shape.kind == 'mesh':
+        return mesh_slice(mesh, low, high)
+    pieces = clip_triangles(mesh.triangles, low, high)
     if not pieces:
         return shapely.Polygon()
-    if shape.kind != 'mesh':
-        return shapely.MultiPoint(np.vstack(pieces)[:, :2]).convex_hull
-    parts = [shapely.Polygon(piece[:, :2]) for piece in pieces
-             if _area(piece[:, :2]) > MIN_TRIANGLE_AREA]
-    parts += [_section(mesh, height) for height in (low, high) if math.isfinite(height)]
-    return shapely.union_all(parts)
-
-
-def _area(points: np.ndarray) -> float:
-    """Return the area (m^2) of a polygon given by its (K, 2) corners (m)."""
-    x, y = points[:, 0], points[:, 1]
-    return 0.5 * abs(float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))
-
-
-def _clip_triangles(triangles: np.ndarray, low: float, high: float) -> list[np.ndarray]:
-    """
-    Return the parts of (N, 3, 3) triangles (m) between heights low and high (m).
-
-    Each part is a (K, 3) convex polygon. Triangles wholly inside are kept as they are,
-    those wholly outside dropped; only the few crossing a limit are clipped (Sutherland-Hodgman
-    against each plane).
-    """
-    heights = triangles[:, :, 2]
-    inside = (heights.min(axis=1) >= low) & (heights.max(axis=1) <= high)
-    crossing = ~inside & (heights.max(axis=1) > low) & (heights.min(axis=1) < high)
-    pieces = list(triangles[inside])
-    for triangle in triangles[crossing]:
-        polygon = list(triangle)
-        for limit, side in ((low, 1.0), (high, -1.0)):
-            polygon = _clip_polygon(polygon, limit, side)
-        if len(polygon) >= 3:
-            pieces.append(np.array(polygon))
-    return pieces
-
-
-def _clip_polygon(polygon: list, limit: float, side: float) -> list:
-    """Return the part of a convex 3-D polygon where side * (z - limit) >= 0 (m)."""
-    if not math.isfinite(limit):
-        return polygon
-    kept = []
-    for start, end in zip(polygon, polygon[1:] + polygon[:1]):
-        start_over = side * (start[2] - limit)
-        end_over = side * (end[2] - limit)
-        if start_over >= 0.0:
-            kept.append(start)
-        if (start_over >= 0.0) != (end_over >= 0.0):
-            kept.append(start + (end - start) * (start_over / (start_over - end_over)))
-    return kept
-
-
-def _section(mesh: trimesh.Trimesh, height: float) -> BaseGeometry:
-    """
-    Return the area (m) a mesh encloses at ``height`` (m): its section, even-odd filled.
-
-    The cut's segments are joined into rings; nested rings alternate inside and outside (a
-    pipe's section is a ring). Open chains (a mesh that is not closed) enclose nothing.
-    """
-    segments = mesh_plane(mesh, (0.0, 0.0, 1.0), (0.0, 0.0, height))
-    if not len(segments):
-        return shapely.Polygon()
-    lines = shapely.set_precision(shapely.MultiLineString(list(segments[:, :, :2])),
-                                  MESH_TOLERANCE * 1e-3)
-    rings = [shapely.Polygon(line.coords) for line in shapely.get_parts(shapely.line_merge(lines))
-             if line.is_closed and len(line.coords) > 3]
-    return reduce(shapely.symmetric_difference, rings, shapely.Polygon())
+    return shapely.MultiPoint(np.vstack(pieces)[:, :2]).convex_hull

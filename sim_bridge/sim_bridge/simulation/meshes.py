@@ -4,12 +4,16 @@ Triangle meshes of a model: the files ``<mesh>`` names (STL, OBJ, COLLADA) and e
 trimesh reads every format (DAE through pycollada). A COLLADA file carries its own length unit
 (``<asset><unit meter="0.0254"/>`` for a file drawn in inches) and Gazebo scales the mesh by
 it; trimesh's plain load does not, so :func:`load_mesh` applies it from pycollada's reading of
-the asset. The SDF ``<scale>`` is applied on top. A file is read once per process and kept
+the asset. The SDF ``<scale>`` is applied on top. Only the triangles matter here: what trimesh
+warns about while reading (a texture image missing or unreadable) is kept in the mesh's
+``notes`` for the one ``ignored:`` line, never printed as a traceback. A file is read once
+per process and kept
 (worlds repeat the same mesh many times). :func:`extrude` builds the prism of an SDF
 ``<polyline>`` (shapely triangulates the outline).
 """
 
 from functools import lru_cache
+import logging
 from pathlib import Path
 
 import numpy as np
@@ -30,12 +34,38 @@ def load_mesh(path: Path, scale: tuple[float, float, float] = (1.0, 1.0, 1.0)) -
     The file's scene graph (node transforms) is flattened; a DAE's ``<unit>`` is applied.
     Raises :class:`MeshError` for a format not read here or a file with no triangles.
     """
-    vertices, faces = _read(Path(path).resolve())
-    return Mesh(vertices * np.asarray(scale, dtype=float), faces, str(path))
+    vertices, faces, notes = _read(Path(path).resolve())
+    return Mesh(vertices * np.asarray(scale, dtype=float), faces, str(path), notes)
+
+
+class _Warnings(logging.Handler):
+    """Collects the messages trimesh logs at WARNING and above while it reads one file."""
+
+    def __init__(self) -> None:
+        super().__init__(logging.WARNING)
+        self.messages: list[str] = []
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.messages.append(record.getMessage())
+
+
+def _load_quietly(path: Path):
+    """Return trimesh's mesh of ``path`` and the warnings it logged (texture problems)."""
+    import trimesh  # imported on first use: a world of primitives never pays for it
+    logger = logging.getLogger('trimesh')
+    collected = _Warnings()
+    propagate = logger.propagate
+    logger.addHandler(collected)
+    logger.propagate = False
+    try:
+        return trimesh.load(str(path), force='mesh'), tuple(dict.fromkeys(collected.messages))
+    finally:
+        logger.removeHandler(collected)
+        logger.propagate = propagate
 
 
 @lru_cache(maxsize=256)
-def _read(path: Path) -> tuple[np.ndarray, np.ndarray]:
+def _read(path: Path) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
     suffix = path.suffix.lower()
     if suffix not in MESH_SUFFIXES:
         raise MeshError(f'{path}: unsupported mesh format {suffix!r}; use one of '
@@ -43,9 +73,8 @@ def _read(path: Path) -> tuple[np.ndarray, np.ndarray]:
     if not path.is_file():
         raise MeshError(f'{path}: mesh file not found; check the <uri> (model://NAME/... is '
                         'looked up on GZ_SIM_RESOURCE_PATH)')
-    import trimesh  # imported on first use: a world of primitives never pays for it
     try:
-        mesh = trimesh.load(str(path), force='mesh')
+        mesh, notes = _load_quietly(path)
     except Exception as error:  # trimesh and pycollada raise many kinds on a broken file
         raise MeshError(f'{path}: cannot read the mesh: {error}') from None
     if len(getattr(mesh, 'faces', ())) == 0:
@@ -56,7 +85,7 @@ def _read(path: Path) -> tuple[np.ndarray, np.ndarray]:
     vertices.setflags(write=False)
     faces = np.asarray(mesh.faces, dtype=np.int64)
     faces.setflags(write=False)
-    return vertices, faces
+    return vertices, faces, notes
 
 
 def _collada_unit(path: Path) -> float:
@@ -69,6 +98,14 @@ def _collada_unit(path: Path) -> float:
         raise MeshError(f'{path}: cannot read the COLLADA asset: {error}') from None
     unit = document.assetInfo.unitmeter
     return float(unit) if unit else 1.0
+
+
+def cone(radius: float, length: float, source: str) -> Mesh:
+    """Return SDF's ``<cone>``: its base circle (``radius`` m) ``length`` m below its apex."""
+    import trimesh
+    shape = trimesh.creation.cone(radius, length, sections=64)
+    return Mesh(np.asarray(shape.vertices) - (0.0, 0.0, 0.5 * length),
+                np.asarray(shape.faces, dtype=np.int64), source)
 
 
 def extrude(points: list[tuple[float, float]], height: float, source: str) -> Mesh:

@@ -12,6 +12,8 @@ simulator's business.
 from dataclasses import dataclass
 import math
 
+import numpy as np
+
 from sim_bridge.simulation.geometry import wrap_angle
 
 Pose = tuple[float, float, float]
@@ -71,6 +73,30 @@ class DiffDriveConfig:
     odometry_rate: float = 50.0
     publish_tf: bool = True
     command_timeout: float | None = None
+
+
+def pose_from(origin: Pose, pose: Pose) -> Pose:
+    """
+    Return world ``pose`` seen from ``origin`` (x m, y m, yaw rad): odometry from a start.
+
+    Gazebo's DiffDrive starts its odometry at (0, 0, 0) in ``odom``, wherever the robot was
+    spawned: odom is the spawn pose's frame. numpy arrays work element-wise.
+    """
+    ox, oy, oyaw = origin
+    dx, dy = pose[0] - ox, pose[1] - oy
+    cos_yaw, sin_yaw = math.cos(oyaw), math.sin(oyaw)
+    yaw = np.arctan2(np.sin(pose[2] - oyaw), np.cos(pose[2] - oyaw))
+    return (cos_yaw * dx + sin_yaw * dy, cos_yaw * dy - sin_yaw * dx, yaw)
+
+
+def pose_in_world(origin: Pose, odometry: Pose) -> Pose:
+    """Return the world pose of an ``odometry`` pose taken from ``origin`` (see pose_from)."""
+    ox, oy, oyaw = origin
+    cos_yaw, sin_yaw = math.cos(oyaw), math.sin(oyaw)
+    x, y, yaw = odometry
+    turned = yaw + oyaw
+    return (ox + cos_yaw * x - sin_yaw * y, oy + sin_yaw * x + cos_yaw * y,
+            np.arctan2(np.sin(turned), np.cos(turned)))
 
 
 def integrate_arc(pose: Pose, linear: float, angular: float, dt: float) -> Pose:

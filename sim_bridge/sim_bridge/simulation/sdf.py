@@ -2,14 +2,17 @@
 Read Gazebo model files as Gazebo reads them: collisions, the lidar and the diff-drive plugin.
 
 :func:`load_model` reads a model folder (``model.config`` naming its SDF file) or an SDF file,
-SDF 1.4 to 1.10, Gazebo Sim and Gazebo Classic forms alike, with :mod:`xml.etree`:
+any SDF version (1.0 to 1.12), Gazebo Sim and Gazebo Classic forms alike, with :mod:`xml.etree`
+(:mod:`.xml_text`: as leniently as Gazebo's TinyXML2, e.g. ``--`` in comments and undeclared
+``gz:`` prefixes as Gazebo's own example worlds have them):
 
 - every ``<collision>`` of every ``<link>``, at the link's and the collision's ``<pose>`` (any
   rotation; ``relative_to`` a link, a ``<frame>`` or the model), as a
   :class:`~.geometry.Shape`: ``<box>``, ``<cylinder>``, ``<sphere>``, ``<capsule>``,
-  ``<ellipsoid>``, ``<polyline>`` (extruded) and ``<mesh>`` (STL, OBJ, DAE with its ``<unit>``,
-  times ``<scale>``; :mod:`.meshes`). A ``<plane>`` is the floor, not an obstacle
-  (:attr:`Model.planes`);
+  ``<ellipsoid>``, ``<cone>``, ``<polyline>`` (extruded) and ``<mesh>`` (STL, OBJ, DAE with
+  its ``<unit>``, times ``<scale>``; :mod:`.meshes`), SDF's default sizes where a size is left
+  out. A ``<plane>`` is the floor, not an obstacle (:attr:`Model.planes`); a ``<heightmap>`` is
+  not simulated;
 - nested ``<model>`` elements at their pose in the parent, and ``<include>`` elements, whose
   ``<pose>``, ``<name>`` and ``<static>`` replace the included model's own (Gazebo's rule);
   ``model://NAME/...`` is looked up on :func:`~sim_bridge.common.paths.model_search_path`;
@@ -21,9 +24,11 @@ SDF 1.4 to 1.10, Gazebo Sim and Gazebo Classic forms alike, with :mod:`xml.etree
   ``libgazebo_ros_diff_drive.so``, as a :class:`~.robot.DiffDriveConfig` with Gazebo's defaults
   for what it leaves unset.
 
-What the simulator does not simulate (visuals, joints, other sensors and plugins,
-``<submesh>``) is listed in :attr:`Model.not_simulated`, never dropped in silence; what it cannot
-read is an :class:`SdfError` naming the file, the element path and what to do.
+What the simulator does not simulate (visuals, joints, lights, cameras, 3-D lidars, other
+sensors and plugins, heightmaps, ``<submesh>``, textures) is listed in
+:attr:`Model.not_simulated`, never dropped in silence; a model file holding only a
+``<light>`` (Classic's ``sun`` folder) is a model of nothing but that light. What it cannot read
+is an :class:`SdfError` naming the file, the element path and what to do.
 
 A ``<pose>`` is ``x y z roll pitch yaw`` (m, rad; degrees with ``degrees="true"``), fixed axes
 X-Y-Z, relative to the parent element unless ``relative_to`` says otherwise.
@@ -42,21 +47,20 @@ import xml.etree.ElementTree as ElementTree
 import numpy as np
 from sim_bridge.common import paths
 from sim_bridge.simulation.geometry import (
-    euler_from_matrix, Footprint, Mesh, pose_matrix, Shape, triangulate)
-from sim_bridge.simulation.meshes import extrude, load_mesh, MeshError
-from sim_bridge.simulation.robot import DiffDriveConfig, DriveLimits
+    euler_from_matrix, Footprint, Mesh, pose_matrix, rotation_matrix, Shape, triangulate)
+from sim_bridge.simulation.meshes import cone, extrude, load_mesh, MeshError
+from sim_bridge.simulation.robot import DiffDriveConfig
+from sim_bridge.simulation.sdf_drive import DriveReading, NO_SPEED_LIMIT, plugin_kind  # noqa: F401
+from sim_bridge.simulation.xml_text import parse_xml, XmlError
 
 LIDAR_SENSOR_TYPES = ('ray', 'gpu_ray', 'lidar', 'gpu_lidar')
 NOISE_TYPES = ('gaussian', 'none')
-#: Speed limit (m/s and rad/s) standing for "none": a diff-drive plugin without a velocity
-#: limit has none in Gazebo, and DriveLimits needs a finite number.
-NO_SPEED_LIMIT = 1000.0
-#: Gazebo Classic gazebo_ros_diff_drive's wheel separation (m) when the plugin gives none.
-CLASSIC_WHEEL_SEPARATION = 0.34
-#: Gazebo Sim's DiffDrive odometry rate (Hz) when <odom_publish_frequency> is not given.
-SIM_ODOMETRY_RATE = 50.0
-#: Gazebo Classic gazebo_ros_diff_drive's update rate (Hz) when <update_rate> is not given.
-CLASSIC_UPDATE_RATE = 100.0
+#: SDF's default radius (m) of a cylinder and a capsule when the file gives none.
+SDF_DEFAULT_RADIUS = {'cylinder': 1.0, 'capsule': 0.5}
+#: A model named by a bare file name with one of these suffixes is that file, not a folder.
+MODEL_FILE_SUFFIXES = ('.sdf', '.urdf', '.xacro')
+#: Collision shapes read but not simulated: terrain from an image. One ignored item each.
+UNSIMULATED_GEOMETRY = ('heightmap', 'image')
 
 Pose6 = tuple[float, float, float, float, float, float]
 ZERO_POSE: Pose6 = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
@@ -73,6 +77,13 @@ def compose(parent: Pose6, child: Pose6) -> Pose6:
     matrix = pose_matrix(*parent) @ pose_matrix(*child)
     return (float(matrix[0, 3]), float(matrix[1, 3]), float(matrix[2, 3]),
             *euler_from_matrix(matrix))
+
+
+def relative_pose(parent: Pose6, child: Pose6) -> Pose6:
+    """Return ``child`` (a pose in some frame) in the frame of ``parent`` (same frame)."""
+    rotation = rotation_matrix(*parent[3:]).T
+    position = rotation @ (np.asarray(child[:3]) - parent[:3])
+    return (*map(float, position), *euler_from_matrix(rotation @ rotation_matrix(*child[3:])))
 
 
 def place(shape: Shape, pose: Pose6) -> Shape:
@@ -213,6 +224,10 @@ class Model:
     ignored: tuple[Ignored, ...] = ()
     sources: tuple[Path, ...] = ()
     lidars: tuple[tuple[str, LidarConfig], ...] = ()
+    #: (parent link, child link, the parent's pose, the child's pose; in the model frame, m
+    #: and rad) of each joint between the top model's links, at joint position 0: the tree of
+    #: frames robot_state_publisher sends as TF.
+    joints: tuple[tuple[str, str, Pose6, Pose6], ...] = ()
 
     def with_lidar(self, name: str) -> 'Model':
         """Return this model using its lidar sensor called ``name``; SdfError when none is."""
@@ -296,7 +311,9 @@ class SdfWorld:
 def load_model(folder_or_file: str | os.PathLike, lidar: str | None = None,
                world_folder: Path | None = None) -> Model:
     """
-    Read a model folder (``model.config`` naming its SDF file) or an SDF file.
+    Read a model folder (``model.config`` naming its SDF file), an SDF file, or a URDF robot.
+
+    A ``.urdf`` or ``.xacro`` file is read by :mod:`.urdf`.
 
     ``lidar`` names the sensor to use when the model has several lidars (default: the first);
     ``world_folder`` is searched first for ``model://`` URIs (see
@@ -304,6 +321,9 @@ def load_model(folder_or_file: str | os.PathLike, lidar: str | None = None,
     cannot be used, FileNotFoundError for none.
     """
     path = model_file(Path(folder_or_file))
+    from sim_bridge.simulation import urdf  # it reads the SDF it makes with this module
+    if urdf.is_urdf_file(path):
+        return urdf.load_urdf(path, lidar)
     return parse_model(path.read_text(encoding='utf-8'), path, lidar=lidar,
                        world_folder=world_folder)
 
@@ -353,6 +373,10 @@ def parse_model(text: str, path: Path, lidar: str | None = None,
         if root.tag != 'sdf':
             raise SdfError(f'{path}: <{root.tag}>: the root element must be <sdf>')
         element = root.find('model')
+        light = root.find('light')
+        if element is None and light is not None:  # a model folder holding a light: a sun
+            return Model(light.get('name') or path.parent.name, path, (), static=True,
+                         ignored=(('light', light.get('name') or ''),))
         if element is None:
             if root.find('world') is not None:
                 raise SdfError(f'{path}: <sdf>: is a world file, not a model; load it as a '
@@ -379,27 +403,14 @@ def is_sdf_text(text: str) -> bool:
 
 def _parse_xml(text: str, path: Path) -> ElementTree.Element:
     try:
-        return ElementTree.fromstring(text)
-    except ElementTree.ParseError as error:
-        raise SdfError(f'{path}: invalid XML: {error}') from None
+        return parse_xml(text, path)
+    except XmlError as error:
+        raise SdfError(str(error)) from None
 
 
 def _label(element: ElementTree.Element) -> str:
     name = element.get('name')
     return f'<{element.tag} name="{name}">' if name is not None else f'<{element.tag}>'
-
-
-def _plugin_kind(plugin: ElementTree.Element) -> str | None:
-    """Return 'sim' or 'classic' for a diff-drive plugin, None for any other plugin."""
-    filename = (plugin.get('filename') or '').strip()
-    stem = Path(filename).name.removeprefix('lib').removesuffix('.so')
-    if stem in ('gz-sim-diff-drive-system', 'ignition-gazebo-diff-drive-system') or \
-            plugin.get('name') in ('gz::sim::systems::DiffDrive',
-                                   'ignition::gazebo::systems::DiffDrive'):
-        return 'sim'
-    if stem == 'gazebo_ros_diff_drive':
-        return 'classic'
-    return None
 
 
 #: A diff-drive plugin read but for the model's name and canonical link, which name its
@@ -418,6 +429,7 @@ class _Found:
     drives: list[DriveReader] = field(default_factory=list)
     ignored: list[Ignored] = field(default_factory=list)
     sources: list[Path] = field(default_factory=list)
+    joints: list[tuple[str, str, Pose6, Pose6]] = field(default_factory=list)
 
 
 #: Builtin stand-ins for the two models every Gazebo world includes, so they work offline.
@@ -453,7 +465,7 @@ def _fuel_cache(uri) -> Path | None:
     return None
 
 
-class _Reader:
+class _Reader(DriveReading):
     """Walks one SDF file, keeping the file name for error messages."""
 
     def __init__(self, path: Path, world_folder: Path | None) -> None:
@@ -547,11 +559,14 @@ class _Reader:
         """Return the model folder (or SDF file) a ``model://``, Fuel, file or path URI names."""
         parsed = urlparse(uri)
         if parsed.scheme == 'model':
+            # model:///NAME/... (three slashes) names the same file as model://NAME/...
+            name, _, rest = (parsed.netloc + parsed.path).lstrip('/').partition('/') \
+                if not parsed.netloc else (parsed.netloc, '', parsed.path)
             try:
-                folder = paths.find_model(parsed.netloc, self.world_folder)
+                folder = paths.find_model(name, self.world_folder)
             except FileNotFoundError as error:
                 raise self.error(where, str(error)) from None
-            return folder / unquote(parsed.path.lstrip('/'))
+            return folder / unquote(rest.lstrip('/'))
         if parsed.scheme in ('http', 'https'):
             cached = _fuel_cache(parsed)
             if cached is not None:
@@ -597,7 +612,8 @@ class _Reader:
         return Model(name=name, path=self.path, shapes=tuple(found.shapes), lidar=lidar,
                      static=static, drive=drive, pose=self.pose(element, where),
                      planes=tuple(found.planes), ignored=tuple(found.ignored),
-                     sources=tuple(dict.fromkeys(found.sources)), lidars=lidars)
+                     sources=tuple(dict.fromkeys(found.sources)), lidars=lidars,
+                     joints=tuple(found.joints))
 
     @staticmethod
     def canonical_link(element: ElementTree.Element) -> str:
@@ -618,13 +634,26 @@ class _Reader:
             elif child.tag == 'include':
                 self.nested_include(child, child_where, frame, frames, found)
             elif child.tag == 'plugin':
-                kind = _plugin_kind(child)
+                kind = plugin_kind(child)
                 if kind is None:
                     found.ignored.append(('plugin', child.get('filename') or child.get('name')))
                 else:
                     found.drives.append(self.drive_reader(child, child_where, kind))
             elif child.tag == 'joint':
                 found.ignored.append(('joint', ''))
+                if frame == ZERO_POSE:  # the top model's own links: its frame tree
+                    found.joints += self.joint_frames(child, frames)
+
+    @staticmethod
+    def joint_frames(joint: ElementTree.Element, frames: '_Frames'
+                     ) -> list[tuple[str, str, Pose6, Pose6]]:
+        """Return [(parent, child, their poses in the model)] of a joint between two links."""
+        parent = (joint.findtext('parent') or '').strip()
+        child = (joint.findtext('child') or '').strip()
+        links = {name for name, (element, _) in frames.elements.items() if element.tag == 'link'}
+        if parent not in links or child not in links:
+            return []
+        return [(parent, child, frames.pose_of(parent), frames.pose_of(child))]
 
     def nested_include(self, include: ElementTree.Element, where: str, frame: Pose6,
                        frames: '_Frames', found: _Found) -> None:
@@ -648,6 +677,10 @@ class _Reader:
             child_where = f'{where}/{_label(child)}'
             if child.tag == 'collision':
                 pose = compose(model_frame, frames.resolve(child, child_where, link=link))
+                not_read = self.unsupported_geometry(child)
+                if not_read:
+                    found.ignored.append((f'{not_read} collision', child.get('name') or ''))
+                    continue
                 shape, plane = self.collision(child, child_where)
                 if plane is not None:
                     found.planes.append(Plane(pose[2], plane))
@@ -655,13 +688,17 @@ class _Reader:
                     found.shapes.append(place(shape, pose))
                     if shape.kind == 'mesh':
                         found.sources.append(Path(shape.mesh.source))
+                        if shape.mesh.notes:
+                            found.ignored.append(('mesh texture', Path(shape.mesh.source).name))
                 if child.find('geometry/mesh/submesh') is not None:
                     found.ignored.append(('submesh (whole mesh used)', ''))
             elif child.tag == 'visual':
                 found.ignored.append(('visual', ''))
             elif child.tag == 'sensor':
                 pose = compose(model_frame, frames.resolve(child, child_where, link=link))
-                if child.get('type') in LIDAR_SENSOR_TYPES:
+                if child.get('type') in LIDAR_SENSOR_TYPES and self.layers(child) > 1:
+                    found.ignored.append(('3-D lidar', child.get('name') or ''))
+                elif child.get('type') in LIDAR_SENSOR_TYPES:
                     found.lidars.append((child.get('name') or '', partial(
                         self.lidar, child, child_where, pose, link.get('name') or '')))
                 else:
@@ -676,21 +713,30 @@ class _Reader:
                   ) -> tuple[Shape | None, tuple[float, float] | None]:
         """Return (the shape in the collision's own frame, or a plane's size)."""
         geometry = element.find('geometry')
-        kinds = '<box>, <cylinder>, <sphere>, <capsule>, <ellipsoid>, <mesh>, <plane>'
-        if geometry is None or len(geometry) != 1:
+        kinds = ('<box>, <cylinder>, <sphere>, <capsule>, <ellipsoid>, <cone>, <mesh>, <plane>, '
+                 '<polyline>')
+        if geometry is None or not len(geometry) or (
+                len(geometry) > 1 and {child.tag for child in geometry} != {'polyline'}):
             raise self.error(f'{where}/<geometry>', f'needs exactly one of {kinds}')
         primitive = geometry[0]
         at = f'{where}/<geometry>/<{primitive.tag}>'
+        # Missing sizes take SDF's defaults, as Gazebo gives them.
         if primitive.tag == 'box':
-            size = self.vector(primitive, 'size', at, 3)
+            size = self.vector(primitive, 'size', at, 3) \
+                if primitive.find('size') is not None else (1.0, 1.0, 1.0)
             if min(size) <= 0.0:
                 raise self.error(f'{at}/<size>', f'must be positive, got {size}')
             return Shape('box', size=size), None
         if primitive.tag in ('cylinder', 'capsule'):
-            return Shape(primitive.tag, radius=self.positive(primitive, 'radius', at),
-                         length=self.positive(primitive, 'length', at)), None
+            radius = self.positive(primitive, 'radius', at, SDF_DEFAULT_RADIUS[primitive.tag])
+            return Shape(primitive.tag, radius=radius,
+                         length=self.positive(primitive, 'length', at, 1.0)), None
+        if primitive.tag == 'cone':
+            return Shape('mesh', mesh=cone(self.positive(primitive, 'radius', at, 1.0),
+                                           self.positive(primitive, 'length', at, 1.0), at)
+                         ), None
         if primitive.tag == 'sphere':
-            return Shape('sphere', radius=self.positive(primitive, 'radius', at)), None
+            return Shape('sphere', radius=self.positive(primitive, 'radius', at, 1.0)), None
         if primitive.tag == 'ellipsoid':
             radii = self.vector(primitive, 'radii', at, 3)
             if min(radii) <= 0.0:
@@ -706,6 +752,14 @@ class _Reader:
             return None, None
         raise self.error(at, f'unsupported geometry <{primitive.tag}>; use one of {kinds} '
                          '(replace a heightmap with a mesh)')
+
+    @staticmethod
+    def unsupported_geometry(collision: ElementTree.Element) -> str:
+        """Return '<heightmap>' (or another shape not simulated) for such a collision, or ''."""
+        geometry = collision.find('geometry')
+        if geometry is not None and len(geometry) and geometry[0].tag in UNSIMULATED_GEOMETRY:
+            return f'<{geometry[0].tag}>'
+        return ''
 
     def plane(self, element: ElementTree.Element, where: str) -> tuple[float, float]:
         normal = self.vector(element, 'normal', where, 3) \
@@ -762,7 +816,6 @@ class _Reader:
             block_where = f'{where}/<{blocks[0].tag}>'
             values.update(self.horizontal(blocks[0].find('scan/horizontal'),
                                           f'{block_where}/<scan>/<horizontal>'))
-            self.check_planar(blocks[0].find('scan/vertical'), f'{block_where}/<scan>/<vertical>')
             values.update(self.lidar_range(blocks[0].find('range'), f'{block_where}/<range>'))
             values.update(self.noise(blocks[0].find('noise'), f'{block_where}/<noise>'))
         values.update(self.children(sensor, where, {'update_rate': 'update_rate'}))
@@ -791,12 +844,12 @@ class _Reader:
             raise self.error(f'{where}/<min_angle>', 'must not be above <max_angle>')
         return values
 
-    def check_planar(self, element: ElementTree.Element | None, where: str) -> None:
-        if element is not None and element.find('samples') is not None:
-            layers = self.integer(element, 'samples', where)
-            if layers != 1:
-                raise self.error(f'{where}/<samples>', 'only planar lidars (1 vertical sample) '
-                                 f'are supported, got {layers}')
+    @staticmethod
+    def layers(sensor: ElementTree.Element) -> int:
+        """Return a lidar sensor's vertical samples: 1 for a planar lidar."""
+        text = (sensor.findtext('lidar/scan/vertical/samples')
+                or sensor.findtext('ray/scan/vertical/samples') or '1').strip()
+        return int(text) if text.isdigit() else 1
 
     def lidar_range(self, element: ElementTree.Element | None, where: str) -> dict:
         if element is None:
@@ -836,118 +889,6 @@ class _Reader:
             if text:
                 return text
         return link_name or sensor.get('name') or LidarConfig().frame_id
-
-    # The diff drive ------------------------------------------------------------------------
-
-    def drive_reader(self, plugin: ElementTree.Element, where: str, kind: str
-                     ) -> Callable[[str, str], DiffDriveConfig]:
-        """Return a function of (model name, canonical link) giving the plugin's config."""
-        if kind == 'sim':
-            return self.sim_drive(plugin, where)
-        return self.classic_drive(plugin, where)
-
-    def optional(self, plugin: ElementTree.Element, tag: str, where: str) -> float | None:
-        return self.number(plugin, tag, where) if plugin.find(tag) is not None else None
-
-    def limit(self, plugin: ElementTree.Element, where: str, tags: tuple[str, ...],
-              default: float) -> float:
-        """Return the magnitude of the last given of ``tags`` (Gazebo lets later ones win)."""
-        value = default
-        for tag in tags:
-            given = self.optional(plugin, tag, where)
-            if given is not None:
-                if given == 0.0:
-                    raise self.error(f'{where}/<{tag}>', 'must not be 0')
-                value = abs(given)
-        return value
-
-    def sim_drive(self, plugin: ElementTree.Element, where: str
-                  ) -> Callable[[str, str], DiffDriveConfig]:
-        # gz-sim's DiffDrive: the general <max_velocity>/<max_acceleration> set both the
-        # linear and the angular limiter, the specific elements override them; a <min_*> only
-        # given stands for the limit the other way (DriveLimits is symmetric).
-        def speed(which: str) -> float:
-            return self.limit(plugin, where, ('min_velocity', 'max_velocity',
-                                              f'min_{which}_velocity', f'max_{which}_velocity'),
-                              NO_SPEED_LIMIT)
-
-        def accel(which: str) -> float:
-            return self.limit(plugin, where, ('min_acceleration', 'max_acceleration',
-                                              f'min_{which}_acceleration',
-                                              f'max_{which}_acceleration'), math.inf)
-
-        limits = self.drive_limits(where, max_linear_speed=speed('linear'),
-                                   max_angular_speed=speed('angular'),
-                                   max_linear_accel=accel('linear'),
-                                   max_angular_accel=accel('angular'))
-        separation = self.optional_positive(plugin, 'wheel_separation', where)
-        radius = self.optional_positive(plugin, 'wheel_radius', where)
-        rate = self.optional_positive(plugin, 'odom_publish_frequency', where)
-        text = {tag: (plugin.findtext(tag) or '').strip()
-                for tag in ('topic', 'odom_topic', 'frame_id', 'child_frame_id')}
-
-        def config(model: str, link: str) -> DiffDriveConfig:
-            return DiffDriveConfig(
-                wheel_separation=separation, wheel_radius=radius, limits=limits,
-                command_topic=text['topic'] or f'/model/{model}/cmd_vel',
-                odometry_topic=text['odom_topic'] or f'/model/{model}/odometry',
-                odometry_frame=text['frame_id'] or f'{model}/odom',
-                base_frame=text['child_frame_id'] or f'{model}/{link}',
-                odometry_rate=rate or SIM_ODOMETRY_RATE, publish_tf=True)
-        return config
-
-    def classic_drive(self, plugin: ElementTree.Element, where: str
-                      ) -> Callable[[str, str], DiffDriveConfig]:
-        # gazebo_ros_diff_drive: <max_wheel_acceleration> (m/s² at the wheel's rim, 0 = none)
-        # bounds each wheel; the body's linear acceleration is that, its angular one twice that
-        # over the wheel separation. It has no velocity limit.
-        separation = self.optional_positive(plugin, 'wheel_separation', where)
-        diameter = self.optional_positive(plugin, 'wheel_diameter', where)
-        wheel_accel = self.optional(plugin, 'max_wheel_acceleration', where) or 0.0
-        if wheel_accel < 0.0:
-            raise self.error(f'{where}/<max_wheel_acceleration>', 'must not be negative')
-        linear = wheel_accel if wheel_accel > 0.0 else math.inf
-        angular = 2.0 * linear / (separation or CLASSIC_WHEEL_SEPARATION)
-        limits = self.drive_limits(where, max_linear_speed=NO_SPEED_LIMIT,
-                                   max_angular_speed=NO_SPEED_LIMIT, max_linear_accel=linear,
-                                   max_angular_accel=angular)
-        rate = self.optional(plugin, 'update_rate', where)
-        namespace = (plugin.findtext('ros/namespace') or '').strip()
-        remaps = {}
-        for remapping in plugin.findall('ros/remapping'):
-            source, _, target = (remapping.text or '').strip().partition(':=')
-            remaps[source.strip().lstrip('~').lstrip('/')] = target.strip()
-
-        def topic(name: str, legacy: str) -> str:
-            # The ROS 2 plugin subscribes to 'cmd_vel' and publishes 'odom' under its node's
-            # namespace, renamed by <ros><remapping>; <command_topic>/<odometry_topic> are
-            # the ROS 1 plugin's names, honoured when no remapping is given.
-            chosen = remaps.get(name) or (plugin.findtext(legacy) or '').strip() or name
-            if namespace and not chosen.startswith('/'):
-                chosen = f"{namespace.rstrip('/')}/{chosen}"
-            return chosen
-
-        config = DiffDriveConfig(
-            wheel_separation=separation,
-            wheel_radius=0.5 * diameter if diameter is not None else None, limits=limits,
-            command_topic=topic('cmd_vel', 'command_topic'),
-            odometry_topic=topic('odom', 'odometry_topic'),
-            odometry_frame=(plugin.findtext('odometry_frame') or '').strip() or 'odom',
-            base_frame=(plugin.findtext('robot_base_frame') or '').strip() or 'base_footprint',
-            odometry_rate=rate if rate and rate > 0.0 else CLASSIC_UPDATE_RATE,
-            publish_tf=self.boolean(plugin.find('publish_odom_tf'),
-                                    f'{where}/<publish_odom_tf>', default=False))
-        return lambda _model, _link: config
-
-    def drive_limits(self, where: str, **values: float) -> DriveLimits:
-        try:
-            return DriveLimits(**values)
-        except ValueError as error:
-            raise self.error(where, str(error)) from None
-
-    def optional_positive(self, parent: ElementTree.Element, tag: str,
-                          where: str) -> float | None:
-        return self.positive(parent, tag, where) if parent.find(tag) is not None else None
 
     # Values --------------------------------------------------------------------------------
 
@@ -989,8 +930,12 @@ class _Reader:
             raise self.error(f'{where}/<{tag}>', f'must be a positive integer, got {text!r}')
         return int(text)
 
-    def positive(self, parent: ElementTree.Element, tag: str, where: str) -> float:
+    def positive(self, parent: ElementTree.Element, tag: str, where: str,
+                 default: float | None = None) -> float:
+        """Return a positive number; ``default`` (SDF's) when the element is missing."""
         if parent.find(tag) is None:
+            if default is not None:
+                return default
             raise self.error(f'{where}/<{tag}>', 'is missing')
         value = self.number(parent, tag, where)
         if value <= 0.0:

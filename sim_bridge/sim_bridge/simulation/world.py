@@ -96,7 +96,8 @@ from sim_bridge.simulation import world_file
 from sim_bridge.simulation.floor_slice import FloorSlice
 from sim_bridge.simulation.geometry import Footprint, Shape, triangulate, wrap_angle
 from sim_bridge.simulation.sdf import (
-    describe_ignored, Ignored, is_sdf_text, load_model, Model, parse_world, place, SdfError)
+    describe_ignored, Ignored, is_sdf_text, load_model, Model, MODEL_FILE_SUFFIXES, parse_world,
+    place, SdfError)
 from sim_bridge.simulation.world_file import (  # noqa: F401 - the world file's names
     DEFAULT_ROBOT_MODEL, MAX_COORDINATE_M, MAX_SIZE_M, OBSTACLE_TYPES, validate_world_file,
     WorldError)
@@ -259,7 +260,7 @@ class World:
                 max(map(abs, pose[:2])) > MAX_COORDINATE_M:  # lab-sized, as in a world file
             raise WorldError(self._label(), 'robot', 'pose', 'must be finite, x and y within '
                              f'±{MAX_COORDINATE_M:g} m of the origin, got {pose}')
-        _check_robot_clear(self._label(), pose, self.floor_slice)
+        _check_robot_clear(self._label(), pose, self.floor_slice, self.robot.name)
         return replace(self, robot_start=pose)
 
     def with_robot(self, model: str | os.PathLike,
@@ -327,14 +328,14 @@ def _floor_slice(label: str, robot: Model, obstacles: tuple[Obstacle, ...]) -> F
 
 
 def _check_robot_clear(label: str, pose: tuple[float, float, float],
-                       floor_slice: FloorSlice) -> None:
-    """Fail unless the robot's outline at ``pose`` is clear of the obstacles in its band."""
+                       floor_slice: FloorSlice, robot_name: str) -> None:
+    """Fail unless robot ``robot_name``'s outline at ``pose`` is clear of the obstacles."""
     _, index, clear = floor_slice.probe(pose)
     if not clear:
         outline = (f'radius {floor_slice.robot_radius:g} m' if floor_slice.round
                    else f'outline reaching {floor_slice.robot_radius:g} m from its origin')
         raise WorldError(label, 'robot', 'pose',
-                         f'the robot ({outline}) at ({pose[0]:g}, {pose[1]:g}) '
+                         f"the robot '{robot_name}' ({outline}) at ({pose[0]:g}, {pose[1]:g}) "
                          f"overlaps obstacle '{floor_slice.owners[index]}'")
 
 
@@ -369,7 +370,7 @@ class _Parser:
             raise self.fail(None, 'target', f"names no obstacle ('{spec.target}'); obstacles: "
                             f"{', '.join(names) or 'none'}")
         _check_robot_clear(self.label, robot_start,
-                           _floor_slice(self.label, robot, tuple(obstacles)))
+                           _floor_slice(self.label, robot, tuple(obstacles)), robot.name)
         bounds = spec.bounds
         if bounds is None:
             bounds = _default_bounds(obstacles, robot_start, robot.radius)
@@ -407,7 +408,7 @@ class _Parser:
             raise self.fail(where, 'model', f'must be a model name, got {with_type(name)}')
         try:
             given = Path(name)
-            found = given if given.parent != Path('.') or given.suffix == '.sdf' \
+            found = given if given.parent != Path('.') or given.suffix in MODEL_FILE_SUFFIXES \
                 else paths.find_model(name, folder)
             model = load_model(found, lidar=lidar, world_folder=folder)
         except FileNotFoundError as error:
@@ -536,7 +537,7 @@ def _sdf_world(path: Path, text: str, label: str, robot_given: bool,
     obstacles = []
     ignored = list(sdf.ignored)
     for placed in sdf.models:
-        if placed is robot:
+        if robot is not None and placed.name == robot.name:
             continue
         ignored += placed.model.not_simulated
         shapes = tuple(place(shape, placed.pose) for shape in placed.model.shapes)
@@ -548,21 +549,20 @@ def _sdf_world(path: Path, text: str, label: str, robot_given: bool,
         if not placed.static:
             ignored.append(('model held fixed', placed.name))
     floor = next((plane.size for plane in sdf.planes), None)
-    if robot is not None:
-        start = (robot.pose[0], robot.pose[1], wrap_angle(robot.pose[5]))
-        radius = robot.model.radius
-    else:  # with_robot puts the robot given in
-        start = (0.0, 0.0, 0.0)
-        radius = 0.0
+    start, radius = ((0.0, 0.0, 0.0), 0.0) if robot is None else (  # None: with_robot's
+        (robot.pose[0], robot.pose[1], wrap_angle(robot.pose[5])), robot.model.radius)
     name = sdf.name if sdf.name != 'default' else path.stem
-    return World(name=name, path=path, obstacles=tuple(obstacles), robot_start=start,
-                 robot_model=robot.name if robot is not None else '',
-                 robot=robot.model if robot is not None else Model('none', path, ()),
-                 target=None, bounds=_default_bounds(obstacles, start, radius),
-                 floor_size=floor, sources=sdf.sources, physics_step_s=sdf.physics_step_s,
-                 ignored=_ignored_line(tuple(ignored) + (robot.model.not_simulated if robot
-                                                         else ())),
-                 world_ignored=tuple(ignored))
+    world = World(name=name, path=path, obstacles=tuple(obstacles), robot_start=start,
+                  robot_model=robot.name if robot is not None else '',
+                  robot=robot.model if robot is not None else Model('none', path, ()),
+                  target=None, bounds=_default_bounds(obstacles, start, radius),
+                  floor_size=floor, sources=sdf.sources, physics_step_s=sdf.physics_step_s,
+                  ignored=_ignored_line(tuple(ignored) + (robot.model.not_simulated if robot
+                                                          else ())),
+                  world_ignored=tuple(ignored))
+    if robot is not None:
+        _check_robot_clear(label, start, world.floor_slice, robot.name)
+    return world
 
 
 def _without_file(message: str, path: Path) -> str:
