@@ -48,7 +48,8 @@ except ImportError:  # tf2_ros is part of a ROS 2 installation, not of the PyPI 
     StaticTransformBroadcaster = TransformBroadcaster = None
 
 from sim_bridge.simulation.robot import DiffDriveConfig, DriveLimits, pose_from
-from sim_bridge.simulation.sdf import LidarConfig, relative_pose
+from sim_bridge.simulation.sdf_frames import relative_pose
+from sim_bridge.simulation.sdf_lidar import LidarConfig
 from sim_bridge.simulation.simulator import Simulator
 from sim_bridge.simulation.world import World
 
