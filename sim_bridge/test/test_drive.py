@@ -123,13 +123,13 @@ def test_a_stepped_run_drives_to_the_cube_turns_and_stops_the_same_every_time(tm
     assert metrics['distance_m'] == pytest.approx(CUBE_FACE_X - 0.4, abs=0.05)
 
 
-def test_a_process_run_is_driven_too(tmp_path):
+def test_a_multithreaded_node_is_driven_too(tmp_path):
     result = run_simulation('obstacles', [str(FIXTURES / 'threaded_counting_logger.py')],
                             duration_s=3.0, out_dir=tmp_path, quiet=True, plot=False,
                             drive=[{'duration': 1.0, 'linear': 0.3}])
-    assert result.metrics['run_mode']['mode'] == 'process'
+    assert 'MultiThreadedExecutor' in result.metrics['run_mode']['notes'][0]
     sent = commands(tmp_path / 'run')
     assert sent[0][1:] == (0.3, 0.0) and sent[-1][1:] == (0.0, 0.0)
     assert sent[-1][0] == pytest.approx(1.0, abs=0.2)
-    # 1 s at 0.3 m/s; live, the command's start and end are each a physics step or so late.
+    # 1 s at 0.3 m/s.
     assert result.metrics['distance_m'] == pytest.approx(0.3, abs=0.05)

@@ -5,15 +5,13 @@ import os
 from pathlib import Path
 import re
 import sys
-import threading
-import time
 
 from rcl_interfaces.msg import Log
 from rclpy.serialization import deserialize_message
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import get_typestore, Stores
 from sim_bridge.runner.node_output import (
-    console_pattern, log_entry, LOG_FILE, NodeLog, OutputCapture, terminal_colours, to_terminal)
+    console_pattern, log_entry, LOG_FILE, NodeLog, StreamLines, terminal_colours)
 from sim_bridge.runner.run import run_simulation
 
 FIXTURES = Path(__file__).parent / 'fixtures'
@@ -67,27 +65,16 @@ def test_a_flood_of_lines_is_capped(monkeypatch):
     assert '2 more were not kept' in log.warning()
 
 
-def test_a_capture_stamps_each_line_at_the_sync_that_saw_its_first_byte(capfd, monkeypatch):
-    # The reader copies the rest of the node's line late, as on a busy machine: the runner's
-    # line, written after the sync that saw it, still comes after it on the terminal.
-    copy = OutputCapture._copy
-
-    def late_copy(fd: int, data: bytes) -> None:
-        if b'and the rest' in data:
-            time.sleep(0.2)
-        copy(fd, data)
-    monkeypatch.setattr(OutputCapture, '_copy', staticmethod(late_copy))
-    log, now = NodeLog(record=False), [0]
-    with OutputCapture(log, lambda: now[0]) as capture:
-        print('whole line', end='\n')
-        os.write(2, b'[WARN] [1.000000000] [ticker]: half ')
-        capture.sync('ticker')
-        now[0] = 2_000_000_000
-        os.write(2, b'and the rest\n')
-        print('bridge line')
-        capture.sync('sim_bridge', keep=False)
-        to_terminal('runner line\n')
-        print('no newline at the end', end='')
+def test_stream_lines_stamp_each_line_at_the_cut_that_saw_its_first_byte(capfd):
+    log = NodeLog(record=False)
+    lines = StreamLines(log)
+    lines.take('STDOUT', b'whole line\n')
+    lines.take('STDERR', b'[WARN] [1.000000000] [ticker]: half ')
+    lines.cut(0, 'ticker')
+    lines.take('STDERR', b'and the rest\n')
+    lines.take('STDOUT', b'no newline at the end')
+    lines.cut(2_000_000_000, '')
+    lines.close(3_000_000_000)
     assert log.entries == [
         {'t': 0.0, 'node': 'ticker', 'level': 'STDOUT', 'text': 'whole line',
          'line': 'whole line'},
@@ -96,32 +83,20 @@ def test_a_capture_stamps_each_line_at_the_sync_that_saw_its_first_byte(capfd, m
         {'t': 2.0, 'node': '', 'level': 'STDOUT', 'text': 'no newline at the end',
          'line': 'no newline at the end'}]
     out, err = capfd.readouterr()
-    assert out == 'whole line\nbridge line\nno newline at the end'
-    assert err == '[WARN] [1.000000000] [ticker]: half and the rest\nrunner line\n'
-    assert sys.stdout is not None and os.write(1, b'') == 0  # given back
+    assert out == 'whole line\nno newline at the end\n'
+    assert err == '[WARN] [1.000000000] [ticker]: half and the rest\n'
 
 
-def test_a_thread_writing_without_pause_does_not_hold_a_sync(monkeypatch):
-    # A sync waits for what was written before it, not for the pipe to be empty.
-    monkeypatch.setattr('sim_bridge.runner.node_output.SYNC_TIMEOUT_S', 3600.0)
-    log, stop, synced = NodeLog(record=False), threading.Event(), threading.Event()
-
-    def flood():
-        while not stop.is_set():
-            os.write(1, b'flood\n' * 20000)
-
-    with OutputCapture(log, lambda: 0, quiet=True) as capture:
-        writer = threading.Thread(target=flood)
-        writer.start()
-        try:
-            syncer = threading.Thread(target=lambda: (capture.sync(), capture.sync(),
-                                                      synced.set()))
-            syncer.start()
-            assert synced.wait(timeout=30.0)
-        finally:
-            stop.set()
-            writer.join()
-    assert log.entries and {entry['text'] for entry in log.entries} == {'flood'}
+def test_stream_lines_keep_up_to_their_cap_and_show_the_rest_after_it(capfd):
+    log = NodeLog(record=False)
+    lines = StreamLines(log, quiet=True, cap_bytes=10)
+    lines.take('STDOUT', b'kept\n')
+    lines.take('STDOUT', b'shown, not kept\n')
+    lines.close(0)
+    assert [entry['text'] for entry in log.entries] == ['kept', 'shown']
+    assert lines.warning() == ('the nodes wrote 21 bytes of output; the first 10 were kept, '
+                               '11 were not')
+    assert capfd.readouterr().out == 'kept\nshown, not kept\n'
 
 
 def test_a_stepped_run_keeps_log_and_print_lines_at_the_sim_time_of_their_callback(
@@ -209,25 +184,3 @@ def test_a_quiet_run_keeps_the_lines_and_shows_only_the_printed_ones(tmp_path, c
     out, err = capfd.readouterr()
     assert out == 'counting_logger started\nprinted count 1\nprinted count 2\n'
     assert 'Count' not in err
-
-
-def test_a_process_run_keeps_each_line_at_the_live_sim_time(tmp_path):
-    # Counts 1 to 3 are checked: a node slowed by a busy machine still writes them in 6 s.
-    result = run_simulation('wall_follow_box', [str(FIXTURES / 'threaded_counting_logger.py')],
-                            duration_s=6.0, out_dir=tmp_path, plot=False)
-    assert result.metrics['run_mode']['mode'] == 'process'
-    log = read_log(tmp_path)
-    assert all(list(entry) == KEYS for entry in log)
-    for level, node, text in (('INFO', 'threaded_counter', 'Count: {}'),
-                              ('STDOUT', '', 'printed count {}'),
-                              ('STDERR', '', 'stderr count {}')):
-        lines = [entry for entry in log if entry['level'] == level][:3]
-        assert [(entry['node'], entry['text']) for entry in lines] == [
-            (node, text.format(count)) for count in (1, 2, 3)]
-        # Stamped as they arrive from the process: never before the node's timer fell due,
-        # in order, and within the run (later under load: the node's clock lags ours then).
-        times = [entry['t'] for entry in lines]
-        assert times == sorted(times) and times[-1] <= 6.0 + 10.0
-        assert all(t >= count - 0.01 for count, t in enumerate(times, start=1))
-    with Reader(tmp_path / 'run') as bag:
-        assert sum(c.msgcount for c in bag.connections if c.topic == '/rosout') == len(log)

@@ -505,13 +505,15 @@ def test_an_error_in_the_standard_library_is_reported_at_the_students_line(tmp_p
         "node 'near_average' raised StatisticsError: mean requires at least one data point at "
         f"{node_file}:20: self.get_logger().info(f'mean near reading: "
         "{statistics.mean(near):.2f} m')")
-    # The traceback kept and printed is the student's part: their frames, then the error.
+    # The traceback kept and printed is the student's part: their frames (from the __main__
+    # block, as `python3 near_average.py` prints it), then the error.
     lines = error['traceback'].splitlines()
-    assert [lines[0], lines[1], lines[-1]] == [
+    frames = [line for line in lines if line.startswith('  File ')]
+    assert [lines[0], frames[-1], lines[-1]] == [
         'Traceback (most recent call last):', f'  File "{node_file}", line 20, in on_scan',
         'statistics.StatisticsError: mean requires at least one data point']
-    assert sum(line.startswith('  File ') for line in lines) == 1
-    assert error['traceback'] in stderr and 'rclpy' not in stderr.split('[near_average]')[-1]
+    assert [frame.split(', in ')[-1] for frame in frames] == ['<module>', 'main', 'on_scan']
+    assert error['traceback'] in stderr and '/rclpy/' not in stderr.split('[near_average]')[-1]
 
 
 def test_node_raising_in_its_constructor_fails_the_run(tmp_path, run_main):
@@ -537,20 +539,18 @@ def test_rclpy_spin_once_inside_a_callback_works_as_in_the_nodes_own_process(tmp
     assert load_metrics(tmp_path)['distance_m'] == pytest.approx(0.2 * 2.0, abs=0.05)
 
 
-def test_a_node_spinning_its_own_executor_in_a_callback_fails_the_run(tmp_path, run_main):
+def test_a_node_spinning_its_own_executor_in_a_callback_leaves_mains_spin_as_on_a_robot(
+        tmp_path, run_main):
     node_file = FIXTURES / 'spin_in_callback.py'
     status, _, _ = run_main('--world', 'obstacles', '--node', str(node_file), '--param',
                             'spinner:executor=own', '--duration', '2', '--no-record',
                             '--no-plot', '--out', str(tmp_path))
-    assert status == 1
+    assert status == 0
     metrics = load_metrics(tmp_path)
-    (error,) = metrics['node_errors']
-    assert error['error'].startswith(
-        "node 'spinner' was taken off the runner's executor in its timer callback at "
-        f'{node_file}:38: executor.add_node(self): it is no longer on the executor that spins '
-        "it (main's rclpy.spin)")
-    # The run ends at its first timer call (0.05 s), not quietly 2 s later.
-    assert metrics['sim_time_s'] < 0.2
+    assert metrics['node_errors'] == [] and metrics['sim_time_s'] == pytest.approx(2.0)
+    # Its own executor took it off main's rclpy.spin: its timer ran once, then never again.
+    lines = (tmp_path / 'log.jsonl').read_text()
+    assert 'timer call 1' in lines and 'timer call 2' not in lines
 
 
 def assert_warned(out_dir, stderr, warnings):
@@ -881,7 +881,7 @@ def test_a_target_that_fails_to_import_is_a_one_line_start_error(
     assert mentions.format(path=path) in error
     # Above it, the student's part of the traceback, as `python3 broken.py` shows it: their
     # file and line, not the runner's frames.
-    assert f'File "{path}", line ' in stderr and 'sim_bridge' not in stderr
+    assert f'File "{path}", line ' in stderr and 'sim_bridge/' not in stderr
 
 
 def test_a_node_file_of_null_bytes_is_a_one_line_start_error(tmp_path, run_main):

@@ -18,8 +18,6 @@ import re
 import resource
 import signal
 import sys
-import sysconfig
-import threading
 import time
 import traceback
 from typing import Any
@@ -27,7 +25,7 @@ from typing import Any
 from sim_bridge.common.errors import RunStopped
 from sim_bridge.grading.limits import Job
 from sim_bridge.grading.runs import run_scenario, RunReport
-from sim_bridge.runner.run import memory_limit
+from sim_bridge.runner.stepped_run import memory_limit
 from sim_bridge.runner.stepping import describe
 
 
@@ -239,9 +237,6 @@ def run_job(job: Job, status: multiprocessing.connection.Connection, scratch: Pa
     signal.signal(signal.SIGUSR1, signal.SIG_IGN)
     signal.signal(signal.SIGUSR2, signal.SIG_IGN)
     report.error = with_memory_limit(report.error)
-    if report.metrics is not None:
-        for warning in thread_warnings():
-            report.metrics.setdefault('warnings', []).append(warning)
     status.send(('result', report.as_dict()))
 
 
@@ -251,31 +246,3 @@ def with_memory_limit(error: str | None) -> str | None:
             or memory_limit() is None):
         return error
     return f'{error} (memory limit {memory_limit()} reached)'
-
-
-def thread_warnings() -> list[str]:
-    """
-    Name each thread a node left running (not a daemon), where it is, in one line each.
-
-    The run ends without waiting for them, as the process of a node would not.
-    """
-    frames = sys._current_frames()
-    warnings = []
-    for thread in threading.enumerate():
-        if thread is threading.main_thread() or thread.daemon or not thread.is_alive():
-            continue
-        stack = traceback.extract_stack(frames[thread.ident]) if thread.ident in frames else []
-        own = [frame for frame in stack if not is_standard_library(frame.filename)]
-        where = (f', in {own[-1].name} at {os.path.basename(own[-1].filename)}:'
-                 f'{own[-1].lineno}' if own else '')
-        warnings.append(f"node thread '{thread.name}'{where} was still running when the run "
-                        'ended; it was stopped (a node should join its threads, or make them '
-                        'daemons, before it returns)')
-    return warnings
-
-
-def is_standard_library(filename: str) -> bool:
-    """Tell whether a Python file is part of the standard library (not an installed package)."""
-    paths = sysconfig.get_paths()
-    return (filename.startswith(paths['stdlib'] + os.sep)
-            and not filename.startswith((paths['purelib'] + os.sep, paths['platlib'] + os.sep)))

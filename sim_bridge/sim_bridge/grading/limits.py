@@ -10,8 +10,6 @@ from pathlib import Path
 from typing import Any
 
 from sim_bridge.grading.scenario import ScenarioRun
-from sim_bridge.runner.process_run import NODE_START_TIMEOUT_S
-from sim_bridge.runner.targets import run_mode
 
 
 #: Wall seconds a run may take: BUDGET_BASE_S (start-up, writing outputs) plus this many per
@@ -19,11 +17,6 @@ from sim_bridge.runner.targets import run_mode
 #: callback).
 BUDGET_BASE_S = 60.0
 BUDGET_PER_SIM_S = 1.0
-#: A node file run as its own process (sim_bridge.runner.process_run) runs at real time, after its
-#: process has joined the ROS graph (up to NODE_START_TIMEOUT_S): its budget allows this many
-#: wall seconds per simulated second, for a loaded machine whose live simulator falls behind
-#: the wall clock.
-PROCESS_BUDGET_PER_SIM_S = 2.0
 #: Wall seconds without a simulated second passing before the run is stopped.
 DEFAULT_STALL_S = 30.0
 #: Wall seconds a child may take to start (rclpy, pybullet, the nodes' constructors) before
@@ -51,18 +44,10 @@ class Limits:
         """Return the wall seconds (s) a run may go without progress, before or once started."""
         return self.stall_s if started else max(self.stall_s, self.startup_s)
 
-    def budget_s(self, duration_s: float, process: bool = False) -> float:
-        """
-        Return the wall-clock budget (s) of a run of ``duration_s`` simulated seconds.
-
-        ``process``: the run's node file runs as its own process, at real time (see
-        PROCESS_BUDGET_PER_SIM_S); otherwise it is stepped, far faster than real time.
-        """
+    def budget_s(self, duration_s: float) -> float:
+        """Return the wall-clock budget (s) of a run of ``duration_s`` simulated seconds."""
         if self.timeout_s is not None:
             return self.timeout_s
-        if process:
-            return (BUDGET_BASE_S + NODE_START_TIMEOUT_S
-                    + PROCESS_BUDGET_PER_SIM_S * duration_s)
         return BUDGET_BASE_S + BUDGET_PER_SIM_S * duration_s
 
 
@@ -77,12 +62,5 @@ class Job:
 
     @property
     def budget_s(self) -> float:
-        """
-        Return the run's wall-clock budget (s): its limits' for its duration and run mode.
-
-        The mode is read from the node files' source, as the runner reads it
-        (sim_bridge.runner.targets.run_mode): a file that cannot be stepped runs at real time.
-        """
-        scenario = self.run.scenario
-        process = any(not run_mode(target).steppable for target in scenario.nodes)
-        return self.limits.budget_s(scenario.duration_s, process)
+        """Return the run's wall-clock budget (s): its limits' for its duration."""
+        return self.limits.budget_s(self.run.scenario.duration_s)

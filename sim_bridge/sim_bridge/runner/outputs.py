@@ -29,11 +29,6 @@ from sim_bridge.simulation.geometry import point_in_world
 from sim_bridge.simulation.world import World
 
 
-#: A process run stamps a line when it arrives; its node, on a busy machine behind the live
-#: simulator, may be printing about a scan it had queued this long (s) before.
-PROCESS_LINE_LATENESS_S = 0.5
-
-
 def close_outputs(warnings: list[str], log: NodeLog, teleop: 'Teleop | None',
                   recorder: 'RunRecorder | None', bag: BagRecorder | None) -> None:
     """Add the log's and the teleop's warnings to ``warnings``; write the lines to ``bag``."""
@@ -206,9 +201,7 @@ def write_outputs(out_dir: Path, observer: Observer, world_model: World,
         metrics = compute_metrics(observer.finish(), world_model, setpoint=setpoint,
                                   wall_time_s=time.perf_counter() - wall_start,
                                   node_errors=node_errors, log_lines=log_lines,
-                                  printed=printed, runner_nodes=(BRIDGE_NODE, TELEOP_NODE),
-                                  printed_lateness_s=PROCESS_LINE_LATENESS_S
-                                  if run_mode.get('mode') == 'process' else 0.0)
+                                  printed=printed, runner_nodes=(BRIDGE_NODE, TELEOP_NODE))
         metrics['warnings'] = [*metrics.get('warnings', []), *warnings]
         metrics['ended_by'] = ended_by
         metrics['ignored'] = world_model.ignored

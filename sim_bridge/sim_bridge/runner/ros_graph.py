@@ -6,10 +6,9 @@ node never declared, topics no node connects to.
 """
 
 import difflib
-import threading
 from typing import Any, Iterable, Protocol, Sequence
 
-from rclpy.parameter import Parameter, parameter_value_to_python
+from rclpy.parameter import Parameter
 from sim_bridge.ros.drive import DrivePlan, Segment
 from sim_bridge.runner.options import BRIDGE_NODE, EVERY_NODE, Params, RUNNER_BRIDGE_PARAMETERS
 from sim_bridge.simulation.world import World
@@ -23,14 +22,12 @@ ROS_TOPICS = ('/rosout', '/parameter_events', '/clock')
 TELEOP_NODE = 'teleop'
 TELEOP_RATE_HZ = 20.0
 NANOSECONDS_PER_SECOND = 10 ** 9
-#: Longest wait (wall s) for a node run as a process to list its parameters.
-PARAMETER_ANSWER_S = 2.0
 # The runner's own nodes serve nothing: the service is one more entity in every wait.
 NO_TYPE_DESCRIPTION_SERVICE = Parameter('start_type_description_service', value=False)
 
 
 class RunGraph(Protocol):
-    """What the runner's own nodes join: a stepped run, or a process run's :class:`LiveGraph`."""
+    """What the runner's own nodes join: the run's trusted side (a LockstepRun)."""
 
     bridge: Any
 
@@ -77,61 +74,6 @@ def parameter_warnings(params: Params, declared: dict[str, set[str] | None],
                 warnings.append(f"node '{node_name}' did not declare parameter '{name}' "
                                 '(given by --param or the params file); it was ignored')
     return warnings
-
-
-def call_service(client_node, service_type: type, service: str, request: Any,
-                 timeout_s: float) -> Any | None:
-    """
-    Call ``service`` from ``client_node`` (whose executor spins in another thread), bounded.
-
-    Return the response, or None when the service does not answer within ``timeout_s`` (wall
-    s) to wait for it, and as long again to answer.
-    """
-    client = client_node.create_client(service_type, service)
-    try:
-        if not client.wait_for_service(timeout_sec=timeout_s):
-            return None
-        answered = threading.Event()
-        future = client.call_async(request)
-        future.add_done_callback(lambda _: answered.set())
-        return future.result() if answered.wait(timeout_s) else None
-    finally:
-        client_node.destroy_client(client)
-
-
-def declared_parameters(client_node, nodes: Iterable[tuple[str, str]],
-                        timeout_s: float) -> dict[str, set[str] | None]:
-    """
-    Return the names of the parameters each of ``nodes`` declared, asked over ROS.
-
-    ``nodes`` are (name, namespace) of nodes in another process; each is asked with its own
-    ``list_parameters`` service (as ``ros2 param list`` asks it) from ``client_node``. A node
-    that does not answer within ``timeout_s`` (wall s; no parameter services, or a main() that
-    does not spin) is None.
-    """
-    from rcl_interfaces.srv import ListParameters
-    declared = {}
-    for name, namespace in nodes:
-        response = call_service(client_node, ListParameters,
-                                f"{namespace.rstrip('/')}/{name}/list_parameters",
-                                ListParameters.Request(), timeout_s)
-        declared[name] = None if response is None else set(response.result.names)
-    return declared
-
-
-def parameter_of(client_node, nodes: Iterable[tuple[str, str]], name: str,
-                 timeout_s: float) -> Any:
-    """Return the value of parameter ``name`` of the first of ``nodes`` that has it, or None."""
-    from rcl_interfaces.msg import ParameterType
-    from rcl_interfaces.srv import GetParameters
-    for node, namespace in nodes:
-        response = call_service(client_node, GetParameters,
-                                f"{namespace.rstrip('/')}/{node}/get_parameters",
-                                GetParameters.Request(names=[name]), timeout_s)
-        values = [] if response is None else response.values
-        if values and values[0].type != ParameterType.PARAMETER_NOT_SET:
-            return parameter_value_to_python(values[0])
-    return None
 
 
 def unconnected_topics(bridge, nodes: Iterable[tuple[str, str]]) -> list[str]:
@@ -210,17 +152,3 @@ class Teleop:
         if twist is not message:
             message.header.stamp = now.to_msg()
         self.publisher.publish(message)
-
-
-class LiveGraph:
-    """The runner's side of a process run: the live bridge and the runner's own nodes."""
-
-    def __init__(self, bridge, executor):
-        self.bridge = bridge
-        self.executor = executor
-
-    def node(self, name: str, sim_time: bool = False):
-        """Create one of the runner's own nodes in the bridge's context and executor."""
-        node = runner_node(name, self.bridge.context, sim_time)
-        self.executor.add_node(node)
-        return node

@@ -59,16 +59,13 @@ class SteppedExecutor(SingleThreadedExecutor):
     """
     The runner's executor; it notes the node code that takes a node off it or ends ROS.
 
-    So that :func:`spin_until_idle` reports a callback doing either at the node's line. With an
-    ``output`` (sim_bridge.runner.node_output.OutputCapture), what each callback writes is cut into
-    lines of its node (of no node between callbacks); the nodes in ``own_nodes`` are the
-    runner's, whose lines are shown but not kept.
+    So that :func:`spin_until_idle` reports a callback doing either at the node's line. The
+    nodes in ``own_nodes`` are the runner's.
     """
 
     def __init__(self, context: Context, code: StudentCode = StudentCode()):
         super().__init__(context=context)
         self.code = code
-        self.output = None
         self.own_nodes: set[Node] = set()
         #: Nodes taken off this executor, with the node's line that did it (' at file:line').
         self.removed: dict[Node, str] = {}
@@ -125,7 +122,6 @@ def spin_until_idle(executor: SteppedExecutor) -> int:
     callback that ends ROS (NodeEnded) or takes its node off the executor.
     """
     count = 0
-    output = executor.output
     while True:
         ran_before = count
         try:
@@ -133,16 +129,10 @@ def spin_until_idle(executor: SteppedExecutor) -> int:
                 task, entity, node = executor.wait_for_ready_callbacks(timeout_sec=0)
                 count += 1
                 place = callback_place(entity)
-                name = node.get_name()
-                if output is not None:
-                    output.sync()
                 try:
                     task()
                 except BaseException as error:  # noqa: B902 sys.exit() in a callback ends it
-                    raise NodeError(name, error, place, executor.code) from error
-                finally:
-                    if output is not None:
-                        output.sync(name, keep=node not in executor.own_nodes)
+                    raise NodeError(node.get_name(), error, place, executor.code) from error
                 if task.exception() is not None:
                     raise NodeError(node.get_name(), task.exception(), place,
                                     executor.code) from task.exception()

@@ -28,7 +28,7 @@ from types import FrameType, ModuleType
 from typing import Iterable
 import unicodedata
 
-from sim_bridge.runner.node_styles import decide, Decision, node_class
+from sim_bridge.runner.node_styles import node_class
 
 #: Frames under these folders are never a node's own code: this package (the runner), and
 #: Python's library and installed packages (a node calling random.choice([]) raised the
@@ -252,23 +252,6 @@ def node_command(target: str, arguments: Iterable[str] = ()) -> str:
             package = package.replace('-', '_')
         start = f'ros2 run {package} {where}' if package else f'python3 -m {where}'
     return ' '.join([start, *arguments])
-
-
-def run_mode(target: str) -> Decision:
-    """
-    Return whether TARGET's file allows stepping (sim_bridge.runner.node_styles), with the reason.
-
-    A TARGET naming its class (``FILE:ClassName``) asks for that class to be stepped; a TARGET
-    whose file cannot be read is left to the loader, which says why.
-    """
-    where, class_name = split_target(target)
-    path = module_file(where)
-    if class_name is not None:
-        return Decision(True, f'the target names its class {class_name}')
-    try:
-        return decide(Path(path).read_text(encoding='utf-8'))
-    except (OSError, TypeError, UnicodeDecodeError):
-        return Decision(True, 'the loader reads the file')
 
 
 def module_source(module: ModuleType) -> str:

@@ -1,0 +1,551 @@
+"""
+Run a student's node file in its own process, in lockstep with the run's trusted simulator.
+
+``python -m sim_bridge.runner.agent --in FD --out FD -- TARGET [--ros-args ...]`` runs TARGET's
+``main()`` as ``ros2 run`` would (its ``__main__`` block, its console script, or a Node
+subclass spun by rclpy), with the command line its process would get. It imports rclpy, the
+standard library, the frame codec and the student's code: never the simulator, the scenario or
+the grader.
+
+Wherever the student's code would block, control comes here instead (patched in this process
+only): an executor's wait with nothing ready, ``time.sleep``, ``Rate.sleep``;
+MultiThreadedExecutor runs single-threaded. The blocking point says ``idle`` to the trusted side
+over the ``--out`` pipe, with the messages the nodes published since the last exchange (raw CDR,
+taken by a proxy node's raw subscriptions) and the next ROS time it must wake at (its nodes'
+first timer, a sleep's end, a wait's timeout), then reads ``advance``: the new sim time and the
+messages published on the trusted side (/clock, /scan, ...), which the proxy publishes here, in
+this process, where they are delivered before ``publish`` returns. A sleep of s lasts s of
+simulated time, as on Gazebo at real-time factor 1. Around each callback the agent writes a
+``sync`` frame naming the callback's node: the trusted side cuts the nodes' output (this
+process's stdout and stderr, pipes it reads) at those points. ROS discovery is off: the nodes
+hear only this process.
+"""
+
+import argparse
+import ctypes
+import faulthandler
+from importlib import import_module
+from importlib.metadata import entry_points
+import os
+from pathlib import Path
+import signal
+import sys
+import threading
+import time
+import traceback
+from types import ModuleType
+from typing import Any, Callable
+
+from sim_bridge.runner.frames import encode, FrameDecoder, Message, TRUSTED_KINDS, type_name
+
+#: ROS's own topics of every node: not forwarded (the run records the nodes' lines itself).
+OWN_TOPICS = ('/rosout', '/parameter_events')
+#: Longest traceback text (characters) sent with a node's error.
+MAX_TRACEBACK_CHARS = 32_000
+#: Messages the proxy keeps per topic between two exchanges.
+PROXY_DEPTH = 1000
+NANOSECONDS_PER_SECOND = 10 ** 9
+#: What a run says of a MultiThreadedExecutor, which the agent runs in lockstep.
+MULTITHREADED_NOTE = ('its MultiThreadedExecutor ran its callbacks one at a time, in lockstep '
+                      "with the simulator (their order is the executor's, every time)")
+
+
+def message_class(name: str) -> type:
+    """Return the message class of a ROS type name (``package/msg/Type``)."""
+    package, _, kind = name.split('/')
+    return getattr(import_module(f'{package}.msg'), kind)
+
+
+class Link:
+    """The agent's end of the pipes: frames out on ``out_fd``, in on ``in_fd``."""
+
+    def __init__(self, in_fd: int, out_fd: int):
+        self.in_fd = in_fd
+        self.out_fd = out_fd
+        self.decoder = FrameDecoder(TRUSTED_KINDS)
+        self.frames = []
+        self.libc = ctypes.CDLL(None)
+
+    def send(self, kind: str, messages=(), **fields: Any) -> None:
+        """Write one frame, after what the nodes printed so far (flushed first)."""
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                stream.flush()
+            except (OSError, ValueError, AttributeError):  # closed or replaced by a node
+                pass
+        self.libc.fflush(None)  # C's stdio: rcutils' logger, a library's printf
+        data = encode(kind, messages, **fields)
+        while data:
+            data = data[os.write(self.out_fd, data):]
+
+    def receive(self):
+        """Return the next frame from the trusted side; end this process when it is gone."""
+        while not self.frames:
+            data = os.read(self.in_fd, 2 ** 20)
+            if not data:
+                os._exit(0)  # the trusted side ended the run
+            self.frames += self.decoder.feed(data)
+        return self.frames.pop(0)
+
+
+class Lockstep:
+    """
+    The agent's state: sim time, the proxy node, the student's nodes, the frames to send.
+
+    One thread (the main thread, where ``main()`` runs) exchanges with the trusted side; other
+    threads' sleeps wait for sim time to pass.
+    """
+
+    def __init__(self, link: Link):
+        self.link = link
+        self.now_ns = 0
+        self.nodes = []
+        self.proxy = None
+        self.publishers: dict[str, Any] = {}
+        self.taps: dict[str, Any] = {}
+        self.graph = None
+        self.shape = None
+        #: What the trusted side should say of how the nodes ran, and what it was told.
+        self.notes: list[str] = []
+        self.notes_sent: list[str] = []
+        self.running: tuple[str, str] | None = None
+        self.failed_in: tuple[str, str] | None = None
+        self.shutdown_where = ''
+        self.shutdown_in: tuple[str, str] | None = None
+        self.time_passed = threading.Condition()
+        #: Writes of the nodes' streams and loggers since the last sync, the last one's stream.
+        self.printed = 0
+        self.last_stream = ''
+
+    def sync(self, node: str) -> None:
+        """
+        Say that what the nodes printed since the last sync was printed by ``node``'s code.
+
+        ('' for none: the process's one node if it has one.) Only when they printed: Python's
+        streams and rclpy's loggers count what they write (a C library's printf is cut at the
+        next sync, the time still right). The trusted side answers once it has cut the bytes
+        written before the sync, so no byte written after it is cut with them.
+        """
+        if self.printed:
+            self.printed = 0
+            self.link.send('sync', node=node or self.only_node())
+            if self.link.receive().kind != 'ack':  # the bytes before it are cut: go on
+                self.stop()
+
+    def only_node(self) -> str:
+        """Return the name of the process's one node, whose program main() is; else ''."""
+        if len(self.nodes) != 1:
+            return ''
+        try:
+            return self.nodes[0].get_name()
+        except Exception:  # noqa: B902 a destroyed node
+            return ''
+
+    def note_write(self, stream: str) -> None:
+        """
+        Count a write to ``stream`` ('STDOUT', 'STDERR'): a sync first when it changes.
+
+        So that the trusted side, which reads the two pipes as their bytes come, keeps the
+        lines in the order they were written.
+        """
+        if self.printed and stream != self.last_stream:
+            self.sync(self.running[0] if self.running else '')
+        self.last_stream = stream
+        self.printed += 1
+
+    def exchange(self, wake_ns: int | None, context=None) -> None:
+        """Report idle (next wake ``wake_ns``), take the trusted side's step, deliver it."""
+        self._start_proxy(context)
+        graph = self._graph()
+        fields = {'wake_ns': wake_ns, 'node': self.only_node() if self.printed else ''}
+        self.printed = 0
+        if graph != self.graph:
+            self.graph = fields['graph'] = graph
+        if self.notes != self.notes_sent:
+            self.notes_sent = fields['notes'] = list(self.notes)
+        self.link.send('idle', self._taken(), **fields)
+        frame = self.link.receive()
+        if frame.kind == 'stop':
+            self.stop()
+        with self.time_passed:
+            self.now_ns = max(self.now_ns, frame.integer('t_ns'))
+            self.time_passed.notify_all()
+        for message in frame.messages:
+            publisher = self._publisher(message)
+            if publisher is not None:
+                publisher.publish(message.data)
+
+    def stop(self) -> None:
+        """End this process at the run's end, naming the threads the nodes left running."""
+        self.link.send('ended', status='stopped', warnings=thread_warnings()[:20])
+        os._exit(0)
+
+    def report_stuck(self, signum: int, frame) -> None:
+        """Say where the nodes' code is (a signal from the trusted side: it waited too long)."""
+        node, place = self.running or ('', 'its main()')
+        where = self.code.stack_origin(traceback.extract_stack(frame))
+        self.link.send('stuck', node=node, place=place, where=where[:1000])
+
+    def sleep_until(self, deadline_ns: int, context=None) -> None:
+        """Exchange until sim time reaches ``deadline_ns`` (ns); other threads just wait."""
+        if threading.current_thread() is not threading.main_thread():
+            with self.time_passed:
+                self.time_passed.wait_for(lambda: self.now_ns >= deadline_ns)
+            return
+        self.exchange(deadline_ns, context)
+        while self.now_ns < deadline_ns:
+            self.exchange(deadline_ns, context)
+
+    def _start_proxy(self, context) -> None:
+        import rclpy
+        if self.proxy is not None:
+            return
+        context = context or rclpy.utilities.get_default_context()
+        if not context.ok():
+            return
+        from rclpy.node import Node
+        self.proxy = Node.__new__(Node)
+        self.proxy._lab_proxy = True
+        Node.__init__(self.proxy, '_lab_agent_proxy', context=context,
+                      use_global_arguments=False, start_parameter_services=False,
+                      enable_rosout=False)
+
+    def _graph(self) -> list:
+        """Return what the student's nodes are: names, topics, types, parameters."""
+        shape = [(id(node), *(len(getattr(node, name, ())) for name in (
+            '_publishers', '_subscriptions', '_parameters'))) for node in self.nodes]
+        if shape == self.shape:  # the same nodes with as many entities: the same graph
+            return self.graph
+        self.shape = shape
+        graph = []
+        for node in self.nodes:
+            try:
+                graph.append({
+                    'name': node.get_name(), 'namespace': node.get_namespace(),
+                    'publishes': sorted({(p.topic_name, type_name(p.msg_type))
+                                         for p in node.publishers}),
+                    'subscribes': sorted({(s.topic_name, type_name(s.msg_type))
+                                          for s in node.subscriptions}),
+                    'parameters': sorted(node._parameters),
+                    'values': {name: parameter.value for name, parameter
+                               in node._parameters.items()
+                               if type(parameter.value) in (int, float)}})
+            except Exception:  # noqa: B902 a destroyed node
+                continue
+        return [{**entry, 'publishes': [list(t) for t in entry['publishes']],
+                 'subscribes': [list(t) for t in entry['subscribes']]} for entry in graph]
+
+    def _taken(self) -> list[Message]:
+        """Return the messages the nodes published since the last exchange, in order."""
+        if self.proxy is None:
+            return []
+        from rclpy.qos import QoSProfile, ReliabilityPolicy
+        for entry in self.graph or ():
+            for topic, name in entry['publishes']:
+                if topic not in self.taps and topic not in OWN_TOPICS:
+                    self.taps[topic] = self.proxy.create_subscription(
+                        message_class(name), topic, lambda _: None,
+                        QoSProfile(depth=PROXY_DEPTH, reliability=ReliabilityPolicy.BEST_EFFORT),
+                        raw=True)
+        taken = []
+        for topic, tap in self.taps.items():
+            while (got := tap.handle.take_message(tap.msg_type, True)) is not None:
+                data, info = got
+                taken.append((info['source_timestamp'], Message(
+                    topic, type_name(tap.msg_type), data)))
+        taken.sort(key=lambda item: item[0])
+        return [message for _, message in taken]
+
+    def _publisher(self, message: Message):
+        if self.proxy is None:
+            return None
+        if message.topic not in self.publishers:
+            from rclpy.qos import DurabilityPolicy, QoSProfile
+            latched = any(info.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL
+                          for info in self.proxy.get_subscriptions_info_by_topic(message.topic))
+            self.publishers[message.topic] = self.proxy.create_publisher(
+                message_class(message.type_name), message.topic, QoSProfile(
+                    depth=PROXY_DEPTH if not latched else 1,
+                    durability=DurabilityPolicy.TRANSIENT_LOCAL if latched
+                    else DurabilityPolicy.VOLATILE))
+        return self.publishers[message.topic]
+
+
+def thread_warnings() -> list[str]:
+    """
+    Name each thread a node left running (not a daemon), where it is, in one line each.
+
+    The run ends without waiting for them, as the process of a node would not.
+    """
+    from sim_bridge.runner.targets import is_library_frame
+    frames = sys._current_frames()
+    warnings = []
+    for thread in threading.enumerate():
+        if thread is threading.main_thread() or thread.daemon or not thread.is_alive():
+            continue
+        stack = traceback.extract_stack(frames[thread.ident]) if thread.ident in frames else []
+        own = [frame for frame in stack if not is_library_frame(frame.filename)]
+        where = (f', in {own[-1].name} at {os.path.basename(own[-1].filename)}:'
+                 f'{own[-1].lineno}' if own else '')
+        warnings.append(f"node thread '{thread.name}'{where} was still running when the run "
+                        'ended; it was stopped (a node should join its threads, or make them '
+                        'daemons, before it returns)')
+    return warnings
+
+
+class CountedStream:
+    """A text stream whose writes are counted for the sync frames (see Lockstep.sync)."""
+
+    def __init__(self, stream, lockstep: Lockstep, name: str):
+        self._stream = stream
+        self._lockstep = lockstep
+        self._name = name
+
+    def write(self, text: str) -> int:
+        self._lockstep.note_write(self._name)
+        return self._stream.write(text)
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._stream, name)
+
+
+class TracedCallback:
+    """An executor's task, run between two sync frames; its node noted if it raises."""
+
+    def __init__(self, task, lockstep: Lockstep, node: str, place: str):
+        self.task = task
+        self.lockstep = lockstep
+        self.node = node
+        self.place = place
+
+    def __call__(self) -> None:
+        lockstep = self.lockstep
+        lockstep.sync('')
+        lockstep.running = (self.node, self.place)
+        try:
+            self.task()
+        except BaseException:  # noqa: B902 sys.exit(), KeyboardInterrupt: not kept by the task
+            lockstep.failed_in = (self.node, self.place)
+            raise
+        finally:
+            lockstep.running = None
+            if self.task.exception() is not None:
+                lockstep.failed_in = (self.node, self.place)
+            lockstep.sync(self.node)
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.task, name)
+
+
+def install(lockstep: Lockstep) -> None:
+    """Patch rclpy's blocking points and the sleeps of this process to go through ``lockstep``."""
+    import rclpy
+    from rclpy import executors, timer
+    from rclpy.impl.rcutils_logger import RcutilsLogger
+    from rclpy.node import Node
+    from sim_bridge.runner.stepping import callback_place, next_timer_ns
+    original_wait = executors.Executor.wait_for_ready_callbacks
+    original_init = Node.__init__
+
+    def track(node, *args, **kwargs) -> None:
+        original_init(node, *args, **kwargs)
+        if not getattr(node, '_lab_proxy', False):
+            lockstep.nodes.append(node)
+
+    def stepped_wait(executor, timeout_sec=None, nodes=None, condition=lambda: False):
+        if threading.current_thread() is not threading.main_thread():
+            return original_wait(executor, timeout_sec, nodes, condition)
+        timeout = getattr(timeout_sec, 'timeout', timeout_sec)
+        deadline = (None if timeout is None or timeout < 0
+                    else lockstep.now_ns + round(timeout * NANOSECONDS_PER_SECOND))
+        while True:
+            try:
+                task, entity, node = original_wait(executor, 0, nodes, condition)
+            except executors.TimeoutException:
+                if getattr(executor, '_lab_ran', False):
+                    executor._lab_ran = False  # a callback ran: more may be ready now
+                    continue
+                if deadline is not None and lockstep.now_ns >= deadline:
+                    raise
+                wake = next_timer_ns(nodes or executor.get_nodes())
+                if deadline is not None:
+                    wake = min(deadline if wake is None else wake,
+                               max(deadline, lockstep.now_ns + 1))
+                lockstep.exchange(wake, executor.context)
+                continue
+            executor._lab_ran = True
+            return (TracedCallback(task, lockstep, node.get_name(), callback_place(entity)),
+                    entity, node)
+
+    def stepped_sleep(seconds: float) -> None:
+        if seconds < 0:
+            raise ValueError('sleep length must be non-negative')
+        lockstep.sleep_until(lockstep.now_ns + max(1, round(seconds * NANOSECONDS_PER_SECOND)))
+
+    def rate_sleep(rate) -> None:
+        period = rate._timer.timer_period_ns
+        due = getattr(rate, '_lab_next_ns', lockstep.now_ns) + period
+        rate._lab_next_ns = due if due > lockstep.now_ns else lockstep.now_ns + period
+        lockstep.sleep_until(rate._lab_next_ns)
+
+    class LockstepMultiThreadedExecutor(executors.SingleThreadedExecutor):
+        """MultiThreadedExecutor in lockstep: its callbacks run one at a time, in order."""
+
+        def __init__(self, num_threads=None, *, context=None):
+            super().__init__(context=context)
+            if MULTITHREADED_NOTE not in lockstep.notes:
+                lockstep.notes.append(MULTITHREADED_NOTE)
+
+    original_log = RcutilsLogger.log
+
+    def counted_log(logger, *args, **kwargs):
+        lockstep.note_write('STDERR')  # rcutils' console output
+        return original_log(logger, *args, **kwargs)
+
+    Node.__init__ = track
+    RcutilsLogger.log = counted_log
+    sys.stdout = CountedStream(sys.stdout, lockstep, 'STDOUT')
+    sys.stderr = CountedStream(sys.stderr, lockstep, 'STDERR')
+    executors.Executor.wait_for_ready_callbacks = stepped_wait
+    executors.MultiThreadedExecutor = LockstepMultiThreadedExecutor
+    timer.Rate.sleep = rate_sleep
+    time.sleep = stepped_sleep
+
+    def note_shutdown() -> None:
+        lockstep.shutdown_where = lockstep.code.stack_origin(traceback.extract_stack()[:-1])
+        lockstep.shutdown_in = lockstep.running
+    lockstep.note_shutdown = note_shutdown  # the context keeps a weak reference to methods
+    rclpy.utilities.get_default_context().on_shutdown(note_shutdown)
+
+
+def _file_main(path: str) -> Callable[[], Any]:
+    """
+    Run the node file's module code now, as ``python3 FILE`` does; return what starts it.
+
+    Its ``if __name__ == '__main__'`` block (run with what follows it), else its ``main()``;
+    None when it has neither.
+    """
+    import ast
+    from sim_bridge.runner.node_styles import has_main_guard
+    source = Path(path).read_bytes()
+    tree = ast.parse(source, path)
+    guards = [index for index, statement in enumerate(tree.body)
+              if has_main_guard(ast.unparse(statement))]
+    if not guards and not any(isinstance(statement, ast.FunctionDef) and statement.name == 'main'
+                              for statement in tree.body):
+        return None  # a module of Node classes: the class is loaded and spun
+    module = ModuleType('__main__' if guards else 'node_file')
+    module.__file__ = path
+    sys.modules[module.__name__] = module
+    split = guards[0] if guards else len(tree.body)
+    exec(compile(ast.Module(tree.body[:split], []), path, 'exec'), vars(module))
+    if guards:
+        rest = compile(ast.Module(tree.body[split:], []), path, 'exec')
+        return lambda: exec(rest, vars(module))
+    return getattr(module, 'main', None)
+
+
+def prepare(target: str) -> tuple[Callable[[], Any], str | None]:
+    """
+    Import TARGET as ``ros2 run`` / ``python3`` would; return what starts it, and its file.
+
+    A file: its module code runs now, then its ``__main__`` block or ``main()``; a console
+    script: its entry point; a module: its ``main()``. ``FILE:Class``, or a file of Node
+    classes alone: the class, spun by a canonical main (``rclpy.init``, ``rclpy.spin``).
+    """
+    from sim_bridge.runner.targets import (
+        load_module, load_node_class, module_file, split_target, TargetError)
+    where, class_name = split_target(target)
+    path = module_file(where)
+    start = None
+    if class_name is None and (where.endswith('.py') or '/' in where or Path(where).is_file()):
+        if path is None or not Path(path).is_file():
+            raise TargetError(f'node file not found: {where}')
+        sys.path.insert(0, str(Path(path).resolve().parent))
+        start = _file_main(path)
+    elif class_name is None:
+        scripts = entry_points(group='console_scripts', name=where)
+        start = next(iter(scripts)).load() if scripts else getattr(
+            load_module(where), 'main', None)
+    if start is None:
+        from rclpy.node import Node
+        node_class = load_node_class(target, Node)
+
+        def start() -> None:
+            import rclpy
+            rclpy.init()
+            rclpy.spin(node_class())
+    return start, path
+
+
+def start_failure(target: str, error: BaseException, code) -> dict:
+    """Return the ended frame's fields of TARGET failing to start: RunError on the trusted side."""
+    from sim_bridge.runner.targets import describe, split_target, TargetError
+    cause = error.__cause__ if isinstance(error, TargetError) else error
+    if isinstance(error, TargetError):  # load_node_class's own words
+        message = str(error)
+    else:
+        message = f"'{split_target(target)[0]}' fails to import: {describe(error, code)}"
+    if cause is None:
+        return {'status': 'start', 'error': message}
+    return {'status': 'start', 'error': message,
+            'traceback': code.traceback(cause)[-MAX_TRACEBACK_CHARS:]}
+
+
+def run(target: str, ros_args: list[str], link: Link) -> None:
+    """Run TARGET's main() in lockstep; say on ``link`` how it ended."""
+    from rclpy.exceptions import InvalidParameterTypeException
+    from sim_bridge.runner.targets import describe, module_file, split_target, StudentCode
+    lockstep = Lockstep(link)
+    path = module_file(split_target(target)[0])
+    lockstep.code = code = StudentCode.of([path] if path else [])
+    install(lockstep)
+    signal.signal(signal.SIGUSR1, lockstep.report_stuck)
+    sys.argv = [path or target, *ros_args]
+    link.send('hello', pid=os.getpid())
+    try:
+        start, path = prepare(target)
+    except BaseException as error:  # noqa: B902 SystemExit at import, a syntax error
+        link.send('ended', **start_failure(target, error, code))
+        return
+    try:
+        start()
+    except InvalidParameterTypeException as error:
+        link.send('ended', status='start', error=str(error), parameter=True)
+    except BaseException as error:  # noqa: B902 the node's process would have died of it
+        node, place = lockstep.failed_in or lockstep.running or (lockstep.only_node(),
+                                                                 'its main()')
+        link.send('ended', status='error', node=node, place=place,
+                  memory=isinstance(error, MemoryError),
+                  error=describe(error, code)[:MAX_TRACEBACK_CHARS],
+                  traceback=code.traceback(error)[-MAX_TRACEBACK_CHARS:], t_ns=lockstep.now_ns)
+    else:
+        node, place = lockstep.shutdown_in or ('', 'its main()')
+        link.send('ended', status='returned', where=lockstep.shutdown_where[:1000],
+                  node=node, place=place, t_ns=lockstep.now_ns)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the agent (see the module's docstring)."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    split = argv.index('--ros-args') if '--ros-args' in argv else len(argv)
+    if '--' in argv[:split]:  # what follows is the target and its arguments, as given
+        split = argv.index('--') + 2
+    parser = argparse.ArgumentParser(prog='python -m sim_bridge.runner.agent')
+    parser.add_argument('--in', dest='in_fd', type=int, required=True)
+    parser.add_argument('--out', dest='out_fd', type=int, required=True)
+    parser.add_argument('target')
+    args = parser.parse_args(argv[:split])
+    os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'OFF'
+    sys.stdout.reconfigure(line_buffering=True)
+    # A node stuck in its code: the trusted side asks where (sim_bridge.runner.boundary); in C
+    # code, where Python's handler cannot run, faulthandler says (SIGUSR2).
+    faulthandler.register(signal.SIGUSR2, all_threads=False)
+    faulthandler.enable()  # a crash's stack, as the trusted side reads it from stderr
+    run(args.target, argv[split:], Link(args.in_fd, args.out_fd))
+    sys.stdout.flush()
+    os._exit(0)  # whatever threads the nodes left running
+
+
+if __name__ == '__main__':
+    sys.exit(main())

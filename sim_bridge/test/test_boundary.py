@@ -1,0 +1,113 @@
+"""
+The trust boundary: a run's nodes execute in a process of their own, the simulator never does.
+
+Each hostile node of fixtures/hostile is contained: it forges nothing, a pickle or garbage on
+every file descriptor it has fails its own run with a reason, a callback that never returns
+ends its run within the limit, a flood of output is capped. Runs stay deterministic.
+"""
+
+import json
+from pathlib import Path
+import subprocess
+import sys
+
+from mcap.reader import make_reader
+import pytest
+from sim_bridge.runner import boundary
+from sim_bridge.runner.run import run_simulation
+
+FIXTURES = Path(__file__).parent / 'fixtures'
+HOSTILE = FIXTURES / 'hostile'
+#: Modules of the trusted side: none may be loaded in a node's process.
+TRUSTED_MODULES = ('sim_bridge.simulation', 'sim_bridge.scoring', 'sim_bridge.grading',
+                   'sim_bridge.ros', 'sim_bridge.runner.run', 'sim_bridge.runner.stepped_run',
+                   'sim_bridge.runner.boundary', 'pybullet', 'scan_pkg')
+
+
+def run(tmp_path, node, duration_s=3.0, **kwargs):
+    return run_simulation('obstacles', [str(node)], duration_s=duration_s, out_dir=tmp_path,
+                          quiet=True, plot=False, **kwargs).metrics
+
+
+def test_a_node_process_loads_nothing_of_the_simulator_or_the_grader(tmp_path):
+    node = tmp_path / 'modules.py'
+    node.write_text(
+        'import sys\nimport rclpy\nfrom rclpy.node import Node\n\n\n'
+        'def main():\n    rclpy.init()\n    node = Node("modules")\n'
+        '    print(" ".join(sorted(sys.modules)))\n    rclpy.spin(node)\n')
+    metrics = run(tmp_path / 'out', node, duration_s=0.5, record=False)
+    log = (tmp_path / 'out' / 'log.jsonl').read_text()
+    modules = json.loads(log.splitlines()[0])['text'].split()
+    assert metrics['node_errors'] == [] and 'rclpy' in modules
+    assert [m for m in modules if m in TRUSTED_MODULES
+            or m.startswith(tuple(f'{name}.' for name in TRUSTED_MODULES))] == []
+
+
+def test_a_node_that_patches_the_scoring_and_rewrites_results_forges_nothing(tmp_path,
+                                                                             monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    metrics = run(tmp_path / 'out', HOSTILE / 'forger.py')
+    assert metrics['distance_m'] < 0.01 and metrics['node_errors'] == []
+    written = json.loads((tmp_path / 'out' / 'metrics.json').read_text())
+    assert written['distance_m'] < 0.01
+
+
+def test_a_pickle_and_garbage_on_every_fd_fail_that_run_only(tmp_path):
+    marker = tmp_path / 'pwned'
+    metrics = run(tmp_path / 'out', HOSTILE / 'fd_spray.py',
+                  params={'sprayer': {'marker': str(marker)}})
+    assert not marker.exists()
+    [error] = metrics['node_errors']
+    assert 'malformed frame' in error['error'] and metrics['sim_time_s'] == pytest.approx(1.0)
+    with open(tmp_path / 'out' / 'run' / 'run.mcap', 'rb') as bag:  # the recording is whole
+        assert any(channel.topic == '/scan'
+                   for _, channel, _ in make_reader(bag).iter_messages())
+    honest = run(tmp_path / 'honest', FIXTURES / 'spin_once_loop.py')
+    assert honest['node_errors'] == [] and honest['distance_m'] > 0.1
+
+
+def test_a_callback_that_never_returns_ends_its_run_with_the_line(tmp_path, monkeypatch):
+    monkeypatch.setattr(boundary, 'EXCHANGE_TIMEOUT_S', 2.0)
+    metrics = run(tmp_path, HOSTILE / 'stuck.py', record=False)
+    [error] = metrics['node_errors']
+    assert error['error'] == ("no reply for 2 s: node 'stuck' did not return from its timer "
+                              f"callback at {HOSTILE / 'stuck.py'}:14: while True:")
+
+
+def test_a_flood_of_output_is_capped(tmp_path, monkeypatch):
+    monkeypatch.setattr(boundary, 'OUTPUT_CAP_BYTES', 2 ** 20)
+    metrics = run(tmp_path, HOSTILE / 'flood.py', duration_s=1.0, record=False,
+                  params={'flood': {'mib': 1}})  # 10 MiB printed; each line kept twice
+    assert (tmp_path / 'log.jsonl').stat().st_size < 3 * 2 ** 20
+    assert any('bytes of output' in warning for warning in metrics['warnings'])
+
+
+def test_the_same_seed_gives_the_same_messages_and_metrics(tmp_path):
+    runs = []
+    for name in ('a', 'b'):
+        metrics = run(tmp_path / name, FIXTURES / 'spin_once_loop.py', duration_s=5.0, seed=3)
+        with open(tmp_path / name / 'run' / 'run.mcap', 'rb') as bag:
+            messages = [(channel.topic, message.log_time, message.data)
+                        for _, channel, message in make_reader(bag).iter_messages()]
+        for varying in ('wall_time_s', 'real_time_factor'):
+            metrics.pop(varying)
+        runs.append((metrics, messages))
+    assert runs[0] == runs[1]
+    assert any(topic == '/cmd_vel' for topic, *_ in runs[0][1])
+
+
+def test_lines_are_stamped_with_the_sim_time_and_node_of_the_code_that_wrote_them(tmp_path):
+    run(tmp_path, FIXTURES / 'threaded_counting_logger.py', duration_s=3.5, record=False)
+    lines = [json.loads(line) for line in (tmp_path / 'log.jsonl').read_text().splitlines()]
+    printed = [(line['t'], line['node'], line['text']) for line in lines
+               if line['level'] == 'STDOUT']
+    assert printed == [(1.0, 'threaded_counter', 'printed count 1'),
+                       (2.0, 'threaded_counter', 'printed count 2'),
+                       (3.0, 'threaded_counter', 'printed count 3')]
+    assert [line['t'] for line in lines if line['level'] == 'INFO'] == [1.0, 2.0, 3.0]
+
+
+def test_the_agent_is_a_module_of_its_own(tmp_path):
+    result = subprocess.run([sys.executable, '-m', 'sim_bridge.runner.agent', '--help'],
+                            capture_output=True, text=True, timeout=60)
+    assert result.returncode == 0 and '--in' in result.stdout
