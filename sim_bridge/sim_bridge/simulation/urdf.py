@@ -26,7 +26,10 @@ from urllib.parse import unquote, urlparse
 import xml.etree.ElementTree as ElementTree
 
 from sim_bridge.common import paths
-from sim_bridge.simulation.sdf import compose, Model, parse_model, SdfError
+from sim_bridge.simulation.sdf import parse_model
+from sim_bridge.simulation.sdf_frames import compose
+from sim_bridge.simulation.sdf_model import Model
+from sim_bridge.simulation.sdf_values import SdfError
 
 #: File suffixes read as URDF (xacro first).
 URDF_SUFFIXES = ('.urdf', '.xacro')
@@ -42,7 +45,7 @@ def load_urdf(path: Path, lidar: str | None = None) -> Model:
     """
     Return the robot of a URDF or xacro file as a Model, as Gazebo would spawn it.
 
-    Raises :class:`~.sdf.SdfError` naming the file for one that xacro or the URDF reader
+    Raises :class:`~.sdf_values.SdfError` naming the file for one that xacro or the URDF reader
     refuses, a mesh that cannot be found, or anything the SDF reader refuses.
     """
     path = Path(path)
