@@ -55,6 +55,7 @@ from sim_bridge.simulation.sdf_lidar import LIDAR_SENSOR_TYPES, LidarConfig, Lid
 from sim_bridge.simulation.sdf_lookup import model_file
 from sim_bridge.simulation.sdf_model import Ignored, Model, PlacedModel, Plane, SdfWorld
 from sim_bridge.simulation.sdf_values import label, parse_sdf_xml, Pose6, SdfError, ZERO_POSE
+from sim_bridge.simulation.urdf import is_urdf_file, urdf_to_sdf
 
 #: The size (x, y in m) of the builtin stand-in for Gazebo's ground_plane model.
 GROUND_PLANE_SIZE = (100.0, 100.0)
@@ -73,9 +74,8 @@ def load_model(folder_or_file: str | os.PathLike, lidar: str | None = None,
     cannot be used, FileNotFoundError for none.
     """
     path = model_file(Path(folder_or_file))
-    from sim_bridge.simulation import urdf  # it reads the SDF it makes with this module
-    if urdf.is_urdf_file(path):
-        return urdf.load_urdf(path, lidar)
+    if is_urdf_file(path):  # read as Gazebo reads it: converted to SDF
+        return parse_model(urdf_to_sdf(path), path, lidar=lidar)
     return parse_model(path.read_text(encoding='utf-8'), path, lidar=lidar,
                        world_folder=world_folder)
 
