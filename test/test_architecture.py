@@ -14,7 +14,7 @@ PACKAGE = ROOT / 'sim_bridge' / 'sim_bridge'
 #: The longest a module may be (lines).
 MAX_MODULE_LINES = 600
 #: Modules still over the limit, each at most its length now (lines): split them, never grow.
-LONGER_FOR_NOW = {'simulation/sdf.py': 1013}
+LONGER_FOR_NOW: dict[str, int] = {}
 
 
 def test_the_import_contracts_are_kept():

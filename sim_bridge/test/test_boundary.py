@@ -13,6 +13,8 @@ import sys
 
 from mcap.reader import make_reader
 import pytest
+from rcl_interfaces.msg import Log
+from rclpy.serialization import deserialize_message
 from sim_bridge.runner import boundary
 from sim_bridge.runner.run import run_simulation
 
@@ -59,7 +61,7 @@ def test_a_pickle_and_garbage_on_every_fd_fail_that_run_only(tmp_path):
     assert not marker.exists()
     [error] = metrics['node_errors']
     assert 'malformed frame' in error['error'] and metrics['sim_time_s'] == pytest.approx(1.0)
-    with open(tmp_path / 'out' / 'run' / 'run.mcap', 'rb') as bag:  # the recording is whole
+    with open(tmp_path / 'out' / 'run' / 'run_0.mcap', 'rb') as bag:  # the recording is whole
         assert any(channel.topic == '/scan'
                    for _, channel, _ in make_reader(bag).iter_messages())
     honest = run(tmp_path / 'honest', FIXTURES / 'spin_once_loop.py')
@@ -86,8 +88,11 @@ def test_the_same_seed_gives_the_same_messages_and_metrics(tmp_path):
     runs = []
     for name in ('a', 'b'):
         metrics = run(tmp_path / name, FIXTURES / 'spin_once_loop.py', duration_s=5.0, seed=3)
-        with open(tmp_path / name / 'run' / 'run.mcap', 'rb') as bag:
-            messages = [(channel.topic, message.log_time, message.data)
+        with open(tmp_path / name / 'run' / 'run_0.mcap', 'rb') as bag:
+            # /rosout carries the wall-clock stamp rcl gives a line: its text, not its bytes.
+            messages = [(channel.topic, message.log_time,
+                         deserialize_message(message.data, Log).msg
+                         if channel.topic == '/rosout' else message.data)
                         for _, channel, message in make_reader(bag).iter_messages()]
         for varying in ('wall_time_s', 'real_time_factor'):
             metrics.pop(varying)

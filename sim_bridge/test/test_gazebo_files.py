@@ -9,8 +9,10 @@ import pytest
 
 from sim_bridge.common import paths
 from sim_bridge.simulation.geometry import triangulate
-from sim_bridge.simulation.sdf import (describe_ignored, load_model, NO_SPEED_LIMIT, parse_model,
-                                       SdfError)
+from sim_bridge.simulation.sdf import load_model, parse_model
+from sim_bridge.simulation.sdf_drive import NO_SPEED_LIMIT
+from sim_bridge.simulation.sdf_model import describe_ignored
+from sim_bridge.simulation.sdf_values import SdfError
 from sim_bridge.simulation.simulator import Simulator
 from sim_bridge.simulation.world import World, WorldError
 

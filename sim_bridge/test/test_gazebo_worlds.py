@@ -10,7 +10,8 @@ elements never declared, cameras, lights, system plugins), Classic's ``sun`` mod
 import pytest
 
 from sim_bridge.common import paths
-from sim_bridge.simulation.sdf import load_model, SdfError
+from sim_bridge.simulation.sdf import load_model
+from sim_bridge.simulation.sdf_values import SdfError
 from sim_bridge.simulation.world import World
 
 #: A world as Gazebo Sim's examples/worlds/empty.sdf writes one (abridged, same XML forms).

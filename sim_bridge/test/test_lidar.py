@@ -9,7 +9,7 @@ import pytest
 
 from sim_bridge.simulation.geometry import Mesh, Shape
 from sim_bridge.simulation.lidar import beam_directions, build_scene, cast_rays, Lidar
-from sim_bridge.simulation.sdf import LidarConfig
+from sim_bridge.simulation.sdf_lidar import LidarConfig
 import trimesh
 
 NOISELESS = LidarConfig(noise_stddev=0.0)

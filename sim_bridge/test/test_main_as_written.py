@@ -400,11 +400,11 @@ def test_two_nodes_publishing_both_command_types_get_a_hint(tmp_path):
         'geometry_msgs/msg/Twist: every node of a run must use one type on a topic)')
 
 
-def test_a_process_run_of_a_twist_stamped_node_drives_the_robot(tmp_path):
-    # The bridge subscribes with Twist at start (live, the nodes are other processes) and
-    # follows the TwistStamped publisher it finds on the graph; the recording follows too.
+def test_a_spin_once_loop_of_a_twist_stamped_node_drives_the_robot(tmp_path):
+    # The node's process says its nodes publish TwistStamped; the bridge follows the publisher
+    # it finds on the graph; the recording follows too.
     metrics, _ = run_file(tmp_path, 'stamped_loop.py')
-    assert metrics['run_mode']['mode'] == 'process'
+    assert metrics['run_mode']['mode'] == 'stepped'
     assert metrics['node_errors'] == [] and metrics['distance_m'] > 0.2
     with Reader(tmp_path / 'out' / 'run') as bag:
         (connection,) = [c for c in bag.connections if c.topic == '/cmd_vel']

@@ -5,6 +5,7 @@ import os
 from pathlib import Path
 import re
 import sys
+import time
 
 from rcl_interfaces.msg import Log
 from rclpy.serialization import deserialize_message

@@ -9,7 +9,9 @@ import pytest
 
 from sim_bridge.common import paths
 from sim_bridge.simulation.geometry import Shape
-from sim_bridge.simulation.sdf import LidarConfig, load_model, parse_model, SdfError
+from sim_bridge.simulation.sdf import load_model, parse_model
+from sim_bridge.simulation.sdf_lidar import LidarConfig
+from sim_bridge.simulation.sdf_values import SdfError
 
 MODEL_FILE = Path('robot/model.sdf')
 

@@ -10,7 +10,8 @@ import math
 
 import pytest
 from sim_bridge.runner.run import run_simulation
-from sim_bridge.simulation.sdf import load_model, SdfError
+from sim_bridge.simulation.sdf import load_model
+from sim_bridge.simulation.sdf_values import SdfError
 from sim_bridge.simulation.simulator import Simulator
 from sim_bridge.simulation.world import World
 import trimesh

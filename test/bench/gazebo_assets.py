@@ -33,7 +33,9 @@ from sim_bridge.common import paths
 from sim_bridge.simulation.floor_slice import FloorSlice
 from sim_bridge.simulation.geometry import FootprintSet
 from sim_bridge.simulation.lidar import build_scene, cast_rays
-from sim_bridge.simulation.sdf import describe_ignored, LidarConfig, load_model
+from sim_bridge.simulation.sdf import load_model
+from sim_bridge.simulation.sdf_lidar import LidarConfig
+from sim_bridge.simulation.sdf_model import describe_ignored
 from sim_bridge.simulation.world import World
 
 ASSETS = Path(__file__).resolve().parents[3] / 'shared' / 'gazebo_assets'

@@ -41,7 +41,7 @@ from sim_bridge.media.terminal_text import (
 from sim_bridge.media.view3d import View3D
 from sim_bridge.simulation.geometry import point_in_world
 from sim_bridge.simulation.robot import pose_in_world
-from sim_bridge.simulation.sdf import LidarConfig
+from sim_bridge.simulation.sdf_lidar import LidarConfig
 from sim_bridge.simulation.world import World, WorldError
 import yaml
 

@@ -48,7 +48,8 @@ except ImportError:  # tf2_ros is part of a ROS 2 installation, not of the PyPI 
     StaticTransformBroadcaster = TransformBroadcaster = None
 
 from sim_bridge.simulation.robot import DiffDriveConfig, DriveLimits, pose_from
-from sim_bridge.simulation.sdf import LidarConfig, relative_pose
+from sim_bridge.simulation.sdf_frames import relative_pose
+from sim_bridge.simulation.sdf_lidar import LidarConfig
 from sim_bridge.simulation.simulator import Simulator
 from sim_bridge.simulation.world import World
 
@@ -158,11 +159,7 @@ class SimBridge(Node):
         # the plugin leaves something unset (a robot without one: DiffDriveConfig's); a
         # parameter given to the node (params file, -p, launch) overrides it.
         drive = world.robot.drive or DiffDriveConfig()
-        lidar_frame = world.robot.lidar.frame_id if world.robot.lidar else LidarConfig.frame_id
-        self.frames = {name: self.declare_parameter(name + '_frame', default).value
-                       for name, default in (('odom', drive.odometry_frame),
-                                             ('base_link', drive.base_frame),
-                                             ('laser', lidar_frame))}
+        self.frames = self.declare_frames(world, drive)
         limits = DriveLimits(**{name: self.declare_parameter(name, float(default)).value
                                 for name, default in vars(drive.limits).items()})
         # Every other parameter is read before the simulator (a pybullet client) exists, so a
@@ -173,21 +170,8 @@ class SimBridge(Node):
         real_time_factor = self.rate('real_time_factor', 1.0)
         stamped = self.declare_parameter('cmd_vel_stamped', Parameter.Type.BOOL).value
         publish_tf = self.declare_parameter('publish_tf', bool(drive.publish_tf)).value
-        # 0: keep the last command until the next, as Gazebo's DiffDrive does.
-        command_timeout = self.declare_parameter('cmd_vel_timeout',
-                                                 float(drive.command_timeout or 0.0)).value
-        if not (math.isfinite(command_timeout) and command_timeout >= 0.0):
-            raise ValueError("parameter 'cmd_vel_timeout' must be 0 (keep the last command) or "
-                             f'a positive number of s, got {command_timeout!r}')
-        self.sim = Simulator(
-            world,
-            seed=self.declare_parameter('seed', 0).value,
-            limits=limits,
-            command_timeout=command_timeout if command_timeout > 0.0 else None,
-            lidar_samples=self.optional('lidar_samples', 0),
-            lidar_noise_stddev=self.optional('lidar_noise_stddev', -1.0),
-            gui=self.declare_parameter('gui', False).value,
-            draw_rays=self.declare_parameter('draw_rays', False).value)
+        command_timeout = self.command_timeout(drive)
+        self.sim = self.start_simulator(world, limits, command_timeout)
         #: The spawn pose (x m, y m, yaw rad in the world): odometry's origin, as Gazebo's
         #: DiffDrive starts odometry at (0, 0, 0) in odom wherever the robot was spawned.
         self.odom_origin = self.sim.pose
@@ -200,12 +184,51 @@ class SimBridge(Node):
         self.collisions_reported = 0
         #: Called as ``on_publish(topic, msg)`` after each message the bridge publishes itself.
         self.on_publish = None
-
         # Stepped, every QoS event handler is one more entity in every wait of the executor;
         # the other side's handlers still report incompatible QoS.
         events, cmd_vel_events = ({}, {}) if not stepped else (
             {'event_callbacks': PublisherEventCallbacks(use_default_callbacks=False)},
             {'event_callbacks': SubscriptionEventCallbacks(use_default_callbacks=False)})
+        self.create_publishers(drive, publish_tf, events)
+        self.start_commands(drive, stepped, stamped, cmd_vel_events)
+        if not stepped:
+            # The steady clock: this timer makes sim time, so it cannot wait for it.
+            self.create_timer(1.0 / physics_rate / real_time_factor, self.step,
+                              clock=RclpyClock(clock_type=ClockType.STEADY_TIME))
+
+    def declare_frames(self, world: World, drive: DiffDriveConfig) -> dict[str, str]:
+        """Declare the odom, base_link and laser frame parameters; return {name: frame}."""
+        lidar_frame = world.robot.lidar.frame_id if world.robot.lidar else LidarConfig.frame_id
+        return {name: self.declare_parameter(name + '_frame', default).value
+                for name, default in (('odom', drive.odometry_frame),
+                                      ('base_link', drive.base_frame),
+                                      ('laser', lidar_frame))}
+
+    def command_timeout(self, drive: DiffDriveConfig) -> float:
+        """Declare ``cmd_vel_timeout`` (s; 0: keep the last command) and return it."""
+        # 0: keep the last command until the next, as Gazebo's DiffDrive does.
+        command_timeout = self.declare_parameter('cmd_vel_timeout',
+                                                 float(drive.command_timeout or 0.0)).value
+        if not (math.isfinite(command_timeout) and command_timeout >= 0.0):
+            raise ValueError("parameter 'cmd_vel_timeout' must be 0 (keep the last command) or "
+                             f'a positive number of s, got {command_timeout!r}')
+        return command_timeout
+
+    def start_simulator(self, world: World, limits: DriveLimits,
+                        command_timeout: float) -> Simulator:
+        """Return the simulator of ``world``, with the simulator's own parameters declared."""
+        return Simulator(
+            world,
+            seed=self.declare_parameter('seed', 0).value,
+            limits=limits,
+            command_timeout=command_timeout if command_timeout > 0.0 else None,
+            lidar_samples=self.optional('lidar_samples', 0),
+            lidar_noise_stddev=self.optional('lidar_noise_stddev', -1.0),
+            gui=self.declare_parameter('gui', False).value,
+            draw_rays=self.declare_parameter('draw_rays', False).value)
+
+    def create_publishers(self, drive: DiffDriveConfig, publish_tf: bool, events: dict) -> None:
+        """Create the scan, odometry, clock, collision and TF publishers and their messages."""
         self.scan_pub = self.create_publisher(LaserScan, 'scan', 10, **events)
         self.odom_pub = self.create_publisher(Odometry, relative(drive.odometry_topic), 10,
                                               **events)
@@ -225,8 +248,12 @@ class SimBridge(Node):
         self.odom_transform = self.transform(self.clock.clock, self.frames['odom'],
                                              self.frames['base_link'], (0.0, 0.0, 0.0),
                                              (0.0, 0.0, 0.0))
+
+    def start_commands(self, drive: DiffDriveConfig, stepped: bool, stamped: bool | None,
+                       events: dict) -> None:
+        """Set up the command topic; subscribe now when its type is known or the run is live."""
         self.command_topic = self.resolve_topic_name(relative(drive.command_topic))
-        self.command_events = cmd_vel_events
+        self.command_events = events
         self.command_subscription = None
         #: Called as ``listener(msg_type)`` when the bridge subscribes to its commands, and as
         #: ``listener(None)`` before it drops that subscription for one of the other type.
@@ -246,10 +273,6 @@ class SimBridge(Node):
             self.subscribe_command(Twist)
         else:
             self.check_command_publishers()
-        if not stepped:
-            # The steady clock: this timer makes sim time, so it cannot wait for it.
-            self.create_timer(1.0 / physics_rate / real_time_factor, self.step,
-                              clock=RclpyClock(clock_type=ClockType.STEADY_TIME))
 
     def rate(self, name, default):
         """Declare a parameter that must be positive and finite: a rate in Hz, or a factor."""

@@ -31,6 +31,7 @@ from typing import Any, Callable, Iterable, Sequence
 from sim_bridge.runner.frames import (
     AGENT_KINDS, encode, Frame, FrameDecoder, FrameError, Message, type_name, valid_topic,
     valid_type)
+from sim_bridge.runner.hints import topic_type_hint
 from sim_bridge.runner.node_output import StreamLines
 from sim_bridge.runner.targets import is_library_frame
 
@@ -304,6 +305,7 @@ class Agent:
         if 'graph' in frame.fields:
             self.graph = self.checked_graph(frame.fields['graph'])
             self.update_taps()
+            self.update_publishers()
         return frame.messages
 
     def ended(self, frame: Frame) -> Exception:
@@ -371,6 +373,25 @@ class Agent:
                        QoSProfile(depth=1000, reliability=ReliabilityPolicy.BEST_EFFORT))
                 self.taps[topic] = self.node.create_subscription(
                     msg_type, topic, lambda _: None, qos, raw=True)
+
+    def update_publishers(self) -> None:
+        """
+        Publish here each topic the process's nodes publish, as soon as their graph says so.
+
+        So that the trusted side's graph shows their publishers before their first message:
+        the bridge subscribes to the command topic with the type they publish it as.
+        """
+        for entry in self.graph:
+            for topic, name in entry['publishes']:
+                msg_type = allowed_class(name)
+                if topic in self.publishers or topic in OWN_TOPICS or msg_type is None:
+                    continue
+                try:
+                    publisher = self.node.create_publisher(msg_type, topic, 1000)
+                except Exception as error:  # noqa: B902 rclpy's RCLError: a second type
+                    raise self.failure(f'publishes {topic} as {name} '
+                                       f'({topic_type_hint(error) or error})') from None
+                self.publishers[topic] = (publisher, msg_type)
 
     def taken(self, topics: Iterable[str] | None = None) -> list[Message]:
         """Take the messages published here for the process since the last exchange."""

@@ -39,6 +39,8 @@ from typing import Any, Protocol
 from mcap.exceptions import McapError
 from mcap.reader import NonSeekingReader
 from mcap.writer import Writer
+from rclpy.duration import Duration
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import serialize_message
 from rosgraph_msgs.msg import Clock
 from sim_bridge.common.message_types import message_definition, type_hash, UnknownMessageType
@@ -54,6 +56,7 @@ BAG_VERSION = 9
 ROS_DISTRO = 'jazzy'
 #: The topic of the simulator's clock, kept in step with the recorded messages.
 CLOCK_TOPIC = '/clock'
+ROSOUT_TOPIC = '/rosout'
 #: Bytes of messages an MCAP chunk holds before it is written to the file: what a recording
 #: cut short can lose at most.
 CHUNK_BYTES = 64 * 1024
@@ -75,6 +78,13 @@ def _duration(duration: Any) -> dict[str, int]:
     """Return an rclpy Duration as rosbag2 stores it: ``sec`` and ``nsec``."""
     sec, nsec = divmod(duration.nanoseconds, _NANOSECONDS_PER_SECOND)
     return {'sec': sec, 'nsec': nsec}
+
+
+def rosout_qos() -> Any:
+    """Return rcl's QoS of a node's /rosout publisher (rcl_qos_profile_rosout_default)."""
+    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,
+                      reliability=ReliabilityPolicy.RELIABLE,
+                      durability=DurabilityPolicy.TRANSIENT_LOCAL, lifespan=Duration(seconds=10))
 
 
 def offered_qos(profile: Any) -> dict[str, Any]:
@@ -193,8 +203,11 @@ class BagRecorder:
         """
         if self._graph is None or not self._graph.context.ok():
             return self._offers.get(topic, [])
-        return [offered_qos(info.qos_profile)
-                for info in self._graph.get_publishers_info_by_topic(topic)]
+        offers = [offered_qos(info.qos_profile)
+                  for info in self._graph.get_publishers_info_by_topic(topic)]
+        if not offers and topic == ROSOUT_TOPIC:  # the nodes' rcl publishers, in their process
+            offers = [offered_qos(rosout_qos())]
+        return offers
 
     @property
     def mcap_path(self) -> Path:

@@ -45,6 +45,7 @@ class GraphView:
         self.bridge = bridge
         self.publishers = bridge.publishers
         self.subscriptions = bridge.subscriptions
+        self.command_topic = bridge.command_topic
         self.entries = {(entry['name'], entry['namespace']): entry
                         for agent in agents for entry in agent.graph}
         self.count_publishers = bridge.count_publishers

@@ -6,6 +6,10 @@ Read it as a table of contents:
 - :mod:`.world`: world files (the kit's YAML, Gazebo's SDF), validated into a
   :class:`~.world.World`;
 - :mod:`.sdf`: Gazebo model folders and SDF files: collisions, the lidar, the diff-drive plugin;
+  its parts :mod:`.sdf_values` (values, poses), :mod:`.sdf_frames` (frames),
+  :mod:`.sdf_lookup` (model folders, URIs), :mod:`.sdf_geometry` (collisions),
+  :mod:`.sdf_lidar` (:class:`~.sdf_lidar.LidarConfig`), :mod:`.sdf_drive` (the diff drive),
+  and :mod:`.sdf_model` (the :class:`~.sdf_model.Model` and world it makes);
 - :mod:`.meshes`: the triangle meshes models name (STL, OBJ, DAE) and extruded polylines;
 - :mod:`.geometry`: poses, collision shapes, their floor outlines and triangle meshes;
 - :mod:`.robot`: the differential drive (velocity and acceleration limits, arc integration);

@@ -26,7 +26,7 @@ from operator import itemgetter
 import numpy as np
 import pybullet
 from sim_bridge.simulation.geometry import MESH_TOLERANCE, rotation_matrix, Shape, triangulate
-from sim_bridge.simulation.sdf import LidarConfig
+from sim_bridge.simulation.sdf_lidar import LidarConfig
 
 #: Rays per ``rayTestBatch`` call. pybullet refuses more than MAX_RAY_INTERSECTION_BATCH_SIZE
 #: and, at exactly that many, silently returns one result fewer; so stay one below.

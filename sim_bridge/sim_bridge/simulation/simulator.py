@@ -32,7 +32,7 @@ import pybullet
 from sim_bridge.simulation.geometry import wrap_angle
 from sim_bridge.simulation.lidar import build_scene, LaserScanData, Lidar
 from sim_bridge.simulation.robot import DiffDrive, DriveLimits, integrate_arc
-from sim_bridge.simulation.sdf import LidarConfig
+from sim_bridge.simulation.sdf_lidar import LidarConfig
 from sim_bridge.simulation.viewer import Viewer
 from sim_bridge.simulation.world import World
 

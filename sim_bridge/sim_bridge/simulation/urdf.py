@@ -2,7 +2,8 @@
 URDF and xacro robots, read as ``ros_gz_sim create -topic robot_description`` spawns them.
 
 The usual ROS 2 route into Gazebo: a ``robot_description`` (a URDF, often written as xacro)
-that Gazebo converts to SDF. :func:`load_urdf` does the same in three steps:
+that Gazebo converts to SDF. :func:`urdf_to_sdf` does the same, and
+:func:`~.sdf.load_model` reads the result, in three steps:
 
 1. xacro (PyPI's ``xacro``) expands the file, whatever its suffix: TurtleBot3's own
    ``turtlebot3_burger.urdf`` uses ``xacro:arg``; a plain URDF comes out as it went in;
@@ -26,7 +27,8 @@ from urllib.parse import unquote, urlparse
 import xml.etree.ElementTree as ElementTree
 
 from sim_bridge.common import paths
-from sim_bridge.simulation.sdf import compose, Model, parse_model, SdfError
+from sim_bridge.simulation.sdf_frames import compose
+from sim_bridge.simulation.sdf_values import SdfError
 
 #: File suffixes read as URDF (xacro first).
 URDF_SUFFIXES = ('.urdf', '.xacro')
@@ -38,12 +40,12 @@ def is_urdf_file(path: Path) -> bool:
     return path.suffix.lower() in URDF_SUFFIXES
 
 
-def load_urdf(path: Path, lidar: str | None = None) -> Model:
+def urdf_to_sdf(path: Path) -> str:
     """
-    Return the robot of a URDF or xacro file as a Model, as Gazebo would spawn it.
+    Return the SDF text of the robot of a URDF or xacro file, as Gazebo converts it to spawn it.
 
-    Raises :class:`~.sdf.SdfError` naming the file for one that xacro or the URDF reader
-    refuses, a mesh that cannot be found, or anything the SDF reader refuses.
+    Raises :class:`~.sdf_values.SdfError` naming the file for one that xacro or the URDF reader
+    refuses, or a mesh that cannot be found.
     """
     path = Path(path)
     robot, text = _read(path)
@@ -64,7 +66,7 @@ def load_urdf(path: Path, lidar: str | None = None) -> Model:
         ElementTree.SubElement(element, 'child').text = joint.child
     for extension in extensions.get(None, []):
         model.extend(extension)
-    return parse_model(ElementTree.tostring(sdf, encoding='unicode'), path, lidar=lidar)
+    return ElementTree.tostring(sdf, encoding='unicode')
 
 
 def _read(path: Path):

@@ -95,9 +95,11 @@ from sim_bridge.common.yaml_loader import load_yaml, read_text
 from sim_bridge.simulation import world_file
 from sim_bridge.simulation.floor_slice import FloorSlice
 from sim_bridge.simulation.geometry import Footprint, Shape, triangulate, wrap_angle
-from sim_bridge.simulation.sdf import (
-    describe_ignored, Ignored, is_sdf_text, load_model, Model, MODEL_FILE_SUFFIXES, parse_world,
-    place, SdfError)
+from sim_bridge.simulation.sdf import is_sdf_text, load_model, parse_world
+from sim_bridge.simulation.sdf_frames import place
+from sim_bridge.simulation.sdf_lookup import MODEL_FILE_SUFFIXES
+from sim_bridge.simulation.sdf_model import describe_ignored, Ignored, Model
+from sim_bridge.simulation.sdf_values import SdfError
 from sim_bridge.simulation.world_file import (  # noqa: F401 - the world file's names
     DEFAULT_ROBOT_MODEL, MAX_COORDINATE_M, MAX_SIZE_M, OBSTACLE_TYPES, validate_world_file,
     WorldError)
