@@ -2,8 +2,8 @@
 A node file run by the runner cannot reach what the grader keeps: each attack of a hostile node.
 
 fixtures/hostile/prying_node.py tries, as it is imported: an instructor's secret file, the
-grader's environment through /proc, its own environment, the kit's reference nodes, and the
-grader's pipes through /proc/<ppid>/fd. What it printed is read from the run's log.jsonl.
+grader's environment through /proc (any of it), its own environment (a secret the grader's
+holds), the kit's reference nodes, and the grader's pipes through /proc/<ppid>/fd. What it printed is read from the run's log.jsonl.
 """
 
 import json
