@@ -35,6 +35,7 @@ from sim_bridge.grading.runs import (
     GradeJob, PAGE_NAME, REPORT_NAME, reuse_notes, RunReport, write_outputs, write_report)
 from sim_bridge.grading.scenario import load_scenarios, Scenario, with_node_overrides
 from sim_bridge.media.video import render_video, VIDEO_NAME, VideoError
+from sim_bridge.runner.node_sandbox import isolation_line, node_limits, say_isolation
 
 
 DEFAULT_OUT = Path('out') / 'grade'
@@ -186,6 +187,7 @@ def main(argv: list[str] | None = None) -> int:
     previous = {signum: signal.signal(signum, terminate)
                 for signum in (signal.SIGTERM, signal.SIGHUP)
                 if signal.getsignal(signum) is not signal.SIG_IGN}  # nohup's SIGHUP stays
+    say_isolation(isolation_line(node_limits(0.0, limits.memory_bytes)))
     try:
         reports = grade_runs(jobs, workers=args.jobs, limits=limits, progress=progress,
                              resume=not args.fresh, names=names, quiet=False,

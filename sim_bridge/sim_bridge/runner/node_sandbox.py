@@ -33,16 +33,16 @@ def reference_folders() -> list[Path]:
         if spec else []
 
 
-def node_limits(duration_s: float) -> SandboxLimits:
+def node_limits(duration_s: float, address_space_bytes: int | None = None) -> SandboxLimits:
     """
     Return a node process's limits: the run's memory and wall-clock budget.
 
-    Memory (bytes) is this process's address-space limit (the grader's, see
-    sim_bridge.grading.isolated_child) less the sandbox's reserve, so that the sandbox's limit
-    never exceeds it; DEFAULT_MEMORY_BYTES when it has none. Wall time (s) is the run's budget
-    for ``duration_s`` s of simulated time (sim_bridge.grading.limits).
+    Memory (bytes) is ``address_space_bytes``, by default this process's address-space limit
+    (the grader's, see sim_bridge.grading.isolated_child), less the sandbox's reserve, so that
+    the sandbox's limit never exceeds it; DEFAULT_MEMORY_BYTES when there is none. Wall time
+    (s) is the run's budget for ``duration_s`` s of simulated time (sim_bridge.grading.limits).
     """
-    hard = resource.getrlimit(resource.RLIMIT_AS)[1]
+    hard = address_space_bytes or resource.getrlimit(resource.RLIMIT_AS)[1]
     memory = DEFAULT_MEMORY_BYTES if hard == resource.RLIM_INFINITY \
         else max(LEAST_MEMORY_BYTES, hard - ADDRESS_SPACE_SLACK_BYTES)
     return SandboxLimits(memory_bytes=memory,
@@ -98,6 +98,12 @@ class NodeSandbox:
         """Return the process's clean environment, with PASSED_VARIABLES of ``passed``."""
         return self.sandbox.environment({name: passed[name] for name in PASSED_VARIABLES
                                          if name in passed})
+
+
+def isolation_line(limits: SandboxLimits) -> str:
+    """Return the line that says how node processes with ``limits`` would be isolated."""
+    with Sandbox({}, limits) as sandbox:
+        return sandbox.isolation
 
 
 def say_isolation(isolation: str) -> None:
