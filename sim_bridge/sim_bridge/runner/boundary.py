@@ -242,8 +242,9 @@ class Agent:
                 if stuck:
                     self.kill()
                     self.running = stuck[0].text('node') or self.label
+                    where = stuck[0].text('where', 1000)
                     return self.box.shown(f"node '{self.running}' did not return from "
-                                          f"{stuck[0].text('place')}{stuck[0].text('where', 1000)}")
+                                          f"{stuck[0].text('place')}{where}")
                 self.lines.cut(self.clock_ns(), '')
                 dumped = [match for line in list(self.lines.tail)[before:]
                           if (match := STACK_LINE.match(line))
