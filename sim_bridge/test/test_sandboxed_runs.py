@@ -3,7 +3,8 @@ A node file run by the runner cannot reach what the grader keeps: each attack of
 
 fixtures/hostile/prying_node.py tries, as it is imported: an instructor's secret file, the
 grader's environment through /proc (any of it), its own environment (a secret the grader's
-holds), the kit's reference nodes, and the grader's pipes through /proc/<ppid>/fd. What it printed is read from the run's log.jsonl.
+holds), the kit's reference nodes, and the grader's pipes through /proc/<ppid>/fd. What it
+printed is read from the run's log.jsonl.
 """
 
 import json
@@ -50,6 +51,7 @@ def test_a_node_file_cannot_reach_the_graders_secrets_or_pipes(pried, attack):
 def test_a_node_file_cannot_import_the_reference_nodes(pried):
     found, _ = pried
     assert found['scan_pkg.wall_follow'] in ('ImportError', 'ModuleNotFoundError'), found
+    assert found['scan_pkg.report'].startswith('GOT'), found  # the kit's library: students'
 
 
 def test_the_secret_is_in_no_output_file(pried):

@@ -161,6 +161,10 @@ def main(argv: list[str] | None = None) -> int:
         print(f'error: {error}', file=sys.stderr)
         failed_gradescope(args, str(error))
         return 2
+    try:
+        say_isolation(isolation_line(node_limits(0.0, limits.memory_bytes)))
+    except OSError:  # stderr closed: nothing to say it on
+        pass
     missing: list[RunReport] = []
     if batch is not None:
         jobs = batch.jobs
@@ -187,7 +191,6 @@ def main(argv: list[str] | None = None) -> int:
     previous = {signum: signal.signal(signum, terminate)
                 for signum in (signal.SIGTERM, signal.SIGHUP)
                 if signal.getsignal(signum) is not signal.SIG_IGN}  # nohup's SIGHUP stays
-    say_isolation(isolation_line(node_limits(0.0, limits.memory_bytes)))
     try:
         reports = grade_runs(jobs, workers=args.jobs, limits=limits, progress=progress,
                              resume=not args.fresh, names=names, quiet=False,

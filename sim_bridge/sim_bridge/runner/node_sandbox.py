@@ -2,7 +2,9 @@
 Where a node process runs: a Sandbox (sim_bridge.runner.sandbox) of its own, for every TARGET.
 
 A student's node file is copied, with the Python files beside it (its own modules), into the
-sandbox's scratch folder, and runs from that copy; the kit's own targets (a console script or
+sandbox's scratch folder, and runs from that copy, with the kit's scan_pkg library (its
+``report``, ``laser``, ``cmd_vel`` helpers) readable but its reference nodes (the modules of
+its console scripts) empty; the kit's own targets (a console script or
 module such as ``wall_follow``, a file inside the kit) run sandboxed too, with the kit's
 reference nodes readable. What the process prints names the copy: :class:`NodeSandbox`
 maps it back to the student's own folder before anyone sees it.
@@ -15,15 +17,37 @@ import resource
 import sys
 from typing import Mapping
 
-from sim_bridge.grading.limits import BUDGET_BASE_S, BUDGET_PER_SIM_S, DEFAULT_MEMORY_BYTES
 from sim_bridge.runner.sandbox import ADDRESS_SPACE_SLACK_BYTES, KIT_PACKAGE, Sandbox, \
     SandboxLimits
 from sim_bridge.runner.targets import split_target
 
 #: What of the trusted side's environment a node process gets (its DDS domain, its checks).
 PASSED_VARIABLES = ('ROS_DOMAIN_ID', 'ROS_PYTHON_CHECK_FIELDS')
-#: Least memory (bytes) a node process's run gets, whatever limit the grader has.
+#: Least memory (bytes) a node process's run gets, whatever limit the grader has; what it
+#: gets when the grader has none.
 LEAST_MEMORY_BYTES = 256 * 2 ** 20
+DEFAULT_MEMORY_BYTES = 2 * 2 ** 30
+#: Most processes between the one a sandbox starts and the node process (bwrap, its init).
+MAX_WRAPPERS = 4
+#: A node process's wall time (s): this, plus a wall second per simulated second (the
+#: grader's own budget, sim_bridge.grading.limits, ends the run first).
+WALL_BASE_S = 120.0
+
+
+def reference_node_files() -> list[str]:
+    """Return the files of the kit's reference nodes: the modules of scan_pkg's console scripts."""
+    from importlib.metadata import distribution, PackageNotFoundError
+    try:
+        scripts = [entry for entry in distribution('scan_pkg').entry_points
+                   if entry.group == 'console_scripts']
+    except PackageNotFoundError:
+        return []
+    files = []
+    for entry in scripts:
+        spec = importlib.util.find_spec(entry.module)
+        if spec is not None and spec.origin:
+            files.append(os.path.realpath(spec.origin))
+    return files
 
 
 def reference_folders() -> list[Path]:
@@ -40,13 +64,12 @@ def node_limits(duration_s: float, address_space_bytes: int | None = None) -> Sa
     Memory (bytes) is ``address_space_bytes``, by default this process's address-space limit
     (the grader's, see sim_bridge.grading.isolated_child), less the sandbox's reserve, so that
     the sandbox's limit never exceeds it; DEFAULT_MEMORY_BYTES when there is none. Wall time
-    (s) is the run's budget for ``duration_s`` s of simulated time (sim_bridge.grading.limits).
+    (s) is WALL_BASE_S plus ``duration_s`` (s of simulated time).
     """
     hard = address_space_bytes or resource.getrlimit(resource.RLIMIT_AS)[1]
     memory = DEFAULT_MEMORY_BYTES if hard == resource.RLIM_INFINITY \
         else max(LEAST_MEMORY_BYTES, hard - ADDRESS_SPACE_SLACK_BYTES)
-    return SandboxLimits(memory_bytes=memory,
-                         wall_s=BUDGET_BASE_S + BUDGET_PER_SIM_S * max(duration_s, 1.0))
+    return SandboxLimits(memory_bytes=memory, wall_s=WALL_BASE_S + max(duration_s, 1.0))
 
 
 def is_kit_file(path: Path) -> bool:
@@ -74,7 +97,8 @@ class NodeSandbox:
             files = {f'{name}/{sibling.name}': sibling for sibling in folder.glob('*.py')
                      if sibling.is_file()}
             files[f'{name}/{path.name}'] = path
-            self.sandbox = Sandbox(files, limits, readable=readable)
+            self.sandbox = Sandbox(files, limits, readable=[*readable, *reference_folders()],
+                                   reference_nodes=True, hidden_files=reference_node_files())
             self.copy_folder = str(self.sandbox.scratch / name)
             self.own_folder = str(folder)
             inside = f'{self.copy_folder}/{path.name}'
@@ -93,6 +117,27 @@ class NodeSandbox:
         if not self.copy_folder:
             return data
         return data.replace(os.fsencode(self.copy_folder), os.fsencode(self.own_folder))
+
+    def node_pid(self, started: int) -> int:
+        """
+        Return the pid (as seen here) of the node process the sandbox's ``started`` runs.
+
+        bwrap and its namespace's first process stand between: the node process is the first
+        of ``started`` and its first descendants that runs sim_bridge.runner.agent; ``started``
+        when none does (yet).
+        """
+        pid = started
+        for _ in range(MAX_WRAPPERS):
+            try:
+                if b'sim_bridge.runner.agent' in Path(f'/proc/{pid}/cmdline').read_bytes():
+                    return pid
+                below = Path(f'/proc/{pid}/task/{pid}/children').read_text().split()
+            except OSError:
+                return started
+            if not below:
+                return started
+            pid = int(below[0])
+        return started
 
     def environment(self, passed: Mapping[str, str] = os.environ) -> dict[str, str]:
         """Return the process's clean environment, with PASSED_VARIABLES of ``passed``."""
