@@ -29,6 +29,8 @@ LEAST_MEMORY_BYTES = 256 * 2 ** 20
 DEFAULT_MEMORY_BYTES = 2 * 2 ** 30
 #: Most processes between the one a sandbox starts and the node process (bwrap, its init).
 MAX_WRAPPERS = 4
+#: How the node process's command line goes on after its Python (boundary.agent_command).
+AGENT_ARGV = [b'-m', b'sim_bridge.runner.agent']
 #: A node process's wall time (s): this, plus a wall second per simulated second (the
 #: grader's own budget, sim_bridge.grading.limits, ends the run first).
 WALL_BASE_S = 120.0
@@ -123,13 +125,13 @@ class NodeSandbox:
         Return the pid (as seen here) of the node process the sandbox's ``started`` runs.
 
         bwrap and its namespace's first process stand between: the node process is the first
-        of ``started`` and its first descendants that runs sim_bridge.runner.agent; ``started``
-        when none does (yet).
+        of ``started`` and its first descendants whose command is ``python AGENT_ARGV ...``;
+        ``started`` when none is (yet).
         """
         pid = started
         for _ in range(MAX_WRAPPERS):
             try:
-                if b'sim_bridge.runner.agent' in Path(f'/proc/{pid}/cmdline').read_bytes():
+                if Path(f'/proc/{pid}/cmdline').read_bytes().split(b'\0')[1:3] == AGENT_ARGV:
                     return pid
                 below = Path(f'/proc/{pid}/task/{pid}/children').read_text().split()
             except OSError:
