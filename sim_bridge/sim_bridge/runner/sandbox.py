@@ -318,8 +318,9 @@ class Sandbox:
     agent's files), read-only at the same place; ``reference_nodes``: the kit's reference
     nodes are not hidden there (a run of the kit's own nodes); ``hidden_files`` are files
     under those the run sees empty (the reference nodes' modules). :attr:`scratch` is
-    the host folder with the copy; in a bwrap run, the run's working folder at that same path is a tmpfs of
-    ``limits.scratch_bytes`` seeded from it (what the run writes stays in the sandbox).
+    the host folder with the copy; in a bwrap run, the run's working folder at that same
+    path is a tmpfs of ``limits.scratch_bytes`` seeded from it (what the run writes stays in
+    the sandbox).
     :attr:`isolation` says in one line how the run is isolated, or that it is NOT.
     """
 
