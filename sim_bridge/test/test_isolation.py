@@ -28,6 +28,7 @@ from sim_bridge.grading.limits import Limits
 from sim_bridge.grading.runs import GradeJob, RESULT_NAME
 from sim_bridge.grading.scenario import scenario_from_dict
 from sim_bridge.runner import sandbox_host
+from sim_bridge.runner.sandbox import isolation_mode
 
 FIXTURES = Path(__file__).resolve().parent / 'fixtures'
 MISBEHAVING = FIXTURES / 'misbehaving_node.py'
@@ -318,9 +319,32 @@ def test_a_50_mb_line_before_os_exit_is_cut_in_the_log_and_the_report(chatty):
 
 
 def started_processes(log: Path) -> list[int]:
-    """Return the pids helper_process_node.py printed to a run's log: the node's, the helper's."""
+    """
+    Return the pids helper_process_node.py printed to a run's log: the node's, the helper's.
+
+    In a run's own pid namespace (a bubblewrap sandbox) they are that namespace's: the pids
+    here are those of the live processes :func:`host_pids` finds for them.
+    """
     found = STARTED.search(log.read_text()) if log.is_file() else None
     return [int(pid) for pid in found.groups()] if found else []
+
+
+def host_pids(printed: list[int]) -> list[int]:
+    """Return the pids here of the live processes helper_process_node.py printed ``printed`` of."""
+    if not isolation_mode().bwrap:
+        return printed
+    found = []
+    for status in Path('/proc').glob('[0-9]*/status'):
+        try:
+            levels = next(line for line in status.read_text().splitlines()
+                          if line.startswith('NSpid:')).split()[1:]
+            command = (status.parent / 'cmdline').read_bytes()
+        except (OSError, StopIteration):
+            continue
+        if len(levels) > 1 and int(levels[-1]) in printed and (
+                command == b'sleep\0' + b'300\0' or b'helper_process_node' in command):
+            found.append(int(levels[0]))
+    return found
 
 
 def wait_until(condition, timeout_s: float = WAIT_S) -> bool:
@@ -354,9 +378,9 @@ def test_a_process_a_node_starts_in_a_session_of_its_own_ends_with_the_run(
     assert report.passed if how == 'finish' else 'exit status 5' in \
         report.metrics['node_errors'][0]['error']
     started = started_processes(report.out_dir / isolate.LOG_NAME)
-    no_strays.extend(started)
+    no_strays.extend(host_pids(started))
     assert len(started) == 2
-    assert [pid for pid in started if process_exists(pid)] == []
+    assert [pid for pid in host_pids(started) if process_exists(pid)] == []
 
 
 def test_a_thread_a_node_leaves_running_ends_with_the_run_and_is_named(tmp_path):
@@ -411,7 +435,7 @@ def test_sigterm_interrupts_the_grader_as_ctrl_c_and_ends_every_process_of_its_r
     process = grader(tmp_path, '--jobs', '2')
     try:
         assert wait_until(lambda: started_runs(tmp_path)), (tmp_path / 'stderr.txt').read_text()
-        no_strays.extend(started_runs(tmp_path))
+        no_strays.extend(host_pids(started_runs(tmp_path)))
         assert len(scratch_folders(tmp_path)) == 2
         process.send_signal(signal.SIGTERM)
         process.wait(timeout=WAIT_S)
@@ -430,7 +454,7 @@ def test_a_killed_graders_runs_end_with_it_and_its_scratch_goes_at_the_next_star
     try:
         assert wait_until(lambda: started_processes(run_log(tmp_path, 1))), \
             (tmp_path / 'stderr.txt').read_text()
-        no_strays.extend(started_processes(run_log(tmp_path, 1)))
+        no_strays.extend(host_pids(started_processes(run_log(tmp_path, 1))))
     finally:
         process.kill()
         process.wait()

@@ -128,7 +128,9 @@ def test_every_style_runs_its_own_main_stepped_and_drives(tmp_path, name, printe
 
 def test_a_stepped_run_says_so(tmp_path):
     metrics, console = run_file(tmp_path, 'quitter.py', 1.0)
+    isolation = metrics['run_mode'].pop('sandbox')  # how its node was isolated
     assert metrics['run_mode'] == {'mode': 'stepped', 'reason': STEPPED_REASON}
+    assert isolation.startswith(('bubblewrap', 'PARTLY sandboxed', 'NOT sandboxed'))
 
 
 def test_node_files_of_any_style_run_together_each_in_its_process(tmp_path):

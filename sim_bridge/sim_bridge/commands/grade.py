@@ -38,6 +38,7 @@ from sim_bridge.grading.runs import (
     GradeJob, PAGE_NAME, REPORT_NAME, reuse_notes, RunReport, write_outputs, write_report)
 from sim_bridge.grading.scenario import load_scenarios, Scenario, with_node_overrides
 from sim_bridge.media.video import render_video, VIDEO_NAME, VideoError
+from sim_bridge.runner.node_sandbox import isolation_line, node_limits, say_isolation
 from sim_bridge.simulation.world import World, WorldError
 
 
@@ -177,6 +178,10 @@ def main(argv: list[str] | None = None) -> int:
         print(f'error: {error}', file=sys.stderr)
         failed_gradescope(args, str(error))
         return 2
+    try:
+        say_isolation(isolation_line(node_limits(0.0, limits.memory_bytes)))
+    except OSError:  # stderr closed: nothing to say it on
+        pass
     jobs, missing = batch_jobs(args, scenarios, batch)
     names = report_names(args.out, args.submissions or args.submission,
                          [scenario.path for scenario in scenarios if scenario.path])

@@ -19,7 +19,6 @@ nothing crosses. The same seed gives the same messages in the same order.
 
 import math
 import os
-from pathlib import Path
 import re
 import selectors
 import signal
@@ -33,6 +32,8 @@ from sim_bridge.runner.frames import (
     valid_type)
 from sim_bridge.runner.hints import topic_type_hint
 from sim_bridge.runner.node_output import StreamLines
+from sim_bridge.runner.node_sandbox import NodeSandbox
+from sim_bridge.runner.sandbox import Sandbox
 from sim_bridge.runner.targets import is_library_frame
 
 #: The message packages whose types may cross the boundary: the ones a lab's nodes use.
@@ -93,12 +94,11 @@ class AgentStartError(Exception):
         self.traceback = traceback
 
 
-def start_process(argv: Sequence[str], env: dict[str, str],
+def start_process(sandbox: Sandbox, argv: Sequence[str], env: dict[str, str],
                   pass_fds: Sequence[int]) -> subprocess.Popen:
-    """Start a node process; its stdout and stderr are pipes, its stdin nothing."""
-    return subprocess.Popen(argv, env=env, pass_fds=pass_fds, stdin=subprocess.DEVNULL,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            start_new_session=True)
+    """Start a node process in ``sandbox``; its stdout and stderr are pipes, its stdin nothing."""
+    return sandbox.popen(argv, env, pass_fds=pass_fds, stdin=subprocess.DEVNULL,
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
 
 
 def allowed_class(type_name: str) -> type | None:
@@ -138,19 +138,22 @@ class Agent:
 
     ``node`` is the trusted side's boundary node (taps: raw subscriptions to what the process
     subscribes to; publishers: what it publishes, republished here); ``lines`` its output.
+    The process runs in ``box`` (closed with it); what it says names the student's files.
     """
 
-    def __init__(self, target: str, label: str, node_arguments: Sequence[str],
-                 env: dict[str, str], node, lines: StreamLines, clock_ns: Callable[[], int]):
+    def __init__(self, box: NodeSandbox, label: str, node_arguments: Sequence[str],
+                 node, lines: StreamLines, clock_ns: Callable[[], int]):
+        self.box = box
         self.label = label
         self.node = node
         self.lines = lines
         self.clock_ns = clock_ns
         to_agent, self.to_fd = os.pipe()
         self.from_fd, from_agent = os.pipe()
-        argv = agent_command(target, to_agent, from_agent, node_arguments)
+        argv = agent_command(box.target, to_agent, from_agent, node_arguments)
         try:
-            self.process = start_process(argv, env, (to_agent, from_agent))
+            self.process = start_process(box.sandbox, argv, box.environment(),
+                                         (to_agent, from_agent))
         finally:
             os.close(to_agent)
             os.close(from_agent)
@@ -187,7 +190,7 @@ class Agent:
                 except FrameError as error:
                     raise self.failure(f'sent a malformed frame ({error})') from None
                 return True
-            self.lines.take(key.data, data)
+            self.lines.take(key.data, self.box.shown_bytes(data))
         return True
 
     def _drain_output(self) -> None:
@@ -227,9 +230,10 @@ class Agent:
         """
         self.lines.cut(self.clock_ns(), '')
         before = len(self.lines.tail)
+        node_pid = self.box.node_pid(self.process.pid)
         for asked in (signal.SIGUSR1, signal.SIGUSR2):
             try:
-                self.process.send_signal(asked)
+                os.kill(node_pid, asked)
             except OSError:
                 break
             deadline = time.monotonic() + STACK_DUMP_S
@@ -240,8 +244,9 @@ class Agent:
                 if stuck:
                     self.kill()
                     self.running = stuck[0].text('node') or self.label
-                    return (f"node '{self.running}' did not return from "
-                            f"{stuck[0].text('place')}{stuck[0].text('where', 1000)}")
+                    where = stuck[0].text('where', 1000)
+                    return self.box.shown(f"node '{self.running}' did not return from "
+                                          f"{stuck[0].text('place')}{where}")
                 self.lines.cut(self.clock_ns(), '')
                 dumped = [match for line in list(self.lines.tail)[before:]
                           if (match := STACK_LINE.match(line))
@@ -249,7 +254,8 @@ class Agent:
                 if dumped:  # faulthandler prints the innermost call first
                     self.kill()
                     return (f'{self.label} did not return from its code at '
-                            f"{dumped[0]['file']}:{dumped[0]['line']} in {dumped[0]['name']}")
+                            f"{self.box.shown(dumped[0]['file'])}:{dumped[0]['line']} in "
+                            f"{dumped[0]['name']}")
         self.kill()
         return f'{self.label} did not return from its code'
 
@@ -272,6 +278,8 @@ class Agent:
         except subprocess.TimeoutExpired:
             status = None
         self.lines.close(self.clock_ns())  # its last line is whole: nothing more comes
+        if status is not None and status > 128 and self.box.sandbox.sandboxed:
+            status = 128 - status  # the sandbox's first process says so of a killed node
         if status is None:
             what = 'closed its pipe'
         elif status < 0:
@@ -301,7 +309,7 @@ class Agent:
             raise self.failure(f'sent a {frame.kind} frame out of turn')
         self.wake_ns = frame.integer('wake_ns', optional=True)
         if isinstance(frame.fields.get('notes'), list):
-            self.notes = [str(note)[:300] for note in frame.fields['notes'][:10]]
+            self.notes = [self.box.shown(str(note)[:300]) for note in frame.fields['notes'][:10]]
         if 'graph' in frame.fields:
             self.graph = self.checked_graph(frame.fields['graph'])
             self.update_taps()
@@ -318,20 +326,20 @@ class Agent:
         self.kill()
         status = frame.text('status', 16)
         if status == 'start':
-            error = frame.text('error', 40_000)
+            error = self.box.shown(frame.text('error', 40_000))
             if frame.fields.get('parameter') is True:
                 error = f'{self.label}: {error}'
-            return AgentStartError(error, frame.text('traceback', 40_000, ''))
+            return AgentStartError(error, self.box.shown(frame.text('traceback', 40_000, '')))
         node = frame.text('node', default='') or self.label
         place = frame.text('place', default='its main()')
         if status == 'returned':
-            where = frame.text('where', 1000, '')
+            where = self.box.shown(frame.text('where', 1000, ''))
             what = (f"node '{node}' shut ROS down (rclpy.shutdown()) in {place}{where}" if where
                     else f'{self.label}: its main() returned')
             return AgentFailure(what, returned=True)
-        error = frame.text('error', 40_000)
+        error = self.box.shown(frame.text('error', 40_000))
         failure = AgentFailure(f"node '{node}' raised {error}", node,
-                               frame.text('traceback', 40_000, ''),
+                               self.box.shown(frame.text('traceback', 40_000, '')),
                                error_line=error.partition(' at ')[0], place=place)
         failure.memory = frame.fields.get('memory') is True
         return failure
@@ -432,11 +440,12 @@ class Agent:
         self.taken({m.topic for m in messages})  # not back to where they came from
 
     def kill(self) -> None:
-        """End the process, and every process of its session."""
+        """End the process, and every process of its session and of its sandbox."""
         try:
             os.killpg(self.process.pid, signal.SIGKILL)
         except (ProcessLookupError, PermissionError):
             self.process.kill()
+        self.box.sandbox.kill()
         self.process.wait()
 
     def wait_for_end(self, timeout_s: float) -> None:
@@ -474,6 +483,7 @@ class Agent:
             os.close(fd)
         self.process.stdout.close()
         self.process.stderr.close()
+        self.box.sandbox.close()
         return warnings
 
 
@@ -482,17 +492,6 @@ def agent_command(target: str, in_fd: int, out_fd: int,
     """Return the command line of the process that runs TARGET with ``node_arguments``."""
     return [sys.executable, '-m', 'sim_bridge.runner.agent', '--in', str(in_fd),
             '--out', str(out_fd), '--', str(target), *node_arguments]
-
-
-def agent_environment(base: dict[str, str]) -> dict[str, str]:
-    """Return the node process's environment: ``base``, its DDS traffic kept to itself."""
-    env = dict(base)
-    env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'OFF'
-    env.pop('ROS_STATIC_PEERS', None)
-    env['PYTHONUNBUFFERED'] = '1'
-    package_root = str(Path(__file__).resolve().parent.parent)
-    env['PYTHONPATH'] = os.pathsep.join(filter(None, [package_root, env.get('PYTHONPATH')]))
-    return env
 
 
 class Lockstep:

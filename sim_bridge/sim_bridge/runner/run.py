@@ -17,6 +17,7 @@ from typing import Any, Callable, Sequence
 from sim_bridge.common.run_environment import run_environment
 from sim_bridge.common.text import json_safe
 from sim_bridge.runner.node_output import terminal_colours, to_terminal
+from sim_bridge.runner.node_sandbox import isolation_warning
 from sim_bridge.runner.options import (
     node_commands, prepare_run, PreparedRun, RunResult, RunSpec, SETPOINT_PARAMETER,
     write_params_files)
@@ -144,6 +145,8 @@ def run_stepped(spec: RunSpec, prepared: PreparedRun) -> RunResult:
                 except AgentFailure as failure:
                     keep_node_error(failure, outputs, run, spec.quiet)
                 finally:
+                    if isolation_warning(run.isolation):
+                        outputs.warn(isolation_warning(run.isolation))
                     for warning in run.stop_warnings:
                         outputs.warn(warning)
                     if outputs.opened:
@@ -155,5 +158,6 @@ def run_stepped(spec: RunSpec, prepared: PreparedRun) -> RunResult:
         prepared.out_dir, prepared.world, plot=spec.plot,
         title=f"{prepared.world.name}: {', '.join(map(target_name, spec.targets))}",
         setpoint=setpoint, printed=spec.printed, wall_start=wall_start,
-        run_mode={'mode': 'stepped', 'reason': STEPPED_REASON, **run.notes()},
+        run_mode={'mode': 'stepped', 'reason': STEPPED_REASON, 'sandbox': run.isolation,
+                  **run.notes()},
         commands=node_commands(spec.targets, prepared.remap, spec.ros_args))

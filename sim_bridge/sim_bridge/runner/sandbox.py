@@ -315,15 +315,21 @@ class Sandbox:
 
     ``student_files`` maps a name in the scratch folder (``'wall_follow.py'``, ``'pkg/'``)
     to the file or folder to copy there; ``readable`` are more paths the run may read (the
-    agent's files), read-only at the same place. :attr:`scratch` is the host folder with the
-    copy; in a bwrap run, the run's working folder at that same path is a tmpfs of
-    ``limits.scratch_bytes`` seeded from it (what the run writes stays in the sandbox).
+    agent's files), read-only at the same place; ``reference_nodes``: the kit's reference
+    nodes are not hidden there (a run of the kit's own nodes); ``hidden_files`` are files
+    under those the run sees empty (the reference nodes' modules). :attr:`scratch` is
+    the host folder with the copy; in a bwrap run, the run's working folder at that same
+    path is a tmpfs of ``limits.scratch_bytes`` seeded from it (what the run writes stays in
+    the sandbox).
     :attr:`isolation` says in one line how the run is isolated, or that it is NOT.
     """
 
     def __init__(self, student_files: Mapping[str, Path], limits: SandboxLimits = SandboxLimits(),
-                 *, readable: Sequence[Path] = ()) -> None:
+                 *, readable: Sequence[Path] = (), reference_nodes: bool = False,
+                 hidden_files: Sequence[str] = ()) -> None:
         self.limits = limits
+        self.reference_nodes = reference_nodes
+        self.hidden_files = list(hidden_files)
         self.mode = isolation_mode()
         self.readable = [os.path.realpath(path) for path in readable]
         self.processes: list[subprocess.Popen] = []
@@ -419,8 +425,11 @@ class Sandbox:
             arguments += ['--perms', '0755', '--dir', folder]
         for path in [*roots, *self.readable]:
             arguments += ['--ro-bind', path, path]
-        for folder in hidden_package_folders([*roots, *self.readable]):
+        hidden = [] if self.reference_nodes else hidden_package_folders([*roots, *self.readable])
+        for folder in hidden:
             arguments += ['--tmpfs', folder, '--remount-ro', folder]
+        for path in self.hidden_files:
+            arguments += ['--ro-bind', '/dev/null', path]
         return arguments + ['--ro-bind', str(self.scratch), FILES_MOUNT, '--size', size,
                             '--tmpfs', str(self.scratch), '--info-fd', str(info_fd)]
 

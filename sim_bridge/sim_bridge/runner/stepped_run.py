@@ -10,7 +10,6 @@ imports a target's code.
 """
 
 from contextlib import contextmanager
-import os
 import re
 import resource
 import traceback
@@ -18,9 +17,9 @@ from typing import Any, Callable, Iterable, Iterator, Sequence
 
 from sim_bridge.common.errors import RunError, RunStopped
 from sim_bridge.runner import boundary
-from sim_bridge.runner.boundary import (
-    Agent, agent_environment, AgentFailure, AgentStartError, Lockstep)
+from sim_bridge.runner.boundary import Agent, AgentFailure, AgentStartError, Lockstep
 from sim_bridge.runner.node_output import NodeLog, StreamLines, to_terminal
+from sim_bridge.runner.node_sandbox import node_limits, NodeSandbox, say_isolation
 from sim_bridge.runner.options import BRIDGE_NODE, Params
 from sim_bridge.runner.ros_graph import (
     NO_TYPE_DESCRIPTION_SERVICE, parameter_warnings, runner_node, unconnected_topics)
@@ -73,6 +72,9 @@ class LockstepRun:
         from rclpy.signals import SignalHandlerOptions
         self.rclpy = rclpy
         self.quiet = quiet
+        self.params_file = params_file
+        #: How the node processes are isolated (sim_bridge.runner.sandbox), once one started.
+        self.isolation = ''
         self.node_arguments = ['--ros-args', '--params-file', str(params_file),
                                '-p', 'use_sim_time:=true',
                                *(argument for rule in remap for argument in ('-r', rule)),
@@ -136,11 +138,20 @@ class LockstepRun:
         RunError when a TARGET cannot start: it does not import, it names no Node class, a
         parameter is of the wrong type (see :func:`start_error`).
         """
-        env = agent_environment(dict(os.environ))
+        limits = node_limits(self.duration_s)
         try:
             for target in targets:
-                agent = Agent(target, target_name(target), self.node_arguments, env,
-                              self.boundary_node, self.lines, lambda: self.bridge.now_ns)
+                box = NodeSandbox(target, limits, readable=[self.params_file])
+                if not self.isolation:
+                    self.isolation = box.sandbox.isolation
+                    if not self.quiet:
+                        say_isolation(self.isolation)
+                try:
+                    agent = Agent(box, target_name(target), self.node_arguments,
+                                  self.boundary_node, self.lines, lambda: self.bridge.now_ns)
+                except BaseException:
+                    box.sandbox.close()
+                    raise
                 self.agents.append(agent)
                 agent.start()
         except AgentFailure as failure:

@@ -1,0 +1,167 @@
+"""
+Where a node process runs: a Sandbox (sim_bridge.runner.sandbox) of its own, for every TARGET.
+
+A student's node file is copied, with the Python files beside it (its own modules), into the
+sandbox's scratch folder, and runs from that copy, with the kit's scan_pkg library (its
+``report``, ``laser``, ``cmd_vel`` helpers) readable but its reference nodes (the modules of
+its console scripts) empty; the kit's own targets (a console script or
+module such as ``wall_follow``, a file inside the kit) run sandboxed too, with the kit's
+reference nodes readable. What the process prints names the copy: :class:`NodeSandbox`
+maps it back to the student's own folder before anyone sees it.
+"""
+
+import importlib.util
+import os
+from pathlib import Path
+import resource
+import sys
+from typing import Mapping
+
+from sim_bridge.runner.sandbox import ADDRESS_SPACE_SLACK_BYTES, KIT_PACKAGE, Sandbox, \
+    SandboxLimits
+from sim_bridge.runner.targets import split_target
+
+#: What of the trusted side's environment a node process gets (its DDS domain, its checks).
+PASSED_VARIABLES = ('ROS_DOMAIN_ID', 'ROS_PYTHON_CHECK_FIELDS')
+#: Least memory (bytes) a node process's run gets, whatever limit the grader has; what it
+#: gets when the grader has none.
+LEAST_MEMORY_BYTES = 256 * 2 ** 20
+DEFAULT_MEMORY_BYTES = 2 * 2 ** 30
+#: Most processes between the one a sandbox starts and the node process (bwrap, its init).
+MAX_WRAPPERS = 4
+#: How the node process's command line goes on after its Python (boundary.agent_command).
+AGENT_ARGV = [b'-m', b'sim_bridge.runner.agent']
+#: A node process's wall time (s): this, plus a wall second per simulated second (the
+#: grader's own budget, sim_bridge.grading.limits, ends the run first).
+WALL_BASE_S = 120.0
+
+
+def reference_node_files() -> list[str]:
+    """Return the files of the kit's reference nodes: the modules of scan_pkg's console scripts."""
+    from importlib.metadata import distribution, PackageNotFoundError
+    try:
+        scripts = [entry for entry in distribution('scan_pkg').entry_points
+                   if entry.group == 'console_scripts']
+    except PackageNotFoundError:
+        return []
+    files = []
+    for entry in scripts:
+        spec = importlib.util.find_spec(entry.module)
+        if spec is not None and spec.origin:
+            files.append(os.path.realpath(spec.origin))
+    return files
+
+
+def reference_folders() -> list[Path]:
+    """Return the folders of the kit's reference nodes (the scan_pkg package)."""
+    spec = importlib.util.find_spec('scan_pkg')
+    return [Path(folder).resolve() for folder in (spec.submodule_search_locations or [])] \
+        if spec else []
+
+
+def node_limits(duration_s: float, address_space_bytes: int | None = None) -> SandboxLimits:
+    """
+    Return a node process's limits: the run's memory and wall-clock budget.
+
+    Memory (bytes) is ``address_space_bytes``, by default this process's address-space limit
+    (the grader's, see sim_bridge.grading.isolated_child), less the sandbox's reserve, so that
+    the sandbox's limit never exceeds it; DEFAULT_MEMORY_BYTES when there is none. Wall time
+    (s) is WALL_BASE_S plus ``duration_s`` (s of simulated time).
+    """
+    hard = address_space_bytes or resource.getrlimit(resource.RLIMIT_AS)[1]
+    memory = DEFAULT_MEMORY_BYTES if hard == resource.RLIM_INFINITY \
+        else max(LEAST_MEMORY_BYTES, hard - ADDRESS_SPACE_SLACK_BYTES)
+    return SandboxLimits(memory_bytes=memory, wall_s=WALL_BASE_S + max(duration_s, 1.0))
+
+
+def is_kit_file(path: Path) -> bool:
+    """Tell whether ``path`` is a file of the kit (its sim_bridge or scan_pkg package)."""
+    resolved = path.resolve()
+    return any(resolved.is_relative_to(folder) for folder in [KIT_PACKAGE, *reference_folders()])
+
+
+class NodeSandbox:
+    """
+    The sandbox of one TARGET's process: the target as the process names it, the way back.
+
+    ``target``: what the process is told to run (the copy's path, for a student's file);
+    ``sandbox``: its :class:`Sandbox`; :meth:`shown` maps the copy's folder in a text back to
+    the student's folder. ``readable`` are more paths the process may read (its params file).
+    """
+
+    def __init__(self, target: str, limits: SandboxLimits, readable=()):
+        where, class_name = split_target(target)
+        path = Path(where)
+        self.copy_folder = self.own_folder = ''
+        if path.is_file() and not is_kit_file(path):
+            folder = path.resolve().parent
+            name = folder.name or 'node'
+            files = {f'{name}/{sibling.name}': sibling for sibling in folder.glob('*.py')
+                     if sibling.is_file()}
+            files[f'{name}/{path.name}'] = path
+            self.sandbox = Sandbox(files, limits, readable=[*readable, *reference_folders()],
+                                   reference_nodes=True, hidden_files=reference_node_files())
+            self.copy_folder = str(self.sandbox.scratch / name)
+            self.own_folder = str(folder)
+            inside = f'{self.copy_folder}/{path.name}'
+            self.target = f'{inside}:{class_name}' if class_name else inside
+        else:
+            self.sandbox = Sandbox({}, limits, readable=[*readable, *reference_folders()],
+                                   reference_nodes=True)
+            self.target = target
+
+    def shown(self, text: str) -> str:
+        """Return ``text`` with the copy's folder named as the student's own."""
+        return text.replace(self.copy_folder, self.own_folder) if self.copy_folder else text
+
+    def shown_bytes(self, data: bytes) -> bytes:
+        """Return ``data`` (printed bytes) with the copy's folder named as the student's own."""
+        if not self.copy_folder:
+            return data
+        return data.replace(os.fsencode(self.copy_folder), os.fsencode(self.own_folder))
+
+    def node_pid(self, started: int) -> int:
+        """
+        Return the pid (as seen here) of the node process the sandbox's ``started`` runs.
+
+        bwrap and its namespace's first process stand between: the node process is the first
+        of ``started`` and its first descendants whose command is ``python AGENT_ARGV ...``;
+        ``started`` when none is (yet).
+        """
+        pid = started
+        for _ in range(MAX_WRAPPERS):
+            try:
+                if Path(f'/proc/{pid}/cmdline').read_bytes().split(b'\0')[1:3] == AGENT_ARGV:
+                    return pid
+                below = Path(f'/proc/{pid}/task/{pid}/children').read_text().split()
+            except OSError:
+                return started
+            if not below:
+                return started
+            pid = int(below[0])
+        return started
+
+    def environment(self, passed: Mapping[str, str] = os.environ) -> dict[str, str]:
+        """Return the process's clean environment, with PASSED_VARIABLES of ``passed``."""
+        return self.sandbox.environment({name: passed[name] for name in PASSED_VARIABLES
+                                         if name in passed})
+
+
+def isolation_line(limits: SandboxLimits) -> str:
+    """Return the line that says how node processes with ``limits`` would be isolated."""
+    with Sandbox({}, limits) as sandbox:
+        return sandbox.isolation
+
+
+def say_isolation(isolation: str) -> None:
+    """Say on stderr, once, how node processes are isolated (loudly when they are not)."""
+    print(f'node processes: {isolation}', file=sys.stderr, flush=True)
+
+
+def isolation_warning(isolation: str) -> str | None:
+    """Return the reports' warning for runs not fully sandboxed, or None."""
+    if isolation.startswith('bubblewrap'):
+        return None
+    if isolation.startswith('NOT sandboxed: '):
+        return f'runs NOT sandboxed: {isolation.partition(": ")[2]}'
+    return f'runs {isolation}'

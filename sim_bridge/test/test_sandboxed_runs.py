@@ -1,0 +1,70 @@
+"""
+A node file run by the runner cannot reach what the grader keeps: each attack of a hostile node.
+
+fixtures/hostile/prying_node.py tries, as it is imported: an instructor's secret file, the
+grader's environment through /proc (any of it), its own environment (a secret the grader's
+holds), the kit's reference nodes, and the grader's pipes through /proc/<ppid>/fd. What it
+printed is read from the run's log.jsonl.
+"""
+
+import json
+import os
+from pathlib import Path
+import shutil
+
+import pytest
+from sim_bridge.runner.run import run_simulation
+
+HOSTILE = Path(__file__).resolve().parent / 'fixtures' / 'hostile'
+SECRET = 'instructor-secret-5f1c'
+
+
+@pytest.fixture(scope='module')
+def pried(tmp_path_factory):
+    """Run the prying node once; return its attempts and the run's out dir."""
+    root = tmp_path_factory.mktemp('pried')
+    instructor, student, out_dir = root / 'instructor', root / 'student', root / 'out'
+    instructor.mkdir()
+    student.mkdir()
+    (instructor / 'solutions.txt').write_text(SECRET)
+    shutil.copy(HOSTILE / 'prying_node.py', student / 'prying_node.py')
+    (student / 'prying_targets.py').write_text(
+        f'SECRET_FILE = {str(instructor / "solutions.txt")!r}\nGRADER_PID = {os.getpid()}\n')
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv('LAB_SECRET', SECRET)
+        run_simulation('obstacles', [str(student / 'prying_node.py')], duration_s=1.0,
+                       out_dir=out_dir, quiet=True)
+    lines = [json.loads(line) for line in (out_dir / 'log.jsonl').read_text().splitlines()]
+    printed = [text for entry in lines for text in entry.values()
+               if isinstance(text, str) and text.startswith('PRYING ')]
+    assert printed, lines
+    return json.loads(printed[0].removeprefix('PRYING ')), out_dir
+
+
+@pytest.mark.parametrize('attack', ['secret file', 'grader environ', 'own environ',
+                                    'parent pipes'])
+def test_a_node_file_cannot_reach_the_graders_secrets_or_pipes(pried, attack):
+    found, _ = pried
+    assert not found[attack].startswith('GOT'), found
+
+
+def test_a_node_file_cannot_import_the_reference_nodes(pried):
+    found, _ = pried
+    assert found['scan_pkg.wall_follow'] in ('ImportError', 'ModuleNotFoundError'), found
+    assert found['scan_pkg.report'].startswith('GOT'), found  # the kit's library: students'
+
+
+def test_the_secret_is_in_no_output_file(pried):
+    _, out_dir = pried
+    holding = [path for path in out_dir.rglob('*')
+               if path.is_file() and SECRET.encode() in path.read_bytes()]
+    assert not holding
+
+
+def test_the_run_says_how_its_nodes_were_isolated(pried):
+    _, out_dir = pried
+    metrics = json.loads((out_dir / 'metrics.json').read_text())
+    isolation = metrics['run_mode']['sandbox']
+    assert isolation.startswith(('bubblewrap', 'PARTLY', 'NOT')), isolation
+    if not isolation.startswith('bubblewrap'):
+        assert any(warning.startswith('runs ') for warning in metrics['warnings'])
