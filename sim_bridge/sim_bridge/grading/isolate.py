@@ -55,7 +55,7 @@ from typing import Any
 from sim_bridge.grading.isolated_child import fork_server, process_stats, run_child
 from sim_bridge.grading.limits import Job
 from sim_bridge.grading.runs import LOG_NAME
-from sim_bridge.runner.sandbox_host import grader_folder
+from sim_bridge.runner.sandbox_host import grader_folder, remove_leftover_scratch
 
 #: Wall seconds a stopped run gets to write its outputs, a SIGABRT for its stack dump, and its
 #: supervisor to end it before it is killed.
@@ -376,7 +376,12 @@ class Child:
                 self.log.file.close()
 
     def close(self) -> None:
-        """Kill what is left of the process group, close the pipes, remove the scratch folder."""
+        """
+        Kill what is left of the process group, close the pipes, remove the scratch folders.
+
+        The run's own, and the sandboxes' parent its killed child could not remove (its lock
+        ended with it: sim_bridge.runner.sandbox_host.remove_leftover_scratch).
+        """
         self.signal(signal.SIGKILL)  # a supervisor that did not end when asked
         self.process.join()
         self.finish_log()
@@ -384,6 +389,7 @@ class Child:
         self.output.close()
         self.events.close()
         shutil.rmtree(self.scratch, ignore_errors=True)
+        remove_leftover_scratch(Path(tempfile.gettempdir()))
 
 
 def stopped_group(group: int) -> bool:
