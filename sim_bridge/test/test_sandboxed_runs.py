@@ -51,6 +51,9 @@ def test_a_node_file_cannot_reach_the_graders_secrets_or_pipes(pried, attack):
 def test_a_node_file_cannot_import_the_reference_nodes(pried):
     found, _ = pried
     assert found['scan_pkg.wall_follow'] in ('ImportError', 'ModuleNotFoundError'), found
+    # Nor the controllers they run, from source or from Python's bytecode cache.
+    assert found['scan_pkg.behaviors'] in ('ImportError', 'ModuleNotFoundError'), found
+    assert not found['cached controller'].startswith('GOT'), found
     assert found['scan_pkg.report'].startswith('GOT'), found  # the kit's library: students'
 
 

@@ -37,7 +37,21 @@ WALL_BASE_S = 120.0
 
 
 def reference_node_files() -> list[str]:
-    """Return the files of the kit's reference nodes: the modules of scan_pkg's console scripts."""
+    """
+    Return the files of the kit's reference answers, to be hidden from a student's node.
+
+    The modules of scan_pkg's console scripts (the lab's nodes), the pure controllers they run
+    (``scan_pkg.behaviors``), and the bytecode Python cached of each: a student could load
+    a ``.pyc`` by hand as well as a ``.py``.
+    """
+    sources = reference_node_sources()
+    cached = [str(pyc) for source in map(Path, sources)
+              for pyc in (source.parent / '__pycache__').glob(f'{source.stem}.*.pyc')]
+    return sources + cached
+
+
+def reference_node_sources() -> list[str]:
+    """Return the source files of the kit's reference answers (see reference_node_files)."""
     from importlib.metadata import distribution, PackageNotFoundError
     try:
         scripts = [entry for entry in distribution('scan_pkg').entry_points
@@ -49,6 +63,9 @@ def reference_node_files() -> list[str]:
         spec = importlib.util.find_spec(entry.module)
         if spec is not None and spec.origin:
             files.append(os.path.realpath(spec.origin))
+    behaviors = importlib.util.find_spec('scan_pkg.behaviors')
+    for folder in (behaviors.submodule_search_locations or []) if behaviors else []:
+        files.extend(os.path.realpath(path) for path in sorted(Path(folder).glob('*.py')))
     return files
 
 
