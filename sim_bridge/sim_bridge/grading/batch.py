@@ -1,19 +1,11 @@
 """
-Grade nodes against scenario files: run each scenario's seeds and judge its criteria.
+A batch of graded runs: each in its child process, resumed from signed results, tabled.
 
-``python -m sim_bridge.grade scenarios/`` runs every scenario in the folder through the
-runner (``sim_bridge.runner.run.run_simulation``, real rclpy), each run in a child process of its
-own bounded in time and memory (:mod:`sim_bridge.grading.isolate`), shows a progress bar over the
-batch, prints a pass/fail table with what was measured per criterion, writes ``report.json``,
-``report.html`` and each run's outputs (metrics, plot, recording, log) below ``--out``, and
-exits non-zero when any run fails. ``--node-override path/to/student.py`` grades someone
-else's node on the same scenarios; ``--submissions DIR`` grades a whole class
-(:mod:`sim_bridge.grading.class_batch`), ``--submission DIR`` one student's folder the same way,
-and ``--gradescope results.json`` writes Gradescope's results too
-(:mod:`sim_bridge.grading.gradescope`); the scenarios' marks (:mod:`sim_bridge.grading.marks`) are
-in the summary line and every report. A second invocation with the same ``--out`` resumes: runs
-already finished with the same inputs are not run again. See :mod:`sim_bridge.grading.scenario` for
-the scenario format.
+:func:`grade_runs` runs a batch's jobs (at most ``workers`` at once, each bounded by
+:mod:`sim_bridge.grading.isolate`), reusing a run already finished with the same inputs when its
+saved result's signature holds (:mod:`sim_bridge.grading.grader_state`); :class:`BatchProgress`
+shows the batch's progress; :func:`format_table` is the pass/fail table the grade command
+(:mod:`sim_bridge.commands.grade`, where the command line is described) prints.
 """
 
 from collections.abc import Callable, Iterable
