@@ -8,8 +8,8 @@ into the project. As pasted, the code is indented with no-break spaces and does 
 grader's hint says what to replace, and the answers are then graded as a student who followed
 it hands them in. They lose marks for their real faults only: the wanderbot collides at 1 m/s,
 scan_around drops the last beam from the left region, the wall follower measures the wall
-once. A careful student's wall follower (clockwise, 0.7 m, ``fixtures/handout/``) gets full
-marks.
+once. A careful student's wall follower (clockwise, 0.7 m,
+``examples/careful_wall_follow.py``) gets full marks.
 """
 
 import json
@@ -19,6 +19,7 @@ import re
 import pytest
 
 from sim_bridge.commands import grade
+from sim_bridge.common.paths import examples_dir
 from sim_bridge.grading.scenario import load_scenario
 from sim_bridge.runner.targets import describe
 
@@ -35,7 +36,7 @@ ANSWER = re.compile(r'^\*### (?P<name>[A-Z ]+) CODE STARTS HERE ###\*$(?P<code>.
 #: One seed of each task's scenarios, and of the wall follower's box and cylinder each way.
 GRADED = ['scan_ahead', 'wanderbot', 'scan_around', 'wall_follow_box_cw', 'wall_follow_box_ccw',
           'wall_follow_cylinder_cw', 'wall_follow_cylinder_ccw']
-CAREFUL = Path(__file__).parent / 'fixtures' / 'handout' / 'wall_follow.py'
+CAREFUL = examples_dir() / 'careful_wall_follow.py'
 
 
 def handout_answers() -> dict[str, str]:

@@ -46,12 +46,13 @@ class ScanAhead(Node):
         sys.exit(3)
 """
 #: The demo's class: each student's files, copied from the workspace (a path relative to its
-#: top) or written as given. ``ana`` hands in the project's own nodes, ``ben`` the lab's naive
+#: top) or written as given. ``ana`` hands in the project's scan_ahead and a careful wall follower
+#: of her own (a student's node may not import the kit's controllers), ``ben`` the lab's naive
 #: wall follower, ``cleo`` a node with an int in a float field and no wall follower, ``dev``
 #: a wall follower that does not compile and a scan reader that calls sys.exit().
 CLASS = {
     'ana': {'scan_ahead.py': Path('scan_pkg/scan_pkg/scan_ahead.py'),
-            'wall_follow.py': Path('scan_pkg/scan_pkg/wall_follow.py')},
+            'wall_follow.py': Path('examples/careful_wall_follow.py')},
     'ben': {'scan_ahead.py': Path('scan_pkg/scan_pkg/scan_ahead.py'),
             'wall_follow.py': Path('examples/naive_wall_follow.py')},
     'cleo': {'scan_ahead.py': Path('examples/int_twist.py')},
