@@ -126,8 +126,13 @@ def wait_until(condition, timeout_s: float = WAIT_S) -> bool:
 
 @contextlib.contextmanager
 def hanging_grader(tmp_path: Path, out: Path):
-    """Start a grader on ``out`` whose one run hangs; yield it once its run started."""
-    scenario = scenario_file(tmp_path / 'hang', str(HELPER_STARTER), 5.0, 'hang',
+    """
+    Start a grader on ``out`` whose one run hangs; yield it once its run started.
+
+    The node's hang is a sleep, which lasts simulated time: the run is an hour long, so that
+    the grader is still running when the test is done with it.
+    """
+    scenario = scenario_file(tmp_path / 'hang', str(HELPER_STARTER), 3600.0, 'hang',
                              'params: {helper_starter: {how: hang}}\n')
     (tmp_path / 'tmp').mkdir(exist_ok=True)
     with open(out.parent / f'{out.name}.stderr.txt', 'w') as stderr:

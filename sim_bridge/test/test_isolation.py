@@ -402,7 +402,7 @@ def grader(tmp_path: Path, *options: str) -> subprocess.Popen:
     pipe would stay open as long as any process that inherited it runs).
     """
     (tmp_path / 'hang.yaml').write_text(
-        f'world: obstacles\nnodes: [{HELPER_STARTER}]\nduration: 5.0\nseeds: [1, 2]\n'
+        f'world: obstacles\nnodes: [{HELPER_STARTER}]\nduration: 3600.0\nseeds: [1, 2]\n'
         'params: {helper_starter: {how: hang}}\ncriteria: [collisions == 0]\n')
     (tmp_path / 'tmp').mkdir()
     with open(tmp_path / 'stderr.txt', 'w') as stderr:

@@ -112,7 +112,7 @@ class NodeSandbox:
         self.copy_folder = self.own_folder = ''
         if path.is_file() and not is_kit_file(path):
             folder = path.resolve().parent
-            name = folder.name or 'node'
+            name = 'node'  # the copy's folder: shown as the student's own (see shown)
             files = {f'{name}/{sibling.name}': sibling for sibling in folder.glob('*.py')
                      if sibling.is_file()}
             files[f'{name}/{path.name}'] = path
@@ -125,7 +125,11 @@ class NodeSandbox:
         else:
             self.sandbox = Sandbox({}, limits, readable=[*readable, *reference_folders()],
                                    reference_nodes=True)
-            self.target = target
+            # A kit file by its real path: the sandbox holds the package's real folder, not
+            # the links to it that colcon's --symlink-install makes.
+            inside = str(path.resolve()) if path.is_file() else where
+            self.target = f'{inside}:{class_name}' if class_name and path.is_file() else \
+                (inside if path.is_file() else target)
 
     def shown(self, text: str) -> str:
         """Return ``text`` with the copy's folder named as the student's own."""
