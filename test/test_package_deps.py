@@ -40,6 +40,8 @@ IMPORT_KEYS = {
     'mcap': 'mcap-ros2-support', 'mcap_ros2': 'mcap-ros2-support',
     # The Python module tf2_ros is tf2_ros_py's; the package tf2_ros is C++.
     'tf2_ros': 'tf2_ros_py',
+    # URDF robots: xacro and urdfdom_py are Jazzy packages; lxml reads lenient XML.
+    'xacro': 'xacro', 'urdf_parser_py': 'urdfdom_py', 'lxml': 'python3-lxml',
 }
 #: Modules that no rosdep key installs, and the requirement that does (requirements.txt).
 NO_KEY = {'imageio_ffmpeg': 'imageio-ffmpeg'}
