@@ -268,9 +268,6 @@ def test_the_zip_holds_setup_run_autograder_the_kit_and_the_scenarios(autograder
     assert 'requirements-dev' not in setup and 'ament-(flake8|pep257)' in setup
 
 
-@pytest.mark.xfail(reason='known bug: in the autograder install, the sandbox of a submission '
-                   'does not hold the scan_pkg library of the kit (ModuleNotFoundError)',
-                   strict=False)
 def test_run_autograder_grades_a_node_on_the_kits_library_but_not_on_its_answers(
         autograder, tmp_path):
     # scan_ahead uses scan_pkg's library (report): full marks. The kit's wanderbot runs the

@@ -240,15 +240,17 @@ def system_mounts() -> list[str]:
     return arguments
 
 
-def clean_environment(scratch: Path, extra: Mapping[str, str] = {}) -> dict[str, str]:
+def clean_environment(scratch: Path, extra: Mapping[str, str] = {},
+                      library: Sequence[Path] = ()) -> dict[str, str]:
     """
     Return a run's whole environment: what Python and ROS 2 need, nothing of the grader's.
 
     HOME and TMPDIR are ``scratch``; library and Python paths keep only the folders a run
-    sees (:func:`python_roots` and the system's), and Python's starts with the folder of the
-    kit's package (where a run sees that package alone); ROS 2 discovery is OFF (a run's DDS
-    stays in its processes) and ROS_LOCALHOST_ONLY unset. ``extra`` is added last (it may
-    override).
+    sees (:func:`python_roots` and the system's), and Python's starts with the folders of the
+    kit's package and of the ``library`` packages (where a run sees those packages alone:
+    they are imported from where the grader imports them, whatever else is installed); ROS 2
+    discovery is OFF (a run's DDS stays in its processes) and ROS_LOCALHOST_ONLY unset.
+    ``extra`` is added last (it may override).
     """
     roots = [*python_roots(), *SYSTEM_PATHS]
     bin_folder = os.path.dirname(sys.executable)
@@ -262,8 +264,8 @@ def clean_environment(scratch: Path, extra: Mapping[str, str] = {}) -> dict[str,
     for name in ('PYTHONPATH', 'LD_LIBRARY_PATH', 'AMENT_PREFIX_PATH'):
         kept = [path for path in os.environ.get(name, '').split(os.pathsep)
                 if path and is_within(os.path.realpath(path), roots)]
-        if name == 'PYTHONPATH':  # the kit's package, however it is installed (colcon's too)
-            kept.insert(0, str(KIT_PACKAGE.parent))
+        if name == 'PYTHONPATH':  # the kit's packages, however installed (colcon's too)
+            kept[:0] = dict.fromkeys(str(package.parent) for package in [KIT_PACKAGE, *library])
         if kept:
             env[name] = os.pathsep.join(kept)
     for name in ('ROS_DISTRO', 'ROS_VERSION', 'ROS_PYTHON_VERSION', 'RMW_IMPLEMENTATION',
@@ -315,7 +317,8 @@ class Sandbox:
 
     ``student_files`` maps a name in the scratch folder (``'wall_follow.py'``, ``'pkg/'``)
     to the file or folder to copy there; ``readable`` are more paths the run may read (the
-    agent's files), read-only at the same place; ``reference_nodes``: the kit's reference
+    agent's files), read-only at the same place; ``library`` are package folders the run may
+    read and import (the kit's scan_pkg, from where the grader imports it); ``reference_nodes``: the kit's reference
     nodes are not hidden there (a run of the kit's own nodes); ``hidden_files`` are files
     under those the run sees empty (the reference nodes' modules). :attr:`scratch` is
     the host folder with the copy; in a bwrap run, the run's working folder at that same
@@ -325,13 +328,14 @@ class Sandbox:
     """
 
     def __init__(self, student_files: Mapping[str, Path], limits: SandboxLimits = SandboxLimits(),
-                 *, readable: Sequence[Path] = (), reference_nodes: bool = False,
-                 hidden_files: Sequence[str] = ()) -> None:
+                 *, readable: Sequence[Path] = (), library: Sequence[Path] = (),
+                 reference_nodes: bool = False, hidden_files: Sequence[str] = ()) -> None:
         self.limits = limits
+        self.library = [Path(os.path.realpath(folder)) for folder in library]
         self.reference_nodes = reference_nodes
         self.hidden_files = list(hidden_files)
         self.mode = isolation_mode()
-        self.readable = [os.path.realpath(path) for path in readable]
+        self.readable = [os.path.realpath(path) for path in [*readable, *self.library]]
         self.processes: list[subprocess.Popen] = []
         self.inits: list[int] = []  # pidfds of the first process of each pid namespace
         self.timer: threading.Timer | None = None
@@ -383,7 +387,7 @@ class Sandbox:
 
     def environment(self, extra: Mapping[str, str] = {}) -> dict[str, str]:
         """Return the run's clean environment: :func:`clean_environment` in its scratch."""
-        return clean_environment(self.scratch, extra)
+        return clean_environment(self.scratch, extra, self.library)
 
     @property
     def sandboxed(self) -> bool:
