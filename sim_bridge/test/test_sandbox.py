@@ -375,6 +375,47 @@ def test_without_isolation_the_sandbox_says_so(monkeypatch):
         isolation_mode.cache_clear()
 
 
+@pytest.mark.parametrize('python', ['uid'], indirect=True)
+def test_without_namespaces_the_answers_are_closed_to_a_students_run_not_the_kits(python):
+    folder = Path(tempfile.mkdtemp())  # a kit that every user reaches, as on Gradescope
+    try:
+        folder.chmod(0o755)
+        answer = folder / 'wall_follow.py'
+        answer.write_text('ANSWER = 42\n')
+        answer.chmod(0o644)
+        with Sandbox(hostile('snoop'), reference_nodes=True, hidden_files=[str(answer)]) as box:
+            student = json.loads(run(box, 'snoop', os.getpid(), answer, '--write',
+                                     python=python)[1].splitlines()[-1])
+        with Sandbox(hostile('snoop'), reference_nodes=True) as box:  # the kit's own node
+            kit = json.loads(run(box, 'snoop', os.getpid(), answer, '--write',
+                                 python=python)[1].splitlines()[-1])
+        status = answer.stat()
+    finally:
+        shutil.rmtree(folder)
+    assert (student[str(answer)], kit[str(answer)]) == ('PermissionError', 'GOT "ANSWER = 42\\n"')
+    assert (status.st_mode & 0o777, status.st_gid) == (0o640, sandbox_module.ANSWERS_GID)
+
+
+@pytest.mark.parametrize('python', ['uid'], indirect=True)
+def test_without_namespaces_a_program_the_run_cannot_reach_is_one_clear_line(python):
+    folder = Path(tempfile.mkdtemp())
+    try:
+        folder.chmod(0o755)
+        closed = folder / 'closed'  # as pyenv's Python in /root
+        closed.mkdir(mode=0o700)
+        program = closed / 'node.py'
+        program.write_text('print("never")\n')
+        program.chmod(0o755)
+        with Sandbox(hostile('sleeper')) as box, \
+                pytest.raises(sandbox_module.SandboxError) as refused:
+            box.popen([str(program)], clean_environment(box.scratch))
+    finally:
+        shutil.rmtree(folder)
+    assert str(refused.value).startswith(
+        f'PARTLY sandboxed runs (uid {box.uid}, no namespaces) cannot reach {program}: '
+        f'{closed} is closed to them (drwx------); install the kit and its Python where ')
+
+
 def test_bad_limits_and_file_names_are_refused_in_one_line():
     with pytest.raises(ValueError, match='memory_bytes must be a positive whole number'):
         SandboxLimits(memory_bytes=0)

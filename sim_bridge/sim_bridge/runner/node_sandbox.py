@@ -19,7 +19,7 @@ import sys
 from typing import Mapping
 
 from sim_bridge.runner.sandbox import ADDRESS_SPACE_SLACK_BYTES, KIT_PACKAGE, Sandbox, \
-    SandboxLimits
+    SandboxError, SandboxLimits
 from sim_bridge.runner.targets import split_target
 
 #: What of the trusted side's environment a node process gets (its DDS domain, its checks).
@@ -71,7 +71,7 @@ def reference_node_sources() -> list[str]:
 
 
 def console_script_specs() -> list[importlib.machinery.ModuleSpec]:
-    """Return the specs of the modules of scan_pkg's console scripts, as this process finds them."""
+    """Return the specs of scan_pkg's console scripts' modules, as this process finds them."""
     from importlib.metadata import distribution, PackageNotFoundError
     try:
         scripts = [entry for entry in distribution('scan_pkg').entry_points
@@ -208,9 +208,17 @@ class NodeSandbox:
 
 
 def isolation_line(limits: SandboxLimits) -> str:
-    """Return the line that says how node processes with ``limits`` would be isolated."""
-    with Sandbox({}, limits) as sandbox:
-        return sandbox.isolation
+    """
+    Return the line that says how node processes with ``limits`` would be isolated.
+
+    When they cannot start at all here, the line says why (:class:`SandboxError`).
+    """
+    try:
+        with Sandbox({}, limits) as sandbox:
+            sandbox.check_reachable(sys.executable)  # a node process's Python (agent_command)
+            return sandbox.isolation
+    except SandboxError as error:
+        return f'{error} (no run can start)'
 
 
 def say_isolation(isolation: str) -> None:

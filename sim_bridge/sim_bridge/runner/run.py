@@ -9,6 +9,7 @@ lockstep (sim_bridge.runner.stepped_run): as if each had been started with ``ros
 """
 
 import gc
+import os
 from pathlib import Path
 import tempfile
 import time
@@ -118,6 +119,7 @@ def run_stepped(spec: RunSpec, prepared: PreparedRun) -> RunResult:
     with run_environment(spec.field_checks), terminal_colours(), \
             tempfile.TemporaryDirectory() as scratch:
         from sim_bridge.ros.bridge import SimBridge
+        os.chmod(scratch, 0o711)  # a run without namespaces (its uid alone) reads params.yaml
         params_file, bridge_params_file = write_params_files(Path(scratch), prepared.node_params)
         run = LockstepRun(params_file, spec.quiet, bridge_params_file=bridge_params_file,
                           remap=prepared.remap, ros_args=spec.ros_args)
