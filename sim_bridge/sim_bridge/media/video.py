@@ -78,6 +78,13 @@ class VideoError(Exception):
     """A run's outputs from which no video can be made; the text names the file and why."""
 
 
+def failure_line(error: Exception, path: os.PathLike) -> str:
+    """Return the one line a command prints when the video ``path`` could not be made."""
+    if isinstance(error, OSError):
+        return f'cannot write {error.filename or path}: {error.strerror or error}'
+    return str(error)
+
+
 @dataclass
 class Footage:
     """
