@@ -80,8 +80,9 @@ class VideoError(Exception):
 
 def failure_line(error: Exception, path: os.PathLike) -> str:
     """Return the one line a command prints when the video ``path`` could not be made."""
-    if isinstance(error, OSError):
-        return f'cannot write {error.filename or path}: {error.strerror or error}'
+    if isinstance(error, OSError):  # a rename names its target second
+        target = error.filename2 or error.filename or path
+        return f'cannot write {target}: {error.strerror or error}'
     return str(error)
 
 
