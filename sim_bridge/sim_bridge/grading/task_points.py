@@ -138,7 +138,8 @@ def printed_points(kind: str, scored: Mapping[str, Any] | None) -> list[Point]:
     Judge a reading task's two points on its printed values' scores (printed_values).
 
     Printed for each scan (PRINTED_SHARE of the scans), and right (the worst value within
-    PRINTED_ERROR m of its scan's truth, no return as the lab's 10 m cap or inf).
+    PRINTED_ERROR m of its scan's truth, capped as the node caps: no return as the lab's 10 m,
+    inf or a word, or the node's own cap where it keeps one; see printed_values).
     """
     what = {'range_ahead': 'the range ahead', 'regions': 'the five region minima',
             'closest': 'the nearest obstacle'}[kind]
@@ -154,7 +155,7 @@ def printed_points(kind: str, scored: Mapping[str, Any] | None) -> list[Point]:
         if kind == 'regions' and scored.get('unprinted') and lines:
             missing += f" ({', '.join(scored['unprinted'])} never printed)"
     return [Point(f'prints {what} for each scan', printed, missing),
-            Point(f'{what} printed right (no return as 10 m or inf)', right and lines > 0, why)]
+            Point(f'{what} printed right (capped as the node caps)', right and lines > 0, why)]
 
 
 def judge_points(point_set: str, metrics: Mapping[str, Any]) -> list[Point]:

@@ -65,8 +65,8 @@ NODE_ERROR_KEYS = ('node', 'error', 'traceback')
 _WORST_LINE = {'t': 'number', 'node': 'text', 'text': 'text', 'what': 'text', 'printed': 'text',
                'printed_m': 'number', 'truth_m': 'list'}
 _PRINTED_SCORES = {'scans': 'number', 'lines': 'number', 'missed': 'number',
-                   'matched_fraction': 'number', 'mae_m': 'number', 'worst_error_m': 'number',
-                   'worst': _WORST_LINE}
+                   'matched_fraction': 'number', 'cap_m': 'number', 'mae_m': 'number',
+                   'worst_error_m': 'number', 'worst': _WORST_LINE}
 #: What ``compute_metrics`` returns: each key's kind ('number', 'list', 'text') or, for a
 #: nested dict, the kinds of its keys. Scenario criteria are checked against it.
 METRIC_KINDS = {
