@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from typing import Any, Callable, Mapping, Sequence
 
 from sim_bridge.scoring.metrics import (
-    BRAKING_MARGIN, MAX_BLOCKED_DRIVING_S, STOP_DISTANCE)
+    BRAKING_MARGIN, MAX_BLOCKED_DRIVING_S, STOP_DISTANCE, WALL_BAND)
 from sim_bridge.scoring.printed_values import judge_printed
 
 #: A stop counts as for an obstacle when something is this close (m) in the cone ahead:
@@ -32,8 +32,6 @@ REPEATS = 3
 MOST = 0.8
 #: The least distance (m) a robot must drive for points that only a moving robot can show.
 MIN_DRIVEN = 1.0
-#: A wall distance (m) a student may choose: nearer scrapes the wall, farther is not following.
-WALL_BAND = (0.2, 1.5)
 #: The wall distance's mean error (m) around the chosen distance while following.
 WALL_TOLERANCE = 0.15
 #: ... and must then follow for at least this share of the run.
