@@ -17,7 +17,7 @@ from sim_bridge.commands import grade
 
 WORKSPACE = Path(__file__).resolve().parents[2]
 
-SCAN_AHEAD = '''\
+SCAN_AHEAD = """\
 import math
 
 import rclpy
@@ -42,7 +42,7 @@ def main():
 
 if __name__ == '__main__':
     main()
-'''
+"""
 #: A student's callback body, after ``front`` (m) is read, by the student's name.
 RANGE_AHEAD = {
     'tb3_cap': "        if front > 3.5:\n            front = 3.5  # my TurtleBot3's LDS\n"
@@ -55,7 +55,7 @@ RANGE_AHEAD = {
     'wrong_beam': "        self.get_logger().info(f'Range ahead: {min(msg.ranges[0], 10.0)}')\n",
 }
 
-SCAN_AROUND = '''\
+SCAN_AROUND = """\
 import math
 
 import rclpy
@@ -82,7 +82,7 @@ def main():
 
 if __name__ == '__main__':
     main()
-'''
+"""
 RIGHT_TO_LEFT = ['right', 'front-right', 'front', 'front-left', 'left']
 #: A student's regions: their labels in the order of the beams, and what prints ``value``.
 REGIONS = {

@@ -86,9 +86,10 @@ class RunSpec:
     distance (m) ``wall_distance_m`` is measured against, by default the wall distance a node
     declares as a parameter (sim_bridge.scoring.metrics.declared_wall_distance), if one does;
     ``printed`` names the values (printed_values.KINDS) whose printed lines are scored
-    against the scans. ``gui`` shows the run in the pybullet window at wall-clock pace. ``field_checks``: rosidl refuses a value of
-    the wrong type in a message field (see sim_bridge.common.run_environment); off, the run
-    behaves as Jazzy's default does on a robot. ``drive`` is a list of segments
+    against the scans. ``gui`` shows the run in the pybullet window at wall-clock pace.
+    ``field_checks``: rosidl refuses a value of the wrong type in a message field (see
+    sim_bridge.common.run_environment); off, the run behaves as Jazzy's default does on a
+    robot. ``drive`` is a list of segments
     (sim_bridge.ros.drive) the runner's teleop node publishes on the simulator's command topic
     while the nodes run. ``progress(sim_s, duration_s)`` is called as simulated time passes.
     """

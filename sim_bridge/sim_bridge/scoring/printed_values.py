@@ -65,6 +65,7 @@ QUOTE_CHARS = 70
 #: Log levels that are not what a node prints about a scan: a traceback goes to stderr.
 IGNORED_LEVELS = frozenset({'STDERR'})
 
+
 def scan_of(snapshot: Any) -> Scan:
     """Return the :class:`Scan` of a recorded scan (a ``run_trace.ScanSnapshot``)."""
     return Scan(snapshot.ranges, snapshot.angle_min, snapshot.angle_increment,
@@ -418,8 +419,9 @@ def judge_printed(kind: str, scored: Mapping[str, Any] | None, *, max_error_m: f
     Judge a kind's scores (:func:`score_printed`) against tolerances; return (passed, why).
 
     ``why`` is one line: the worst printed value, where and what the truth was, how many lines
-    and missed scans, the node's own cap when it has one (see :func:`score_printed`), e.g. ``scan_around: front-left printed 2.31 m at t=4.2 s, truth
-    1.05 m: 'front-left: 2.31 m' (worst of 38 lines; 12 of 50 scans with no line)``.
+    and missed scans, the node's own cap when it has one (see :func:`score_printed`), e.g.
+    ``scan_around: front-left printed 2.31 m at t=4.2 s, truth 1.05 m: 'front-left: 2.31 m'
+    (worst of 38 lines; 12 of 50 scans with no line)``.
     """
     title = KIND_TITLES[kind]
     if not scored or not scored.get('scans'):
