@@ -104,9 +104,9 @@ def test_the_handout_wanderbot_loses_the_points_its_collisions_at_1_m_s_break(ma
 def test_the_handout_scan_around_prints_five_labelled_lines_and_loses_its_dropped_beam(marks):
     task = marks['handout']['3']
     assert task['marks'] == 1.0
-    assert list(lost(task)) == ['the five region minima printed right (no return as 10 m or inf)']
+    assert list(lost(task)) == ['the five region minima printed right (capped as the node caps)']
     assert 'left printed 10' in lost(task)[
-        'the five region minima printed right (no return as 10 m or inf)']
+        'the five region minima printed right (capped as the node caps)']
 
 
 def test_the_handout_wall_follower_that_measures_the_wall_once_loops_nothing(marks):
