@@ -325,19 +325,12 @@ def test_a_long_line_is_quoted_around_the_value_read():
     assert excerpt('Range ahead: 1.23 m', 13) == 'Range ahead: 1.23 m'
 
 
-def test_a_late_line_matches_the_queued_scan_it_is_about_only_when_lateness_is_allowed():
+def test_a_line_is_about_the_last_scan_at_or_before_its_time():
     scans = scans_and_truth(6)  # ahead: 1.0 at 0.0 s ... 1.5 at 0.5 s
-    # A process fell behind: three scans' lines arrive at once, 0.25 s late.
-    lines = [line(0.1, '1.10'), line(0.45, '1.20'), line(0.45, '1.30'), line(0.45, '1.40'),
-             line(0.5, '1.50')]
-    exact = score_printed('range_ahead', scans, lines)
-    assert exact['worst_error_m'] == pytest.approx(0.2, abs=1e-6)
-    late = score_printed('range_ahead', scans, lines, lateness_s=0.5)
-    assert (late['lines'], late['missed']) == (5, 1)  # the scan at 0.0 s had no line
-    assert late['worst_error_m'] == pytest.approx(0.0, abs=1e-6)
-    constant = [line(snap.time + 0.3, 'Range ahead: 42') for snap in scans]
-    assert score_printed('range_ahead', scans, constant, lateness_s=0.5)['worst_error_m'] == \
-        pytest.approx(10.0 - 1.3, abs=1e-6)
+    lines = [line(0.1, '1.10'), line(0.45, '1.40'), line(0.5, '1.50'), line(0.3, '1.20')]
+    scored = score_printed('range_ahead', scans, lines)
+    assert scored['worst_error_m'] == pytest.approx(0.1, abs=1e-6)  # 1.20 about 1.3 at 0.3 s
+    assert (scored['lines'], scored['missed']) == (4, 2)  # no line at 0.0 s nor 0.2 s
 
 
 @pytest.mark.parametrize('text', ['Range ahead: out of range', 'Range ahead: nan', 'Front: None',

@@ -452,8 +452,7 @@ def compute_metrics(trace: Trace, world: Any, *, setpoint: float | None = None,
                     wall_time_s: float,
                     node_errors: Iterable[Mapping[str, str]] = (),
                     log_lines: Sequence[Mapping[str, Any]] = (), printed: Iterable[str] = (),
-                    runner_nodes: Iterable[str] = (),
-                    printed_lateness_s: float = 0.0) -> dict[str, Any]:
+                    runner_nodes: Iterable[str] = ()) -> dict[str, Any]:
     """
     Score a run; return a JSON-serialisable dict (plain floats and ints, None for no value).
 
@@ -466,8 +465,7 @@ def compute_metrics(trace: Trace, world: Any, *, setpoint: float | None = None,
     optionally ``traceback``; ``log_lines`` what the nodes printed (dicts with ``t`` s,
     ``node``, ``level``, ``text``, ``line``), scored for the ``printed`` values (of
     printed_values.KINDS) against the trace's scans, the lines of ``runner_nodes`` (the
-    simulator's own) left out, a line about a scan up to ``printed_lateness_s`` (s) before it
-    (see printed_values.score_printed).
+    simulator's own) left out (see printed_values.score_printed).
     """
     time, x, y = trace.array('time'), trace.array('x'), trace.array('y')
     sim_time = float(time[-1]) if len(time) else 0.0
@@ -510,7 +508,6 @@ def compute_metrics(trace: Trace, world: Any, *, setpoint: float | None = None,
         'wall_follow': wall_follow,
         'node_errors': [{key: str(error[key]) for key in NODE_ERROR_KEYS if key in error}
                         for error in node_errors],
-        'printed': {kind: score_printed(kind, trace.scans, log_lines, ignore_nodes=runner_nodes,
-                                        lateness_s=printed_lateness_s)
+        'printed': {kind: score_printed(kind, trace.scans, log_lines, ignore_nodes=runner_nodes)
                     for kind in PRINTED_KINDS if kind in printed},
     }

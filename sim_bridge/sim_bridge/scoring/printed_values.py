@@ -5,8 +5,7 @@ Lab tasks 1 and 3 (and the guide's closest-obstacle node) are graded on what a n
 every scan: the range straight ahead, the minimum of five regions, the nearest obstacle. A log
 line (a dict ``{'t', 'node', 'level', 'text', 'line'}``: sim time s, node name, level, message
 text, console line) is compared with the truth of the scan the node had just received: the last
-scan published at or before the line's time (a process run's lines, stamped as they arrive, may
-be about a scan a little before: see :func:`score_printed`). Lines on stderr (a traceback) and
+scan published at or before the line's time. Lines on stderr (a traceback) and
 the runner's own nodes' are not what a node prints. Numbers are read from free-form text as
 students write it (:mod:`sim_bridge.scoring.printed_text`); a scan that no line gives a value
 for counts as missed.
@@ -178,13 +177,12 @@ def _bearing_error(printed: float, truth: float) -> float:
 
 
 def _lines_per_scan(kind: str, lines: Iterable[Mapping[str, Any]], times: Sequence[float],
-                    ignored: set[str], lateness_s: float, truth_of: Callable[[int], Any],
+                    ignored: set[str], truth_of: Callable[[int], Any],
                     cap: Cap) -> dict[int, list[tuple[list[Comparison], float | None]]]:
     """
     Return, per scan index, the comparisons (and printed bearing) of the lines about it.
 
-    A line is about the scan it matches best among those from ``lateness_s`` (s) before its
-    time ``t`` (s) to its time; of equal matches, the latest scan.
+    A line is about the last scan at or before its time ``t`` (s).
     """
     per_scan: dict[int, list[tuple[list[Comparison], float | None]]] = {}
     for line in lines:
@@ -194,30 +192,23 @@ def _lines_per_scan(kind: str, lines: Iterable[Mapping[str, Any]], times: Sequen
         if not values:
             continue
         time = float(line['t'])
-        last = bisect.bisect_right(times, time + TIME_SLACK_S) - 1
-        first = min(bisect.bisect_left(times, time - lateness_s - TIME_SLACK_S), last)
-        candidates = [(_compare_line(kind, values, truth_of(index), cap, line), index)
-                      for index in range(last, first - 1, -1)]
-        candidates = [(found, index) for found, index in candidates if found]
-        if candidates:
-            found, index = min(candidates, key=lambda item: max(c.error for c in item[0]))
+        index = bisect.bisect_right(times, time + TIME_SLACK_S) - 1
+        found = _compare_line(kind, values, truth_of(index), cap, line) if index >= 0 else []
+        if found:
             per_scan.setdefault(index, []).append((found, bearing))
     return per_scan
 
 
 def score_printed(kind: str, scans: Sequence[Any], lines: Iterable[Mapping[str, Any]], *,
-                  cap: float = LAB_MAX_RANGE, ignore_nodes: Iterable[str] = (),
-                  lateness_s: float = 0.0) -> dict[str, Any]:
+                  cap: float = LAB_MAX_RANGE, ignore_nodes: Iterable[str] = ()) -> dict[str, Any]:
     """
     Compare the values of ``kind`` (one of KINDS) the lines print with their scans' truth.
 
     ``scans`` are the run's scans in time order (``run_trace.ScanSnapshot``: time s, ranges m,
     angle_min and angle_increment rad, range_min and range_max m); ``lines`` the nodes' log
     lines (dicts with ``t`` s, ``node``, ``level``, ``text``), those of ``ignore_nodes`` and
-    of stderr left out. A line is about the last scan at or before its time; with
-    ``lateness_s`` (s: a process run's lines are stamped when they arrive, and a node that
-    falls behind prints about a scan it had queued) about whichever scan of that long before
-    it it matches best.
+    of stderr left out. A line is about the last scan at or before its time (the node runs in
+    lockstep with the simulator: it prints about the scan it has just received).
 
     No return and readings beyond ``cap`` (m) are right as ``cap`` or more. A node that caps
     at a distance of its own prints one value wherever the scan reads farther (at least
@@ -238,12 +229,11 @@ def score_printed(kind: str, scans: Sequence[Any], lines: Iterable[Mapping[str, 
     if kind not in KINDS:
         raise ValueError(f'unknown printed value {kind!r}; one of {", ".join(KINDS)}')
     lines, ignored = list(lines), set(ignore_nodes)
-    scored, comparisons = _score_with(kind, scans, lines, Cap(cap), ignored, lateness_s)
+    scored, comparisons = _score_with(kind, scans, lines, Cap(cap), ignored)
     reach = min((float(snapshot.range_max) for snapshot in scans), default=cap)
     own = _own_cap(comparisons, min(reach, SHORTEST_CAP), reach)
     if own is not None:
-        again, _ = _score_with(kind, scans, lines, Cap(own, clamps=own >= reach), ignored,
-                               lateness_s)
+        again, _ = _score_with(kind, scans, lines, Cap(own, clamps=own >= reach), ignored)
         if again['worst_error_m'] < scored['worst_error_m']:
             return again
     return scored
@@ -268,7 +258,7 @@ def _own_cap(comparisons: Sequence[Comparison], lowest: float, reach: float) -> 
 
 
 def _score_with(kind: str, scans: Sequence[Any], lines: Sequence[Mapping[str, Any]], cap: Cap,
-                ignored: set[str], lateness_s: float) -> tuple[dict[str, Any], list[Comparison]]:
+                ignored: set[str]) -> tuple[dict[str, Any], list[Comparison]]:
     """Return :func:`score_printed`'s scores judged with ``cap``, and their comparisons."""
     times = [snapshot.time for snapshot in scans]
     truths: dict[int, Any] = {}
@@ -278,7 +268,7 @@ def _score_with(kind: str, scans: Sequence[Any], lines: Sequence[Mapping[str, An
             truths[index] = _TRUTHS[kind](scan_of(scans[index]), cap.at)
         return truths[index]
 
-    per_scan = _lines_per_scan(kind, lines, times, ignored, lateness_s, truth_of, cap)
+    per_scan = _lines_per_scan(kind, lines, times, ignored, truth_of, cap)
     comparisons: list[Comparison] = []
     bearing_errors: list[tuple[float, Comparison, float]] = []
     matched_lines = counted = missed = 0
