@@ -9,10 +9,11 @@ stderr into a pipe the grader drains into the run's ``log.txt`` (at most ``LOG_H
 of its beginning and ``LOG_TAIL_BYTES`` of its end, see :class:`CappedLog`), becomes the
 subreaper of everything below it and forks the run itself. The run (:func:`run_job`) works in
 a scratch directory with a trimmed environment (:func:`trimmed_environment`) and a bounded
-address space; it runs the scenario with :func:`sim_bridge.grading.runs.run_scenario` exactly as an
-in-process run does, sending its progress in simulated seconds and, when it ends, the run's
-report over a pipe. It then ends at once, whatever threads a node left running (they are
-named in the report's ``metrics['warnings']``). However the run ends, the supervisor then kills
+address space; it runs the scenario with :func:`sim_bridge.grading.runs.run_scenario` (each node
+file in a sandboxed process of its own, sim_bridge.runner.node_sandbox), sending its progress in
+simulated seconds and, when it ends, the run's report over a pipe. It then ends at once,
+whatever threads a node left running (they are named in the report's
+``metrics['warnings']``). However the run ends, the supervisor then kills
 every process it started (a process in a session of its own or a double fork included: as a
 subreaper, the supervisor inherits them) and exits with the run's status.
 
