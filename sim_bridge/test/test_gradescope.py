@@ -303,9 +303,14 @@ def test_run_autograder_partly_sandboxed_grades_as_the_dedicated_uid_and_says_so
                                  **{NO_NAMESPACES_VARIABLE: '1'})
         report = json.loads((root / 'results' / 'graded' / 'report.json').read_text())
         page = (root / 'results' / 'graded' / 'report.html').read_text()
+        modes = [path.stat().st_mode & 0o777 for path in (
+            root, root / 'source', root / 'source' / 'scenarios',
+            root / 'source' / 'scenarios' / 'ahead.yaml')]
     finally:
         shutil.rmtree(folder)
     assert results['score'] == 2, json.dumps(results, indent=1)
+    # The runs' uids pass through the root to the kit; the scenarios are root's alone.
+    assert [mode & 0o001 for mode in modes[:2]] == [1, 1] and modes[2:] == [0o700, 0o600]
     ahead, wander = results['tests']
     assert (ahead['score'], ahead['status'], wander['score'], wander['status']) == (
         2, 'passed', 0, 'failed')

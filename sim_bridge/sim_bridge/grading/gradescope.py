@@ -97,6 +97,10 @@ if [ ! -x "$python" ]; then
     exit 0
 fi
 cd "$root"
+# Runs without namespaces (PARTLY sandboxed) see this machine's files as another user does:
+# they must reach the kit and its venv, and must not read the scenarios.
+chmod o+x "$root" "$root/source"
+chmod -R go-rwx "$root/source/scenarios"
 # The kit in the zip, whatever else the Python has installed; plots without a display.
 export PYTHONPATH=$kit/scan_pkg:$kit/sim_bridge${PYTHONPATH:+:$PYTHONPATH}
 export MPLBACKEND=Agg
