@@ -21,7 +21,7 @@ import tempfile
 import pytest
 
 from sim_bridge.runner import sandbox as sandbox_module
-from sim_bridge.runner.node_sandbox import NodeSandbox
+from sim_bridge.runner.node_sandbox import isolation_line, NodeSandbox
 from sim_bridge.runner.sandbox import (
     clean_environment, isolation_mode, IsolationMode, KIT_PACKAGE, python_roots, Sandbox,
     SandboxLimits)
@@ -397,23 +397,29 @@ def test_without_namespaces_the_answers_are_closed_to_a_students_run_not_the_kit
 
 
 @pytest.mark.parametrize('python', ['uid'], indirect=True)
-def test_without_namespaces_a_program_the_run_cannot_reach_is_one_clear_line(python):
+def test_without_namespaces_a_program_the_run_cannot_reach_is_one_clear_line(
+        python, monkeypatch):
     folder = Path(tempfile.mkdtemp())
     try:
         folder.chmod(0o755)
         closed = folder / 'closed'  # as pyenv's Python in /root
         closed.mkdir(mode=0o700)
-        program = closed / 'node.py'
-        program.write_text('print("never")\n')
+        program = closed / 'python3'
+        program.write_text('#!/bin/sh\necho never\n')
         program.chmod(0o755)
         with Sandbox(hostile('sleeper')) as box, \
                 pytest.raises(sandbox_module.SandboxError) as refused:
             box.popen([str(program)], clean_environment(box.scratch))
+        # The grader says so as it starts, of the Python its node processes would run.
+        monkeypatch.setattr(sys, 'executable', str(program))
+        line = isolation_line(SandboxLimits())
     finally:
         shutil.rmtree(folder)
-    assert str(refused.value).startswith(
-        f'PARTLY sandboxed runs (uid {box.uid}, no namespaces) cannot reach {program}: '
-        f'{closed} is closed to them (drwx------); install the kit and its Python where ')
+    said = (f'cannot reach {program}: {closed} is closed to them (drwx------); install the kit '
+            'and its Python where other users can read them')
+    assert str(refused.value).startswith(f'PARTLY sandboxed: uid {box.uid} (no namespaces) {said}')
+    assert line.startswith('PARTLY sandboxed: uid ') and said in line
+    assert line.endswith('(no run can start)')
 
 
 def test_bad_limits_and_file_names_are_refused_in_one_line():

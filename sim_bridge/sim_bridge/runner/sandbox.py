@@ -386,9 +386,9 @@ class Sandbox:
             why = unreachable_by_others(path)
             if why:
                 raise SandboxError(
-                    f'PARTLY sandboxed runs (uid {self.uid}, no namespaces) cannot reach '
-                    f'{path}: {why}; install the kit and its Python where other users can '
-                    "read them (as the autograder's setup.sh does, in a venv of /usr/bin/python3)")
+                    f'PARTLY sandboxed: uid {self.uid} (no namespaces) cannot reach {path}: '
+                    f'{why}; install the kit and its Python where other users can read them '
+                    "(as the autograder's setup.sh does, in a venv of /usr/bin/python3)")
 
     def limit_memory(self) -> str:
         """Hand the scratch to the run's uid, make its cgroup if root; say how memory is held."""
