@@ -73,11 +73,12 @@ class RunRecorder:
     What the run records: the bridge's messages as it publishes them, the rest as DDS delivers.
 
     The bridge's own messages are recorded as the bytes it published them as (rclpy's
-    ``serialize_message``, see SimBridge.on_publish); every other recorded topic (/cmd_vel, TF) has a raw subscription on the
-    runner's own node, as ``ros2 bag record`` has. Messages are stamped with the sim time of the
-    step that sent them. The lines the nodes wrote (``log``) are recorded on /rosout, each at
-    its own time, before the next message. Messages sent before :meth:`record` (while the nodes
-    start) are held, so that a run which cannot start has written nothing.
+    ``serialize_message``, see SimBridge.on_publish); every other recorded topic (/cmd_vel,
+    TF) has a raw subscription on the runner's own node, as ``ros2 bag record`` has. Messages
+    are stamped with the sim time of the step that sent them. The lines the nodes wrote
+    (``log``) are recorded on /rosout, each at its own time, before the next message. Messages
+    sent before :meth:`record` (while the nodes start) are held, so that a run which cannot
+    start has written nothing.
     """
 
     def __init__(self, run: RunGraph, observer: 'Observer', record: bool, log: NodeLog):
