@@ -20,7 +20,9 @@ users set them, and prints:
 (Sim files) in turtlebot3_world.world with wanderbot (360 beams, meshes, recorded) and the lab
 robot's recorded wall_follow in wall_follow_box; the issue's bar is 50x for the Burger. With
 ``--compare CHECKOUT`` both runs are measured with each checkout's code too, alternately,
-``--repeat`` times (default 1); each figure is the best of its repeats.
+``--repeat`` times (default 1); each figure is the best of its repeats. The node's sandbox
+must be able to read CHECKOUT: put it inside the venv (``git worktree add .venv/base main``),
+whose folder every run sees; elsewhere (/tmp) its node fails to import ``scan_pkg``.
 
 Run: python test/bench/bench_gazebo.py [--assets DIR] [--duration S] [--compare CHECKOUT]
      [--speed [--repeat N]]
