@@ -154,6 +154,7 @@ class OutlineGaps:
 
     def gap(self, pose: tuple[float, float, float]) -> tuple[float, int]:
         """Return (gap m, the nearest footprint's index) for the robot at ``pose``."""
+        pose = tuple(pose)  # a list or an array compares as its values
         if self._last is not None and self._last[0] == pose:
             return self._last[1]
         result = (math.inf, -1)
