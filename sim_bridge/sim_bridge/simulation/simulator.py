@@ -174,9 +174,9 @@ class Simulator:
         Advance the robot and the clock by ``substeps`` physics steps of dt (s) each.
 
         In one piece when one arc drives them (see :meth:`in_one_arc`); otherwise one step at
-        a time, as that many calls would, except that a robot which cannot reach an obstacle in
-        them (see :meth:`_out_of_reach`) is driven without collision checks between them.
-        Either way, the trajectory gets one sample for them all, at the end.
+        a time, as that many calls would (a trajectory sample each), except that a robot which
+        cannot reach an obstacle in them (see :meth:`_out_of_reach`) is driven without
+        collision checks between them, to the same pose, with one sample at the end.
         """
         if not (isinstance(dt, (int, float)) and math.isfinite(dt) and dt > 0.0):
             raise ValueError(f'step needs a positive finite dt in s, got {dt!r}')
