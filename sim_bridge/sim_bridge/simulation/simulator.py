@@ -173,25 +173,30 @@ class Simulator:
         """
         Advance the robot and the clock by ``substeps`` physics steps of dt (s) each.
 
-        In one piece when one arc drives them (see :meth:`in_one_arc`); otherwise one step at
-        a time, as that many calls would (a trajectory sample each), except that a robot which
-        cannot reach an obstacle in them (see :meth:`_out_of_reach`) is driven without
-        collision checks between them, to the same pose, with one sample at the end.
+        As that many calls would: one step at a time while one arc cannot drive them (see
+        :meth:`in_one_arc`), then the rest in one piece; a trajectory sample after each. A
+        robot that cannot reach an obstacle in them (see :meth:`_out_of_reach`) is driven
+        through those one-at-a-time steps without collision checks, to the same pose, with
+        one sample after them.
         """
         if not (isinstance(dt, (int, float)) and math.isfinite(dt) and dt > 0.0):
             raise ValueError(f'step needs a positive finite dt in s, got {dt!r}')
         if substeps.__class__ is not int or substeps < 1:
             raise ValueError(f'step needs a whole number of substeps >= 1, got {substeps!r}')
-        if substeps == 1 or self.in_one_arc():
-            self._step(dt * substeps)
-        elif self.command_timeout is None and self._out_of_reach(dt * substeps):
-            for _ in range(substeps):
+        done = 0
+        if substeps > 1 and self.command_timeout is None and not self.in_one_arc() and \
+                self._out_of_reach(dt * substeps):
+            while done < substeps and not self.in_one_arc():
                 self._drive.pose = self._move_clear(dt)
                 self._time_ns += round(dt * 1e9)
+                done += 1
             self._settle(self._drive.pose, None, self._floor.clearance(self._drive.pose))
-        else:
-            for _ in range(substeps):
-                self._step(dt)
+        while done < substeps:
+            if self.in_one_arc():
+                self._step(dt * (substeps - done))
+                return
+            self._step(dt)
+            done += 1
 
     def in_one_arc(self) -> bool:
         """
