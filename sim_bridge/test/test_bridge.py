@@ -26,6 +26,7 @@ from rclpy.exceptions import InvalidParameterTypeException
 from rclpy.parameter import Parameter
 from rclpy.qos import (DurabilityPolicy, qos_profile_sensor_data, QoSProfile,
                        ReliabilityPolicy)
+from rclpy.serialization import deserialize_message, serialize_message
 from rclpy.time import Time
 from rclpy.utilities import get_default_context
 from rosgraph_msgs.msg import Clock
@@ -390,8 +391,12 @@ def test_step_reports_nothing_heard_when_nobody_listens(session):
 def test_on_publish_sees_every_message_the_bridge_publishes(session):
     bridge = session.bridge(namespace='robot')
     published = []
-    bridge.on_publish = lambda topic, msg: published.append(
-        (bridge.now_ns, topic, type(msg)))
+    # With the bytes it published: the message itself, serialised.
+    bridge.on_publish = lambda topic, msg, data: published.append(
+        (bridge.now_ns, topic, type(msg))
+        if deserialize_message(data, type(msg)) == deserialize_message(serialize_message(msg),
+                                                                       type(msg))
+        else (topic, 'published other bytes'))
     for _ in range(10):
         session.step(clock_due=False)     # nobody listens: no /clock
     assert published == [(20 * MS, '/robot/odom', Odometry), (40 * MS, '/robot/odom', Odometry),

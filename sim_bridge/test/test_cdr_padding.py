@@ -284,6 +284,20 @@ def test_garbage_is_zeroed_after_strings_of_every_length(length):
         assert ZERO_PADDING(type_name, with_garbage(expected, positions)) == expected, type_name
 
 
+def test_a_message_of_the_same_type_and_size_laid_out_otherwise_is_walked_anew():
+    """The zeroer keeps where a type's padding was: for messages with the same lengths only."""
+    zeroer = PaddingZeroer()
+    # 68 bytes each; the frame_id's padding is bytes 18..19 in one, 22..23 in the other.
+    one = stamped(LaserScan(ranges=[1.0, 2.0], intensities=[3.0]), 'a')
+    other = stamped(LaserScan(ranges=[1.0], intensities=[3.0]), 'abcde')
+    assert len(serialize_message(one)) == len(serialize_message(other))
+    for msg in (one, one, other, one, other):
+        type_name = message_type_name(msg)
+        expected = canonical(type_name, serialize_message(msg))
+        positions = padding_positions(type_name, expected, type(msg))
+        assert zeroer(type_name, with_garbage(expected, positions)) == expected
+
+
 frame_ids = st.text('abcdefghijklmnopqrstuvwxyz_/0123456789', max_size=9)
 texts = st.text(st.characters(codec='utf-8', exclude_characters='\x00'), max_size=9)
 float32s = st.floats(width=32)

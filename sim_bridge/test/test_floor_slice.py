@@ -132,6 +132,26 @@ def test_clearance_is_measured_from_the_robots_outline():
     assert simulator.clearance() == pytest.approx(0.4 - 0.153, abs=1e-4)
 
 
+def test_a_polygon_robots_gap_is_its_least_distance_to_every_footprint():
+    # A ring wall of 256 sides around the world, posts and a box: the gap along a path
+    # through them is what shapely measures to each whole footprint.
+    wall = trimesh.creation.annulus(2.8, 3.0, 0.5, sections=256)
+    obstacles = [('wall', [Shape('mesh', z=0.25, mesh=Mesh(wall.vertices, wall.faces))]),
+                 ('box', [Shape('box', 1.0, 0.6, 0.25, yaw=0.3, size=(0.4, 0.2, 0.5))])]
+    obstacles += [(f'post{i}', [Shape('cylinder', -1.0 + 0.5 * i, -0.8, 0.25, radius=0.1,
+                                      length=0.5)]) for i in range(5)]
+    floor = FloorSlice(WAFFLE, obstacles)
+    pieces = [shapely.Point(fp.x, fp.y) if fp.kind == 'circle' else fp.geometry()
+              for fp in floor.footprints]
+    radii = [fp.radius if fp.kind == 'circle' else 0.0 for fp in floor.footprints]
+    for t in np.linspace(0.0, 2.0 * math.pi, 400):
+        pose = (2.2 * math.cos(t), 1.9 * math.sin(2.0 * t), 3.0 * t)
+        gaps = shapely.distance(floor.robot_at(pose), pieces) - radii
+        gap, index = floor.clearance(pose)
+        assert gap == pytest.approx(gaps.min(), abs=1e-12)
+        assert gaps[index] == pytest.approx(gaps.min(), abs=1e-12)
+
+
 def test_a_long_robot_turning_in_place_is_stopped_by_its_corner():
     # A 0.6 x 0.1 m plank robot, a wall face 0.15 m to its left: its front-left corner
     # (0.3, 0.05) meets the wall after turning by the angle solved below.

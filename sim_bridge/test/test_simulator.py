@@ -255,6 +255,36 @@ def test_a_fast_robot_cannot_jump_through_a_thin_wall():
         assert len(simulator.collisions) == 1
 
 
+def step_by_step(simulator: Simulator, dt: float, steps: int) -> None:
+    """Step one at a time while one arc cannot drive the steps, then the rest in one."""
+    for done in range(steps):
+        if simulator.in_one_arc():
+            simulator.step(dt * (steps - done))
+            return
+        simulator.step(dt)
+
+
+def test_substeps_drive_as_the_steps_one_by_one_to_the_last_bit():
+    # Speeding up while turning (no single arc), then holding the command: clear of the wall,
+    # then into it, where the substeps are checked one by one.
+    world = wall_world().with_robot_start(1.55, 0.0, 0.0)
+    with Simulator(world) as one_by_one, Simulator(world) as at_once:
+        at_once.trajectory = []
+        for command in [(0.5, 0.8), (0.3, -1.2), (0.5, 0.0), (0.4, 0.6)] * 6:
+            one_by_one.set_command(*command)
+            at_once.set_command(*command)
+            step_by_step(one_by_one, 0.001, 50)
+            at_once.step(0.001, 50)
+            assert at_once.pose == one_by_one.pose
+            assert at_once.velocity == one_by_one.velocity
+            assert at_once.time_ns == one_by_one.time_ns
+        assert at_once.collisions == one_by_one.collisions != []
+        assert at_once.trajectory[-1] == (at_once.time, *one_by_one.pose,
+                                          *one_by_one.velocity, one_by_one.clearance())
+        with pytest.raises(ValueError, match='substeps'):
+            at_once.step(0.001, 0)
+
+
 def run_wanderer(seed: int, seconds: float = 60.0):
     """Return the scans and poses of a scan-reacting wanderer in the room."""
     scans, poses = [], []

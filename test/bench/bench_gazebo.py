@@ -18,10 +18,14 @@ users set them, and prints:
 
 ``--speed`` measures only the two real-time factors, side by side in one sitting: the Burger
 (Sim files) in turtlebot3_world.world with wanderbot (360 beams, meshes, recorded) and the lab
-robot's recorded wall_follow in wall_follow_box; the issue's bar is 50x for the Burger.
+robot's recorded wall_follow in wall_follow_box; the issue's bar is 50x for the Burger. With
+``--compare CHECKOUT`` both runs are measured with each checkout's code too, alternately,
+``--repeat`` times (default 1); each figure is the best of its repeats. The node's sandbox
+must be able to read CHECKOUT: put it inside the venv (``git worktree add .venv/base main``),
+whose folder every run sees; elsewhere (/tmp) its node fails to import ``scan_pkg``.
 
 Run: python test/bench/bench_gazebo.py [--assets DIR] [--duration S] [--compare CHECKOUT]
-     [--speed]
+     [--speed [--repeat N]]
 """
 
 import argparse
@@ -57,6 +61,18 @@ with tempfile.TemporaryDirectory() as out:
                    out_dir=out, quiet=True, plot=False)
     print(float(sys.argv[1]) / (time.perf_counter() - start))
 """
+#: Measures the real-time factor of the recorded Burger wanderbot run in any checkout's code
+#: (the world file and model paths come as arguments and in the environment).
+BURGER_RTF = """
+import sys, tempfile, time
+from sim_bridge.runner.run import run_simulation
+with tempfile.TemporaryDirectory() as out:
+    start = time.perf_counter()
+    run_simulation(sys.argv[2], ['wanderbot'], duration_s=float(sys.argv[1]), seed=1,
+                   start=(-2.0, -0.5, 0.0), robot='turtlebot3_burger', out_dir=out,
+                   quiet=True, plot=False)
+    print(float(sys.argv[1]) / (time.perf_counter() - start))
+"""
 
 
 def model_paths(assets: Path, generation: str) -> dict[str, str]:
@@ -84,7 +100,7 @@ def drive_turtlebots(assets: Path, duration_s: float) -> float | None:
     """Print the wanderbot runs; return the Burger's (Sim) real-time factor."""
     print(f'1. wanderbot {duration_s:g} s in turtlebot3_world.world from {SPAWN}')
     print('   robot             files    collisions  driven m  scans  ranges  frames  x real time')
-    burger_rtf = None
+    burger_factor = None
     for generation in GENERATIONS:
         world_file = assets / GENERATIONS[generation][0] / 'worlds' / 'turtlebot3_world.world'
         paths_of_generation = model_paths(assets, generation)
@@ -98,12 +114,12 @@ def drive_turtlebots(assets: Path, duration_s: float) -> float | None:
                 total, counts, frames = scans_in(Path(out) / 'run')
             metrics = result.metrics
             if (robot, generation) == ('turtlebot3_burger', 'Sim'):
-                burger_rtf = rtf
+                burger_factor = rtf
             print(f'   {robot:<17} {generation:<8} {metrics["collisions"]:>10}  '
                   f'{metrics["distance_m"]:>8.2f}  {total:>5}  '
                   f'{",".join(map(str, sorted(counts))):>6}  {",".join(sorted(frames)):>6}  '
                   f'{rtf:>10.1f}')
-    return burger_rtf
+    return burger_factor
 
 
 def under_the_table_and_the_cone(assets: Path) -> None:
@@ -146,35 +162,45 @@ def load_time(assets: Path) -> None:
     print(f'3. load of turtlebot3_world.world with the Burger: {best * 1000:.0f} ms (best of 3)')
 
 
-def wall_follow_rtf(checkout: Path, duration_s: float) -> float:
-    """Return the real-time factor of the recorded wall_follow run with ``checkout``'s code."""
+def checkout_rtf(script: str, checkout: Path, arguments: list[str],
+                 environment: dict[str, str] | None = None) -> float:
+    """Return the real-time factor ``script`` prints, run with ``checkout``'s code."""
     pythonpath = os.pathsep.join((str(checkout / 'sim_bridge'), str(checkout / 'scan_pkg')))
-    output = subprocess.run([sys.executable, '-c', WALL_FOLLOW_RTF, str(duration_s)],
-                            env={**os.environ, 'PYTHONPATH': pythonpath}, check=True,
-                            capture_output=True, text=True).stdout
+    output = subprocess.run([sys.executable, '-c', script, *arguments],
+                            env={**os.environ, **(environment or {}), 'PYTHONPATH': pythonpath},
+                            check=True, capture_output=True, text=True).stdout
     return float(output.split()[-1])
 
 
-def burger_rtf(assets: Path, duration_s: float) -> float:
+def wall_follow_rtf(checkout: Path, duration_s: float) -> float:
+    """Return the real-time factor of the recorded wall_follow run with ``checkout``'s code."""
+    return checkout_rtf(WALL_FOLLOW_RTF, checkout, [str(duration_s)])
+
+
+def burger_rtf(assets: Path, checkout: Path, duration_s: float) -> float:
     """Return the real-time factor of the recorded Burger wanderbot run in turtlebot3_world."""
     world_file = assets / 'turtlebot3_gazebo_sim' / 'worlds' / 'turtlebot3_world.world'
-    with tempfile.TemporaryDirectory() as out, environment_set(model_paths(assets, 'Sim')):
-        start = time.perf_counter()
-        run_simulation(str(world_file), ['wanderbot'], duration_s=duration_s, seed=1,
-                       start=SPAWN, robot='turtlebot3_burger', out_dir=out, quiet=True,
-                       plot=False)
-        return duration_s / (time.perf_counter() - start)
+    return checkout_rtf(BURGER_RTF, checkout, [str(duration_s), str(world_file)],
+                        model_paths(assets, 'Sim'))
 
 
-def speed(assets: Path, duration_s: float) -> None:
+def speed(assets: Path, duration_s: float, compare: Path | None, repeat: int) -> None:
     """Print the Burger's and the lab robot's real-time factors, measured one after the other."""
-    burger = burger_rtf(assets, duration_s)
-    lab = wall_follow_rtf(ROOT, duration_s)
-    print(f'Burger, turtlebot3_world, wanderbot, 360 beams, recorded, {duration_s:g} s: '
-          f'{burger:.1f}x real time (bar: 50x)')
-    print(f'lab robot, wall_follow_box, wall_follow, 36 beams, recorded, {duration_s:g} s: '
-          f'{lab:.1f}x real time')
-    print(f'Burger / lab robot: {burger / lab:.2f}')
+    checkouts = [('this checkout', ROOT)] + ([(str(compare), compare.resolve())]
+                                             if compare is not None else [])
+    best = {}
+    for _ in range(repeat):
+        for name, checkout in checkouts:
+            figures = (burger_rtf(assets, checkout, duration_s),
+                       wall_follow_rtf(checkout, duration_s))
+            best[name] = tuple(map(max, zip(best.get(name, figures), figures)))
+    for name, (burger, lab) in best.items():
+        print(f'{name}:')
+        print(f'  Burger, turtlebot3_world, wanderbot, 360 beams, recorded, {duration_s:g} s: '
+              f'{burger:.1f}x real time (bar: 50x)')
+        print(f'  lab robot, wall_follow_box, wall_follow, 36 beams, recorded, {duration_s:g} s: '
+              f'{lab:.1f}x real time')
+        print(f'  Burger / lab robot: {burger / lab:.2f}')
 
 
 def main() -> int:
@@ -184,17 +210,19 @@ def main() -> int:
     parser.add_argument('--compare', type=Path, metavar='CHECKOUT')
     parser.add_argument('--speed', action='store_true',
                         help='only the two real-time factors, side by side')
+    parser.add_argument('--repeat', type=int, default=1,
+                        help='with --speed: measure each figure this many times, keep the best')
     args = parser.parse_args()
     if not args.assets.is_dir():
         print(f'no assets folder at {args.assets}; nothing to run')
         return 0
     if args.speed:
-        speed(args.assets, args.duration)
+        speed(args.assets, args.duration, args.compare, args.repeat)
         return 0
-    burger_rtf = drive_turtlebots(args.assets, args.duration)
+    burger_factor = drive_turtlebots(args.assets, args.duration)
     under_the_table_and_the_cone(args.assets)
     load_time(args.assets)
-    print(f'   Burger in turtlebot3_world (360 beams, meshes), recorded: {burger_rtf:.1f}x '
+    print(f'   Burger in turtlebot3_world (360 beams, meshes), recorded: {burger_factor:.1f}x '
           'real time')
     checkouts = [('this checkout', ROOT)]
     if args.compare is not None:

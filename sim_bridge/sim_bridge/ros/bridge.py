@@ -38,6 +38,7 @@ from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallba
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from rclpy.serialization import serialize_message
 from rclpy.time import Time
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import LaserScan
@@ -182,7 +183,8 @@ class SimBridge(Node):
         self.odom_schedule = self.schedule('odom_rate', odom_rate, physics_rate)
         self.steps = 0
         self.collisions_reported = 0
-        #: Called as ``on_publish(topic, msg)`` after each message the bridge publishes itself.
+        #: Called as ``on_publish(topic, msg, data)`` after each message the bridge publishes
+        #: itself, with the CDR bytes ``data`` it published (rclpy's ``serialize_message``).
         self.on_publish = None
         # Stepped, every QoS event handler is one more entity in every wait of the executor;
         # the other side's handlers still report incompatible QoS.
@@ -383,18 +385,11 @@ class SimBridge(Node):
 
         The steps up to the first at or after ``until_ns`` (the caller's next event: a node's
         timer, the run's end), the next scan or odometry, or the next look at the command
-        topic: no message goes out and no command can come in before the last of them. Driven
-        in one piece, the motion is the motion driven in many when the drive holds its
-        command's velocity (one arc), or only speeds up or slows down in a straight line or
-        turning on the spot (the mean velocity covers the same distance or angle). A drive
-        changing both while moving, or with a command timeout to keep, takes one step at a time.
+        topic: no message goes out and no command can come in before the last of them. The
+        simulator drives them as it would one by one (Simulator.step's ``substeps``); a drive
+        with a command timeout to keep takes one step at a time.
         """
-        sim = self.sim
-        (linear, angular), command = sim.velocity, sim.command
-        steady = (linear, angular) == command
-        straight_ramp = angular == command[1] == 0.0
-        spin_ramp = linear == command[0] == 0.0
-        if not (steady or straight_ramp or spin_ramp) or sim.command_timeout is not None:
+        if self.sim.command_timeout is not None:
             return 1
         next_ns = min(until_ns, self.scan_schedule.next_ns, self.odom_schedule.next_ns,
                       self.next_command_check * self.step_ns)
@@ -414,7 +409,7 @@ class SimBridge(Node):
             self.check_command_publishers()
             self.next_command_check = self.steps + self.command_check_steps[
                 self.command_subscription is not None]
-        self.sim.step(self.step_s * steps)
+        self.sim.step(self.step_s, steps)
         self.steps += steps
         now_ns = self.now_ns
         stamp = self.clock.clock
@@ -443,10 +438,15 @@ class SimBridge(Node):
         return heard
 
     def publish(self, publisher, msg) -> None:
-        """Publish ``msg``; then hand it to ``on_publish`` (topic, msg) when that is set."""
-        publisher.publish(msg)
+        """
+        Publish ``msg``; then hand it to ``on_publish`` (topic, msg, its bytes) if that is set.
+
+        Serialised once: rclpy publishes the bytes as they are, and a recorder stores them.
+        """
+        data = serialize_message(msg)
+        publisher.publish(data)
         if self.on_publish is not None:
-            self.on_publish(publisher.topic_name, msg)
+            self.on_publish(publisher.topic_name, msg, data)
 
     def scan_message(self, stamp) -> LaserScan:
         """

@@ -14,7 +14,6 @@ from typing import Any, Sequence
 
 import numpy as np
 from rclpy.event_handler import SubscriptionEventCallbacks
-from rclpy.serialization import serialize_message
 from sim_bridge.common.errors import RunError, RunStopped, UserInterrupt
 from sim_bridge.common.message_types import message_type_name
 from sim_bridge.media.plot import plot_trajectory
@@ -73,12 +72,13 @@ class RunRecorder:
     """
     What the run records: the bridge's messages as it publishes them, the rest as DDS delivers.
 
-    The bridge's own messages are serialised by rclpy (``serialize_message``) as they are
-    published; every other recorded topic (/cmd_vel, TF) has a raw subscription on the
-    runner's own node, as ``ros2 bag record`` has. Messages are stamped with the sim time of the
-    step that sent them. The lines the nodes wrote (``log``) are recorded on /rosout, each at
-    its own time, before the next message. Messages sent before :meth:`record` (while the nodes
-    start) are held, so that a run which cannot start has written nothing.
+    The bridge's own messages are recorded as the bytes it published them as (rclpy's
+    ``serialize_message``, see SimBridge.on_publish); every other recorded topic (/cmd_vel,
+    TF) has a raw subscription on the runner's own node, as ``ros2 bag record`` has. Messages
+    are stamped with the sim time of the step that sent them. The lines the nodes wrote
+    (``log``) are recorded on /rosout, each at its own time, before the next message. Messages
+    sent before :meth:`record` (while the nodes start) are held, so that a run which cannot
+    start has written nothing.
     """
 
     def __init__(self, run: RunGraph, observer: 'Observer', record: bool, log: NodeLog):
@@ -136,12 +136,12 @@ class RunRecorder:
             self.type_names[msg_type] = message_type_name(msg_type)
         return self.type_names[msg_type]
 
-    def on_bridge_message(self, topic: str, msg: Any) -> None:
-        """Record a message the bridge publishes; show scans to the observer."""
+    def on_bridge_message(self, topic: str, msg: Any, data: bytes) -> None:
+        """Record a message the bridge publishes (its CDR bytes); show scans to the observer."""
         if topic == '/scan':
             self.observer.on_scan(msg)
         if self.recording and topic in DEFAULT_TOPICS:
-            self.write(topic, self.type_name(type(msg)), serialize_message(msg))
+            self.write(topic, self.type_name(type(msg)), data)
 
     def write(self, topic: str, type_name: str, data: bytes) -> None:
         """Write (or hold) one message's CDR bytes at the current sim time."""

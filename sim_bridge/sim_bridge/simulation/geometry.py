@@ -16,6 +16,7 @@ Units: m and rad; angles counter-clockwise (REP-103).
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
+from functools import lru_cache
 import math
 
 import numpy as np
@@ -516,8 +517,17 @@ def slice_polygon(shape: Shape, low: float, high: float) -> BaseGeometry:
     A primitive is convex, so its slice is the convex hull of its triangles' corners clipped
     to the band. A mesh's is :func:`~.mesh_slice.mesh_slice`: its clipped faces, those
     standing on edge included, and the area it encloses. An empty geometry when nothing is in
-    the band.
+    the band. Kept for the next equal shape and band (a run loads its world more than once;
+    meshes compare as the same file at the same scale, see meshes.load_mesh).
     """
+    try:
+        hash(shape)
+    except TypeError:  # a field given as a list: sliced, not kept
+        return _slice_polygon(shape, low, high)
+    return _kept_slice_polygon(shape, low, high)
+
+
+def _slice_polygon(shape: Shape, low: float, high: float) -> BaseGeometry:
     mesh = shape.world_mesh()
     if shape.kind == 'mesh':
         return mesh_slice(mesh, low, high)
@@ -525,3 +535,6 @@ def slice_polygon(shape: Shape, low: float, high: float) -> BaseGeometry:
     if not pieces:
         return shapely.Polygon()
     return shapely.MultiPoint(np.vstack(pieces)[:, :2]).convex_hull
+
+
+_kept_slice_polygon = lru_cache(maxsize=1024)(_slice_polygon)

@@ -32,10 +32,19 @@ def load_mesh(path: Path, scale: tuple[float, float, float] = (1.0, 1.0, 1.0)) -
     Return the mesh in file ``path`` in metres, times ``scale``, as one triangle mesh.
 
     The file's scene graph (node transforms) is flattened; a DAE's ``<unit>`` is applied.
-    Raises :class:`MeshError` for a format not read here or a file with no triangles.
+    Raises :class:`MeshError` for a format not read here or a file with no triangles. The
+    same file at the same scale is the same (read-only) Mesh each time, so what is worked
+    out from it once (its slices, see geometry.slice_polygon) holds for every world using it.
     """
-    vertices, faces, notes = _read(Path(path).resolve())
-    return Mesh(vertices * np.asarray(scale, dtype=float), faces, str(path), notes)
+    return _scaled(Path(path).resolve(), str(path), tuple(float(value) for value in scale))
+
+
+@lru_cache(maxsize=256)
+def _scaled(path: Path, source: str, scale: tuple[float, float, float]) -> Mesh:
+    vertices, faces, notes = _read(path)
+    vertices = vertices * np.asarray(scale, dtype=float)
+    vertices.setflags(write=False)
+    return Mesh(vertices, faces, source, notes)
 
 
 class _Warnings(logging.Handler):

@@ -169,24 +169,89 @@ class Simulator:
         self._command_time_ns = self._time_ns
         return self._drive.set_command(linear, angular)
 
-    def step(self, dt: float) -> None:
-        """Advance the robot and the clock by dt (s)."""
+    def step(self, dt: float, substeps: int = 1) -> None:
+        """
+        Advance the robot and the clock by ``substeps`` physics steps of dt (s) each.
+
+        As that many calls would: one step at a time while one arc cannot drive them (see
+        :meth:`in_one_arc`), then the rest in one piece; a trajectory sample after each. A
+        robot that cannot reach an obstacle in them (see :meth:`_out_of_reach`) is driven
+        through those one-at-a-time steps without collision checks, to the same pose, with
+        one sample after them.
+        """
         if not (isinstance(dt, (int, float)) and math.isfinite(dt) and dt > 0.0):
             raise ValueError(f'step needs a positive finite dt in s, got {dt!r}')
+        if substeps.__class__ is not int or substeps < 1:
+            raise ValueError(f'step needs a whole number of substeps >= 1, got {substeps!r}')
+        done = 0
+        if substeps > 1 and self.command_timeout is None and not self.in_one_arc() and \
+                self._out_of_reach(dt * substeps):
+            while done < substeps and not self.in_one_arc():
+                self._drive.pose = self._move_clear(dt)
+                self._time_ns += round(dt * 1e9)
+                done += 1
+            self._settle(self._drive.pose, None, self._floor.clearance(self._drive.pose))
+        while done < substeps:
+            if self.in_one_arc():
+                self._step(dt * (substeps - done))
+                return
+            self._step(dt)
+            done += 1
+
+    def in_one_arc(self) -> bool:
+        """
+        Tell whether one arc drives any number of steps from now as the steps one by one would.
+
+        The drive holds its command's velocity (one arc), or only speeds up or slows down in a
+        straight line or turning on the spot (the mean velocity covers the same distance or
+        angle). A drive changing its speed while turning, or with a command timeout to keep,
+        takes one step at a time.
+        """
+        (linear, angular), command = self._drive.velocity, self._drive.command
+        steady = (linear, angular) == command
+        straight_ramp = angular == command[1] == 0.0
+        spin_ramp = linear == command[0] == 0.0
+        return (steady or straight_ramp or spin_ramp) and self.command_timeout is None
+
+    def _out_of_reach(self, duration: float) -> bool:
+        """
+        Tell whether no point of the robot can come within RELEASE_DISTANCE of an obstacle.
+
+        Within ``duration`` (s) of driving towards the command: no point moves faster than
+        the faster of its velocity now and the command's.
+        """
+        (linear, angular), command = self._drive.velocity, self._drive.command
+        top_speed = self._point_speed(max(abs(linear), abs(command[0])),
+                                      max(abs(angular), abs(command[1])))
+        return self._clearance - top_speed * duration > RELEASE_DISTANCE
+
+    def _step(self, dt: float) -> None:
+        """Advance the robot and the clock by dt (s), with every collision check."""
         if self.command_timeout is not None and \
                 self._time_ns - self._command_time_ns > self.command_timeout * 1e9:
             self._drive.set_command(0.0, 0.0)
-        pose, blocked_after, (gap, index) = self._move(dt)
+        pose, blocked_after, nearest = self._move(dt)
+        contact_time = self.time + (dt if blocked_after is None else blocked_after)
+        self._time_ns += round(dt * 1e9)
+        self._settle(pose, blocked_after, nearest, contact_time)
+
+    def _settle(self, pose: tuple[float, float, float], blocked_after: float | None,
+                nearest: tuple[float, int], contact_time: float | None = None) -> None:
+        """
+        Put the robot at ``pose`` (blocked ``blocked_after`` s into the step, or None).
+
+        ``nearest`` is (gap m, index) of the nearest footprint there; a new contact is logged
+        at ``contact_time`` (s; default now). Then the trajectory's sample, and the viewer.
+        """
         self._drive.pose = pose
         if blocked_after is not None:
             self._drive.halt()
-        contact_time = self.time + (dt if blocked_after is None else blocked_after)
-        self._time_ns += round(dt * 1e9)
-        self._clearance = gap
+        self._clearance, index = nearest
         if blocked_after is not None or self._clearance <= CONTACT_DISTANCE:
             if not self._in_contact:
-                self.collisions.append(Collision(contact_time, pose[0], pose[1],
-                                                 self._owners[index]))
+                self.collisions.append(Collision(
+                    self.time if contact_time is None else contact_time, pose[0], pose[1],
+                    self._owners[index]))
             self._in_contact = True
         elif self._clearance > RELEASE_DISTANCE:
             self._in_contact = False
@@ -206,9 +271,7 @@ class Simulator:
         linear, angular = self._drive.accelerate(dt)
         pose = self._drive.pose
         floor = self._floor
-        speed = self._point_speed(linear, angular)
-        pieces = max(1, math.ceil(speed * dt / (MAX_MOVE_PER_CHECK * floor.inscribed_radius)))
-        piece = dt / pieces
+        pieces, piece = self._pieces(linear, angular, dt)
         for index in range(pieces):
             candidate = integrate_arc(pose, linear, angular, piece)
             gap, nearest, clear = floor.probe(candidate)
@@ -226,6 +289,21 @@ class Simulator:
         if not floor.round:
             gap, nearest = floor.clearance(pose)
         return pose, None, (gap, nearest)
+
+    def _move_clear(self, dt: float) -> tuple[float, float, float]:
+        """Return the robot's pose after dt (s) of driving where nothing can block it."""
+        linear, angular = self._drive.accelerate(dt)
+        pose = self._drive.pose
+        pieces, piece = self._pieces(linear, angular, dt)
+        for _ in range(pieces):  # in the pieces of _move: the same pose to the last bit
+            pose = integrate_arc(pose, linear, angular, piece)
+        return pose
+
+    def _pieces(self, linear: float, angular: float, dt: float) -> tuple[int, float]:
+        """Return how many pieces a move at (v m/s, w rad/s) for dt s is checked in, and each s."""
+        longest = MAX_MOVE_PER_CHECK * self._floor.inscribed_radius
+        pieces = max(1, math.ceil(self._point_speed(linear, angular) * dt / longest))
+        return pieces, dt / pieces
 
     def _point_speed(self, linear: float, angular: float) -> float:
         """Return the top speed (m/s) of any point of the robot's outline at (v, w)."""

@@ -263,7 +263,10 @@ class World:
             raise WorldError(self._label(), 'robot', 'pose', 'must be finite, x and y within '
                              f'±{MAX_COORDINATE_M:g} m of the origin, got {pose}')
         _check_robot_clear(self._label(), pose, self.floor_slice, self.robot.name)
-        return replace(self, robot_start=pose)
+        moved = replace(self, robot_start=pose)
+        # The same robot among the same obstacles: the same slice, not sliced again.
+        moved.__dict__['floor_slice'] = self.floor_slice
+        return moved
 
     def with_robot(self, model: str | os.PathLike,
                    pose: tuple[float, float, float] = (0.0, 0.0, 0.0),
