@@ -230,12 +230,25 @@ class LockstepRun:
             steps = bridge.quiet_steps(min([end_ns, next_call_ns, *wakes]))
             clock_due = bool(wakes) and min(wakes) <= bridge.now_ns + steps * physics_ns
             if bridge.step(clock_due, steps):  # something was sent: to the runner's or targets'
-                spin_until_idle(executor)
-                timer_due = next_timer_ns(own)
+                if self.hears_bridge():
+                    spin_until_idle(executor)
                 lockstep.exchange_due(bridge.now_ns)  # a wake time due sends /clock: heard
+                timer_due = next_timer_ns(own)
             if bridge.now_ns >= next_call_ns:
                 on_step(bridge.now_ns)
                 next_call_ns += step_ns
+
+    def hears_bridge(self) -> bool:
+        """
+        Tell whether a node on this process's executor subscribes to a topic the bridge publishes.
+
+        Only then can a step of the bridge make one of its callbacks ready (a timer on sim time
+        needs /clock, a subscription too): when none does (the taps of the node processes are
+        not on the executor), the wait that would find nothing ready is not made.
+        """
+        published = {publisher.topic_name for publisher in self.bridge.publishers}
+        return any(subscription.topic_name in published
+                   for node in self.executor.get_nodes() for subscription in node.subscriptions)
 
     def close(self) -> None:
         """Destroy every node (the bridge last) and shut this run's rclpy context down."""
