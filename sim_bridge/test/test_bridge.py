@@ -24,6 +24,7 @@ import rclpy
 from rclpy.clock import ClockType
 from rclpy.exceptions import InvalidParameterTypeException
 from rclpy.parameter import Parameter
+from rclpy.serialization import serialize_message
 from rclpy.qos import (DurabilityPolicy, qos_profile_sensor_data, QoSProfile,
                        ReliabilityPolicy)
 from rclpy.time import Time
@@ -389,9 +390,12 @@ def test_step_reports_nothing_heard_when_nobody_listens(session):
 
 def test_on_publish_sees_every_message_the_bridge_publishes(session):
     bridge = session.bridge(namespace='robot')
-    published = []
-    bridge.on_publish = lambda topic, msg: published.append(
-        (bridge.now_ns, topic, type(msg)))
+    published, as_published = [], []
+
+    def on_publish(topic, msg, data):
+        published.append((bridge.now_ns, topic, type(msg)))
+        as_published.append(data == serialize_message(msg))  # its bytes, as published
+    bridge.on_publish = on_publish
     for _ in range(10):
         session.step(clock_due=False)     # nobody listens: no /clock
     assert published == [(20 * MS, '/robot/odom', Odometry), (40 * MS, '/robot/odom', Odometry),
@@ -401,6 +405,7 @@ def test_on_publish_sees_every_message_the_bridge_publishes(session):
     published.clear()
     session.step(clock_due=True)
     assert published == [(110 * MS, '/robot/clock', Clock)]
+    assert as_published == [True] * 7
 
 
 def test_live_bridge_steps_physics_on_a_steady_timer_and_clock_advances(session):

@@ -14,7 +14,6 @@ from typing import Any, Sequence
 
 import numpy as np
 from rclpy.event_handler import SubscriptionEventCallbacks
-from rclpy.serialization import serialize_message
 from sim_bridge.common.errors import RunError, RunStopped, UserInterrupt
 from sim_bridge.common.message_types import message_type_name
 from sim_bridge.media.plot import plot_trajectory
@@ -136,12 +135,12 @@ class RunRecorder:
             self.type_names[msg_type] = message_type_name(msg_type)
         return self.type_names[msg_type]
 
-    def on_bridge_message(self, topic: str, msg: Any) -> None:
-        """Record a message the bridge publishes; show scans to the observer."""
+    def on_bridge_message(self, topic: str, msg: Any, data: bytes) -> None:
+        """Record a message the bridge publishes (``data``, its CDR bytes); show scans."""
         if topic == '/scan':
             self.observer.on_scan(msg)
         if self.recording and topic in DEFAULT_TOPICS:
-            self.write(topic, self.type_name(type(msg)), serialize_message(msg))
+            self.write(topic, self.type_name(type(msg)), data)
 
     def write(self, topic: str, type_name: str, data: bytes) -> None:
         """Write (or hold) one message's CDR bytes at the current sim time."""
