@@ -24,9 +24,9 @@ import rclpy
 from rclpy.clock import ClockType
 from rclpy.exceptions import InvalidParameterTypeException
 from rclpy.parameter import Parameter
-from rclpy.serialization import serialize_message
 from rclpy.qos import (DurabilityPolicy, qos_profile_sensor_data, QoSProfile,
                        ReliabilityPolicy)
+from rclpy.serialization import serialize_message
 from rclpy.time import Time
 from rclpy.utilities import get_default_context
 from rosgraph_msgs.msg import Clock
