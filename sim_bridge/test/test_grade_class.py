@@ -39,7 +39,7 @@ EXPECTED_TABLE = [
 ]
 #: class.csv adds the marks of each point, and why it was lost, after the tasks' marks.
 POINT_COLUMNS = ['task 1: prints the range ahead for each scan (of 1)',
-                 'task 1: the range ahead printed right (no return as 10 m or inf) (of 1)',
+                 'task 1: the range ahead printed right (capped as the node caps) (of 1)',
                  'task 4: loops the object in one direction (of 1)',
                  'task 4: keeps the wall at the distance it chose (of 1)',
                  'task 4: no collision (of 1)']

@@ -14,6 +14,7 @@ import shutil
 import stat
 import subprocess
 import sys
+import tempfile
 from types import SimpleNamespace
 import zipfile
 
@@ -21,6 +22,7 @@ import pytest
 
 from sim_bridge.commands import autograder as autograder_command, grade
 from sim_bridge.grading.runs import run_scenario
+from sim_bridge.runner.sandbox import NO_NAMESPACES_VARIABLE
 
 WORKSPACE = Path(__file__).resolve().parents[2]
 FIXTURES = Path(__file__).resolve().parent / 'fixtures'
@@ -236,8 +238,8 @@ def gradescope_root(folder: Path, zip_path: Path, files: dict[str, Path]) -> Pat
     return root
 
 
-def run_autograder(root: Path, python: str | None = sys.executable) -> dict:
-    environment = {**os.environ, 'AUTOGRADER_ROOT': str(root)}
+def run_autograder(root: Path, python: str | None = sys.executable, **variables: str) -> dict:
+    environment = {**os.environ, **variables, 'AUTOGRADER_ROOT': str(root)}
     environment.pop('AUTOGRADER_PYTHON', None)
     if python is not None:
         environment['AUTOGRADER_PYTHON'] = python
@@ -268,9 +270,6 @@ def test_the_zip_holds_setup_run_autograder_the_kit_and_the_scenarios(autograder
     assert 'requirements-dev' not in setup and 'ament-(flake8|pep257)' in setup
 
 
-@pytest.mark.xfail(reason='known bug: in the autograder install, the sandbox of a submission '
-                   'does not hold the scan_pkg library of the kit (ModuleNotFoundError)',
-                   strict=False)
 def test_run_autograder_grades_a_node_on_the_kits_library_but_not_on_its_answers(
         autograder, tmp_path):
     # scan_ahead uses scan_pkg's library (report): full marks. The kit's wanderbot runs the
@@ -286,6 +285,42 @@ def test_run_autograder_grades_a_node_on_the_kits_library_but_not_on_its_answers
     assert (wander['score'], wander['status']) == (0, 'failed')
     assert 'Error' in wander['output'] and 'behaviors' in wander['output'], wander['output']
     assert (root / 'results' / 'graded' / 'ahead' / 'seed_1' / 'metrics.json').is_file()
+
+
+def test_run_autograder_partly_sandboxed_grades_as_the_dedicated_uid_and_says_so(
+        autograder, shared_python):
+    # As root in a container that refuses namespaces (forced here by the grader's
+    # environment): each run drops to a dedicated uid, which cannot read the kit's answers.
+    if os.geteuid() != 0:
+        pytest.skip('the dedicated uid needs root')
+    folder = Path(tempfile.mkdtemp(prefix='gradescope-'))  # the runs' uids read the kit there
+    try:
+        folder.chmod(0o755)
+        nodes = WORKSPACE / 'scan_pkg' / 'scan_pkg'
+        root = gradescope_root(folder, autograder, {'scan_ahead.py': nodes / 'scan_ahead.py',
+                                                    'wanderbot.py': nodes / 'wanderbot.py'})
+        results = run_autograder(root, python=shared_python,
+                                 **{NO_NAMESPACES_VARIABLE: '1'})
+        report = json.loads((root / 'results' / 'graded' / 'report.json').read_text())
+        page = (root / 'results' / 'graded' / 'report.html').read_text()
+        modes = [path.stat().st_mode & 0o777 for path in (
+            root, root / 'source', root / 'source' / 'scenarios',
+            root / 'source' / 'scenarios' / 'ahead.yaml')]
+    finally:
+        shutil.rmtree(folder)
+    assert results['score'] == 2, json.dumps(results, indent=1)
+    # The runs' uids pass through the root to the kit; the scenarios are root's alone.
+    assert [mode & 0o001 for mode in modes[:2]] == [1, 1] and modes[2:] == [0o700, 0o600]
+    ahead, wander = results['tests']
+    assert (ahead['score'], ahead['status'], wander['score'], wander['status']) == (
+        2, 'passed', 0, 'failed')
+    assert 'PermissionError' in wander['output'] and 'wanderbot.py' in wander['output']
+    said = ('runs PARTLY sandboxed: uid 6', ' only, no namespaces (namespaces turned off by '
+            f'{NO_NAMESPACES_VARIABLE})')
+    [note] = [line for line in results['output'].splitlines() if line.startswith(said[0])]
+    assert said[1] in note and note in report['notes'] and 'PARTLY sandboxed' in page
+    [ahead_run] = [run for run in report['runs'] if run['run'] == 'ahead/seed_1']
+    assert ahead_run['metrics']['run_mode']['sandbox'].startswith('PARTLY sandboxed: uid 6')
 
 
 def test_run_autograder_gives_0_to_a_crashing_node_and_a_missing_file(autograder, tmp_path):

@@ -9,7 +9,8 @@ grader's hint says what to replace, and the answers are then graded as a student
 it hands them in. They lose marks for their real faults only: the wanderbot collides at 1 m/s,
 scan_around drops the last beam from the left region, the wall follower measures the wall
 once. A careful student's wall follower (clockwise, 0.7 m,
-``examples/careful_wall_follow.py``) gets full marks.
+``examples/careful_wall_follow.py``) and wanderbot (stops within 0.7 m, turns 110-170 degrees,
+``examples/careful_wanderbot.py``) get full marks.
 """
 
 import json
@@ -36,7 +37,8 @@ ANSWER = re.compile(r'^\*### (?P<name>[A-Z ]+) CODE STARTS HERE ###\*$(?P<code>.
 #: One seed of each task's scenarios, and of the wall follower's box and cylinder each way.
 GRADED = ['scan_ahead', 'wanderbot', 'scan_around', 'wall_follow_box_cw', 'wall_follow_box_ccw',
           'wall_follow_cylinder_cw', 'wall_follow_cylinder_ccw']
-CAREFUL = examples_dir() / 'careful_wall_follow.py'
+CAREFUL = {'wall_follow.py': examples_dir() / 'careful_wall_follow.py',
+           'wanderbot.py': examples_dir() / 'careful_wanderbot.py'}
 
 
 def handout_answers() -> dict[str, str]:
@@ -49,7 +51,7 @@ def handout_answers() -> dict[str, str]:
 
 @pytest.fixture(scope='module')
 def marks(tmp_path_factory):
-    """Grade the answers (student 'handout') and the careful follower; return their marks."""
+    """Grade the answers (student 'handout') and the careful student's; return their marks."""
     root = tmp_path_factory.mktemp('handout')
     scenarios = root / 'scenarios'
     scenarios.mkdir()
@@ -64,7 +66,8 @@ def marks(tmp_path_factory):
         (handout / name).write_text(code.replace('\u00a0', ' '), encoding='utf-8')
     careful = root / 'submissions' / 'careful'
     careful.mkdir()
-    (careful / 'wall_follow.py').write_text(CAREFUL.read_text())
+    for name, source in CAREFUL.items():
+        (careful / name).write_text(source.read_text())
     out = root / 'out'
     grade.main([str(scenarios), '--submissions', str(root / 'submissions'), '--out', str(out),
                 '--no-record', '--no-plot', '--quiet'])
@@ -101,9 +104,9 @@ def test_the_handout_wanderbot_loses_the_points_its_collisions_at_1_m_s_break(ma
 def test_the_handout_scan_around_prints_five_labelled_lines_and_loses_its_dropped_beam(marks):
     task = marks['handout']['3']
     assert task['marks'] == 1.0
-    assert list(lost(task)) == ['the five region minima printed right (no return as 10 m or inf)']
+    assert list(lost(task)) == ['the five region minima printed right (capped as the node caps)']
     assert 'left printed 10' in lost(task)[
-        'the five region minima printed right (no return as 10 m or inf)']
+        'the five region minima printed right (capped as the node caps)']
 
 
 def test_the_handout_wall_follower_that_measures_the_wall_once_loops_nothing(marks):
@@ -115,4 +118,9 @@ def test_the_handout_wall_follower_that_measures_the_wall_once_loops_nothing(mar
 def test_a_careful_one_direction_follower_at_0_7_m_gets_full_marks(marks):
     task = marks['careful']['4']
     assert task['direction'] == 'clockwise'
+    assert task['marks'] == 3.0, lost(task)
+
+
+def test_a_careful_wanderbot_that_stops_turns_and_never_collides_gets_full_marks(marks):
+    task = marks['careful']['2']
     assert task['marks'] == 3.0, lost(task)

@@ -7,9 +7,9 @@ import pytest
 
 from scan_pkg.laser import Scan
 from scan_pkg.report import closest_line, range_ahead_line, regions_line
+from sim_bridge.scoring.printed_text import read_closest, read_range_ahead, read_regions
 from sim_bridge.scoring.printed_values import (
-    closest_truth, excerpt, judge_printed, range_ahead_truth, read_closest, read_range_ahead,
-    read_regions, region_truths, score_printed)
+    closest_truth, excerpt, judge_printed, range_ahead_truth, region_truths, score_printed)
 from sim_bridge.scoring.run_trace import ScanSnapshot
 
 # The lab's scanner: 36 beams from -1.57 to +1.57 rad; beams 17 and 18 are the two nearest
@@ -325,16 +325,101 @@ def test_a_long_line_is_quoted_around_the_value_read():
     assert excerpt('Range ahead: 1.23 m', 13) == 'Range ahead: 1.23 m'
 
 
-def test_a_late_line_matches_the_queued_scan_it_is_about_only_when_lateness_is_allowed():
+def test_a_line_is_about_the_last_scan_at_or_before_its_time():
     scans = scans_and_truth(6)  # ahead: 1.0 at 0.0 s ... 1.5 at 0.5 s
-    # A process fell behind: three scans' lines arrive at once, 0.25 s late.
-    lines = [line(0.1, '1.10'), line(0.45, '1.20'), line(0.45, '1.30'), line(0.45, '1.40'),
-             line(0.5, '1.50')]
-    exact = score_printed('range_ahead', scans, lines)
-    assert exact['worst_error_m'] == pytest.approx(0.2, abs=1e-6)
-    late = score_printed('range_ahead', scans, lines, lateness_s=0.5)
-    assert (late['lines'], late['missed']) == (5, 1)  # the scan at 0.0 s had no line
-    assert late['worst_error_m'] == pytest.approx(0.0, abs=1e-6)
-    constant = [line(snap.time + 0.3, 'Range ahead: 42') for snap in scans]
-    assert score_printed('range_ahead', scans, constant, lateness_s=0.5)['worst_error_m'] == \
-        pytest.approx(10.0 - 1.3, abs=1e-6)
+    lines = [line(0.1, '1.10'), line(0.45, '1.40'), line(0.5, '1.50'), line(0.3, '1.20')]
+    scored = score_printed('range_ahead', scans, lines)
+    assert scored['worst_error_m'] == pytest.approx(0.1, abs=1e-6)  # 1.20 about 1.3 at 0.3 s
+    assert (scored['lines'], scored['missed']) == (4, 2)  # no line at 0.0 s nor 0.2 s
+
+
+@pytest.mark.parametrize('text', ['Range ahead: out of range', 'Range ahead: nan', 'Front: None',
+                                  'out of range', 'No obstacle ahead', 'front: nothing'])
+def test_a_word_for_no_return_reads_as_inf(text):
+    assert read_range_ahead(text).value == INF
+
+
+def test_a_word_for_no_return_reads_as_inf_in_a_region():
+    assert {name: number.value for name, number in read_regions(
+        'R: 0.88 FR: 1.2 F: out of range FL: nan L: none')} == {
+        'right': 0.88, 'front_right': 1.2, 'front': INF, 'front_left': INF, 'left': INF}
+
+
+#: The range straight ahead over a drive: near, beyond 3.5 m and 5 m, no return.
+AHEAD = (1.0, 2.0, 3.2, 4.2, 6.5, 8.0, INF, INF, 0.6, INF)
+
+
+def scans_ahead(range_max=RANGE_MAX):
+    """Return scans of AHEAD straight ahead, no return beyond ``range_max`` (m) as a lidar."""
+    scans = []
+    for index, ahead in enumerate(AHEAD):
+        ranges = [INF] * BEAMS
+        ranges[17] = ranges[18] = ahead if ahead <= range_max else INF
+        scans.append(ScanSnapshot(0.1 * index, (0.0, 0.0, 0.0), np.array(ranges, np.float32),
+                                  ANGLE_MIN, INCREMENT, RANGE_MIN, range_max))
+    return scans
+
+
+def capped_at(cap):
+    """Return a student's line for a range ahead, capped at ``cap`` (inf: not capped)."""
+    return lambda ahead: f'Range ahead: {min(ahead, cap):.2f}'
+
+
+def beyond_as(word):
+    """Return a student's line that prints ``word`` for no return and the range otherwise."""
+    return lambda ahead: f'Front: {word}' if ahead == INF else f'Front: {ahead:.2f} m'
+
+
+@pytest.mark.parametrize('style, cap', [
+    (capped_at(10.0), 10.0), (capped_at(3.5), 3.5), (capped_at(5.0), 5.0),
+    (capped_at(12.0), 10.0), (capped_at(INF), 10.0), (beyond_as('out of range'), 10.0),
+    (beyond_as('nan'), 10.0), (beyond_as('no obstacle'), 10.0)])
+def test_a_range_ahead_capped_as_the_node_caps_it_is_right(style, cap):
+    scans = scans_ahead()
+    scored = score_printed('range_ahead', scans, [line(s.time, style(AHEAD[index]))
+                                                  for index, s in enumerate(scans)])
+    assert scored['cap_m'] == cap
+    assert scored['worst_error_m'] < 0.005
+    passed, why = judge_printed('range_ahead', scored, max_error_m=0.06,
+                                min_matched_fraction=0.9)
+    assert passed, why
+    assert ('its own cap' in why) == (cap != 10.0)
+
+
+@pytest.mark.parametrize('cap', [3.5, 10.0, INF])
+def test_the_turtlebot3_range_max_is_a_cap_and_so_is_the_labs(cap):
+    scans = scans_ahead(range_max=3.5)
+    lines = [line(snap.time, capped_at(cap)(float(snap.ranges[18]))) for snap in scans]
+    assert score_printed('range_ahead', scans, lines)['worst_error_m'] < 0.005
+
+
+@pytest.mark.parametrize('printed, worst', [
+    # Capped at 2 m: shorter than any lidar's range, so 2.00 for 4.2 m is wrong.
+    (lambda ahead: f'{min(ahead, 2.0):.2f}', 8.0),
+    # Its "cap" for no return, 3.5, but 6.50 printed for 6.5 m: not a cap it keeps.
+    (lambda ahead: '3.5' if ahead == INF else f'{ahead:.2f}', 6.5),
+    # Garbage: a finite number unrelated to the range ahead.
+    (lambda ahead: f'{7.0 - ahead if ahead < 7.0 else 1.0:.2f}', 9.0),
+])
+def test_a_wrong_finite_number_is_wrong_whatever_the_cap(printed, worst):
+    scans = scans_ahead()
+    scored = score_printed('range_ahead', scans, [line(s.time, printed(AHEAD[index]))
+                                                  for index, s in enumerate(scans)])
+    assert scored['worst_error_m'] == pytest.approx(worst, abs=0.01)
+    passed, why = judge_printed('range_ahead', scored, max_error_m=0.06,
+                                min_matched_fraction=0.9)
+    assert not passed
+    assert '\n' not in why and why.startswith('reader: range ahead printed ')
+
+
+def test_five_regions_capped_at_the_nodes_own_cap_are_right():
+    scans = scans_ahead()
+    lines = []
+    for snap in scans:
+        regions = scan(snap.ranges).regions(10.0).values()
+        text = ' | '.join(f'{name}: {min(value, 5.0):.2f}' for name, value in zip(
+            ('right', 'front-right', 'front', 'front-left', 'left'), regions))
+        lines.append(line(snap.time, text))
+    scored = score_printed('regions', scans, lines)
+    assert (scored['cap_m'], scored['missed']) == (5.0, 0)
+    assert scored['worst_error_m'] < 0.005

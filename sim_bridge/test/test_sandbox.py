@@ -12,6 +12,7 @@ import os
 from pathlib import Path
 import shutil
 import signal
+import site
 import socket
 import subprocess
 import sys
@@ -20,6 +21,7 @@ import tempfile
 import pytest
 
 from sim_bridge.runner import sandbox as sandbox_module
+from sim_bridge.runner.node_sandbox import isolation_line, NodeSandbox
 from sim_bridge.runner.sandbox import (
     clean_environment, isolation_mode, IsolationMode, KIT_PACKAGE, python_roots, Sandbox,
     SandboxLimits)
@@ -136,6 +138,47 @@ def test_the_reference_nodes_stay_hidden_in_a_folder_the_run_may_read():
     found = json.loads(output.splitlines()[-1])
     assert found['scan_pkg.wall_follow'] == 'ModuleNotFoundError', found
     assert found[str(package / 'wall_follow.py')] == 'FileNotFoundError', found
+
+
+#: A student's node that reads the kit's library and answers (JSON: what -> what it got).
+LIBRARY_READER = """
+import importlib, json, sys
+def attempt(read):
+    try:
+        return 'GOT ' + str(read())[:80]
+    except Exception as error:
+        return type(error).__name__
+found = {path: attempt(lambda path=path: open(path).read()) for path in sys.argv[1:]}
+for module in ('scan_pkg.report', 'scan_pkg.behaviors.wander'):
+    found[module] = attempt(lambda module=module: importlib.import_module(module).__file__)
+print(json.dumps(found))
+"""
+
+
+@needs_namespaces
+def test_every_copy_of_the_kits_library_a_run_can_read_holds_no_answers(tmp_path, monkeypatch):
+    # Gradescope's setup.sh installs the kit in its venv, and run_autograder puts the kit's
+    # source first on PYTHONPATH: the grader's scan_pkg is the source, another copy is in a
+    # site folder the run reads. Stand-in: a copy of scan_pkg in a site folder of this Python.
+    site_folder = tmp_path / 'site-packages'
+    shutil.copytree(REPOSITORY / 'scan_pkg' / 'scan_pkg', site_folder / 'scan_pkg')
+    monkeypatch.setattr(site, 'getsitepackages',
+                        lambda folders=site.getsitepackages(): [*folders, str(site_folder)])
+    (tmp_path / 'student').mkdir()
+    node = tmp_path / 'student' / 'reader.py'
+    node.write_text(LIBRARY_READER)
+    answers = [site_folder / 'scan_pkg' / 'wall_follow.py',
+               site_folder / 'scan_pkg' / 'behaviors' / 'wander.py']
+    where = NodeSandbox(str(node), SandboxLimits())
+    with where.sandbox as box, tempfile.TemporaryFile() as output:
+        box.popen([sys.executable, where.target, *map(str, answers)], where.environment(),
+                  stdout=output, stderr=subprocess.STDOUT).wait(RUN_TIMEOUT_S)
+        output.seek(0)
+        text = output.read().decode()
+    found = json.loads(text.splitlines()[-1])
+    # The library is the grader's (the kit's source); the answers cannot be read anywhere.
+    assert found.pop('scan_pkg.report') == f"GOT {REPOSITORY / 'scan_pkg' / 'scan_pkg'}/report.py"
+    assert not [result for result in found.values() if result.startswith('GOT')], found
 
 
 #: Run as an ordinary user by the test below: a sandbox in a user namespace, three attacks.
@@ -330,6 +373,53 @@ def test_without_isolation_the_sandbox_says_so(monkeypatch):
             assert box.isolation.startswith('NOT sandboxed: bubblewrap is not installed')
     finally:
         isolation_mode.cache_clear()
+
+
+@pytest.mark.parametrize('python', ['uid'], indirect=True)
+def test_without_namespaces_the_answers_are_closed_to_a_students_run_not_the_kits(python):
+    folder = Path(tempfile.mkdtemp())  # a kit that every user reaches, as on Gradescope
+    try:
+        folder.chmod(0o755)
+        answer = folder / 'wall_follow.py'
+        answer.write_text('ANSWER = 42\n')
+        answer.chmod(0o644)
+        with Sandbox(hostile('snoop'), reference_nodes=True, hidden_files=[str(answer)]) as box:
+            student = json.loads(run(box, 'snoop', os.getpid(), answer, '--write',
+                                     python=python)[1].splitlines()[-1])
+        with Sandbox(hostile('snoop'), reference_nodes=True) as box:  # the kit's own node
+            kit = json.loads(run(box, 'snoop', os.getpid(), answer, '--write',
+                                 python=python)[1].splitlines()[-1])
+        status = answer.stat()
+    finally:
+        shutil.rmtree(folder)
+    assert (student[str(answer)], kit[str(answer)]) == ('PermissionError', 'GOT "ANSWER = 42\\n"')
+    assert (status.st_mode & 0o777, status.st_gid) == (0o640, sandbox_module.ANSWERS_GID)
+
+
+@pytest.mark.parametrize('python', ['uid'], indirect=True)
+def test_without_namespaces_a_program_the_run_cannot_reach_is_one_clear_line(
+        python, monkeypatch):
+    folder = Path(tempfile.mkdtemp())
+    try:
+        folder.chmod(0o755)
+        closed = folder / 'closed'  # as pyenv's Python in /root
+        closed.mkdir(mode=0o700)
+        program = closed / 'python3'
+        program.write_text('#!/bin/sh\necho never\n')
+        program.chmod(0o755)
+        with Sandbox(hostile('sleeper')) as box, \
+                pytest.raises(sandbox_module.SandboxError) as refused:
+            box.popen([str(program)], clean_environment(box.scratch))
+        # The grader says so as it starts, of the Python its node processes would run.
+        monkeypatch.setattr(sys, 'executable', str(program))
+        line = isolation_line(SandboxLimits())
+    finally:
+        shutil.rmtree(folder)
+    said = (f'cannot reach {program}: {closed} is closed to them (drwx------); install the kit '
+            'and its Python where other users can read them')
+    assert str(refused.value).startswith(f'PARTLY sandboxed: uid {box.uid} (no namespaces) {said}')
+    assert line.startswith('PARTLY sandboxed: uid ') and said in line
+    assert line.endswith('(no run can start)')
 
 
 def test_bad_limits_and_file_names_are_refused_in_one_line():

@@ -11,11 +11,15 @@ import json
 import os
 from pathlib import Path
 import shutil
+import subprocess
+import tempfile
 
 import pytest
 from sim_bridge.runner.run import run_simulation
+from sim_bridge.runner.sandbox import NO_NAMESPACES_VARIABLE
 
 HOSTILE = Path(__file__).resolve().parent / 'fixtures' / 'hostile'
+KIT_NODES = Path(__file__).resolve().parents[2] / 'scan_pkg' / 'scan_pkg'
 SECRET = 'instructor-secret-5f1c'
 
 
@@ -71,3 +75,37 @@ def test_the_run_says_how_its_nodes_were_isolated(pried):
     assert isolation.startswith(('bubblewrap', 'PARTLY', 'NOT')), isolation
     if not isolation.startswith('bubblewrap'):
         assert any(warning.startswith('runs ') for warning in metrics['warnings'])
+
+
+def test_not_sandboxed_a_run_still_runs_to_its_grade_and_says_so_loudly(shared_python):
+    # An ordinary user with no namespaces (forced here by the grader's environment): the run
+    # is graded as it would be sandboxed, and the grader and every report say it was not.
+    setpriv = shutil.which('setpriv')
+    if os.geteuid() != 0 or setpriv is None:
+        pytest.skip('needs root and setpriv, to grade as user nobody')
+    folder = Path(tempfile.mkdtemp())
+    try:
+        folder.chmod(0o777)  # nobody's: the submission, the scenario, the outputs
+        node = folder / 'scan_ahead.py'
+        shutil.copy(KIT_NODES / 'scan_ahead.py', node)
+        scenario = folder / 'ahead.yaml'
+        scenario.write_text(f'world: obstacles\nnodes: [{node}]\nduration: 2.0\nseed: 1\n'
+                            'criteria: [len(node_errors) == 0, collisions == 0]\n')
+        for path in (node, scenario):
+            path.chmod(0o644)
+        done = subprocess.run(
+            [setpriv, '--reuid=65534', '--regid=65534', '--clear-groups', shared_python, '-m',
+             'sim_bridge.grade', str(scenario), '--out', str(folder / 'out'), '--no-record',
+             '--no-plot'], capture_output=True, text=True, timeout=300, cwd=folder,
+            env={**os.environ, 'HOME': str(folder), NO_NAMESPACES_VARIABLE: '1'})
+        report = json.loads((folder / 'out' / 'report.json').read_text())
+        page = (folder / 'out' / 'report.html').read_text()
+    finally:
+        shutil.rmtree(folder)
+    said = f'NOT sandboxed: namespaces turned off by {NO_NAMESPACES_VARIABLE}'
+    assert done.returncode == 0, done.stderr
+    assert f'node processes: {said}' in done.stderr.splitlines()
+    assert f'note: runs {said}' in done.stdout.splitlines()
+    assert report['notes'] == [f'runs {said}'] and said in page
+    [run] = report['runs']
+    assert run['passed'] and run['metrics']['run_mode']['sandbox'] == said

@@ -179,6 +179,14 @@ def test_a_folder_without_a_run_is_one_line_error(tmp_path, capsys):
         video.read_log(tmp_path / video.LOG_FILE)
 
 
+def test_a_video_that_cannot_be_written_is_one_line_naming_it(run_dir, tmp_path, capsys):
+    taken = tmp_path / 'taken.mp4'
+    taken.mkdir()
+    assert video_command.main([str(run_dir), '-o', str(taken)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f'error: cannot write {taken}') and err.count('\n') == 1, err
+
+
 def test_the_runner_writes_the_video_it_is_asked_for(tmp_path, capfd):
     target = tmp_path / 'labscan_task1.mp4'
     status = run_main(['--world', 'obstacles', '--node', 'scan_ahead', '--duration', '2',

@@ -12,7 +12,9 @@ https://gradescope-autograders.readthedocs.io/en/latest/specs/ (default 768 MB p
 
     .venv/bin/python test/bench/bench_gradescope.py [--submission DIR] [SCENARIO ...]
 
-Without ``--submission``, the kit's own four task nodes are handed in.
+Without ``--submission``, a whole lab is handed in: the kit's scan_ahead and scan_around (they
+import only the kit's library) and the careful wanderbot and wall follower of ``examples/``
+(a student's sandbox holds the kit's answers to tasks 2 and 4 empty).
 """
 
 import argparse
@@ -29,7 +31,10 @@ WORKSPACE = Path(__file__).resolve().parents[2]
 SAMPLE_S = 0.05
 PAGE_KIB = os.sysconf('SC_PAGE_SIZE') // 1024
 TICKS = os.sysconf('SC_CLK_TCK')
-KIT_NODES = ('scan_ahead', 'wanderbot', 'scan_around', 'wall_follow')
+LAB_SUBMISSION = {'scan_ahead.py': WORKSPACE / 'scan_pkg' / 'scan_pkg' / 'scan_ahead.py',
+                  'scan_around.py': WORKSPACE / 'scan_pkg' / 'scan_pkg' / 'scan_around.py',
+                  'wanderbot.py': WORKSPACE / 'examples' / 'careful_wanderbot.py',
+                  'wall_follow.py': WORKSPACE / 'examples' / 'careful_wall_follow.py'}
 
 
 def process_table() -> dict[int, tuple[int, float]]:
@@ -100,8 +105,8 @@ def main() -> int:
         shutil.copytree(args.submission, root / 'submission')
     else:
         (root / 'submission').mkdir()
-        for node in KIT_NODES:
-            shutil.copy(WORKSPACE / 'scan_pkg' / 'scan_pkg' / f'{node}.py', root / 'submission')
+        for name, source in LAB_SUBMISSION.items():
+            shutil.copy(source, root / 'submission' / name)
     environment = {**os.environ, 'AUTOGRADER_ROOT': str(root),
                    'AUTOGRADER_PYTHON': sys.executable}
     figures = run_sampled([str(root / 'source' / 'run_autograder')], environment)

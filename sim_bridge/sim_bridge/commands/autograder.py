@@ -1,20 +1,9 @@
 """
-Gradescope: the autograder's ``results.json`` for a graded submission, and ``autograder.zip``.
+``./lab autograder SCENARIO... [-o autograder.zip]``: build Gradescope's autograder.zip.
 
-Gradescope grades each submission in a container of its own (Ubuntu; the autograder
-specification: https://gradescope-autograders.readthedocs.io/en/latest/specs/). Its
-``autograder.zip`` holds ``setup.sh``, run once when the image is built, and
-``run_autograder``, run per submission in ``/autograder`` with the student's files in
-``/autograder/submission``; it must write ``/autograder/results/results.json``.
-
-``python -m sim_bridge.grade SCENARIO... --submission DIR --gradescope results.json`` writes
-the results (:func:`results`): the marks as the score, a test per scenario, ordered by task.
-``python -m sim_bridge.gradescope build SCENARIO... -o autograder.zip`` (``./lab autograder``)
-builds the zip: the kit (the two packages, worlds, models, ``lab`` and its requirements), the
-chosen scenario files, ``setup.sh`` (``./lab setup``: a venv with ROS 2 Jazzy's wheels and the
-kit, as on a machine with only Python) and ``run_autograder``. ``AUTOGRADER_ROOT`` (default
-``/autograder``) moves the root ``run_autograder`` works in, so it can be tried on a folder laid
-out as Gradescope lays it out.
+``python -m sim_bridge.commands.autograder build SCENARIO... -o autograder.zip`` packs the kit,
+the chosen scenario files, ``setup.sh`` and ``run_autograder`` (what each holds and does:
+sim_bridge.grading.gradescope, and the README's Gradescope section).
 """
 
 import argparse

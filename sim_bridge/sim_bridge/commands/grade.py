@@ -25,7 +25,7 @@ import signal
 import sys
 import sysconfig
 import tempfile
-from typing import Any, IO
+from typing import Any, IO, Sequence
 
 from sim_bridge.common.paths import output_folder, repo_root
 from sim_bridge.common.text import PathNames, printable
@@ -38,7 +38,8 @@ from sim_bridge.grading.runs import (
     GradeJob, PAGE_NAME, REPORT_NAME, reuse_notes, RunReport, write_outputs, write_report)
 from sim_bridge.grading.scenario import load_scenarios, Scenario, with_node_overrides
 from sim_bridge.media.video import render_video, VIDEO_NAME, VideoError
-from sim_bridge.runner.node_sandbox import isolation_line, node_limits, say_isolation
+from sim_bridge.runner.node_sandbox import (
+    isolation_line, isolation_warning, node_limits, say_isolation)
 from sim_bridge.simulation.world import World, WorldError
 
 
@@ -178,8 +179,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f'error: {error}', file=sys.stderr)
         failed_gradescope(args, str(error))
         return 2
+    isolation = isolation_line(node_limits(0.0, limits.memory_bytes))
     try:
-        say_isolation(isolation_line(node_limits(0.0, limits.memory_bytes)))
+        say_isolation(isolation)
     except OSError:  # stderr closed: nothing to say it on
         pass
     jobs, missing = batch_jobs(args, scenarios, batch)
@@ -214,7 +216,9 @@ def main(argv: list[str] | None = None) -> int:
                 order[report.run.scenario.name],
                 report.run.scenario.seeds.index(report.run.seed)))
         # Still interruptible: the reports are written again from the runs' saved results.
-        status = write_reports(args, batch, reports, names, scenarios)
+        status = write_reports(args, batch, reports, names, scenarios,
+                               [isolation_warning(isolation)] if isolation_warning(isolation)
+                               else [])
         return max(status, 1) if progress.faults else status
     except KeyboardInterrupt:
         stopped = f'the grading was stopped after {progress.done} of {len(jobs)} runs'
@@ -310,14 +314,18 @@ def write_videos(jobs: list[GradeJob], reports: list[RunReport], names: str | No
 
 def write_reports(args: argparse.Namespace, batch: grade_class.ClassBatch | None,
                   reports: list[RunReport], names: PathNames,
-                  scenarios: list[Scenario] | None = None) -> int:
-    """Write and print a finished batch's reports; return the grader's exit status."""
+                  scenarios: list[Scenario] | None = None, notes: Sequence[str] = ()) -> int:
+    """
+    Write and print a finished batch's reports; return the grader's exit status.
+
+    ``notes`` come first in every report (how the runs were isolated, when not fully).
+    """
     status = 0 if all(report.passed for report in reports) else 1
     if batch is not None:
-        text, unwritten = batch.write_outputs(reports, names)
+        text, unwritten = batch.write_outputs(reports, names, notes)
         print_out(text)
         return status if not unwritten else max(status, 1)
-    notes = reuse_notes(reports, args.out)
+    notes = [*notes, *reuse_notes(reports, args.out)]
     scenarios = scenarios or []
     tasks = marks.task_marks(scenarios, [report.as_dict(names) for report in reports])
     # The files first: a console that has gone (`| head`) must not cost the report.

@@ -1,10 +1,11 @@
 """
-Run unmodified rclpy nodes against the simulator in one process, on simulated time.
+Run unmodified rclpy nodes against the simulator, each node file sandboxed, on simulated time.
 
 ``python -m sim_bridge.run --world wall_follow_box --node wall_follow --duration 60`` runs the
-SimBridge node and the named nodes on real rclpy in one process, stepped (every ready callback
-runs before physics advances, see sim_bridge.runner.stepping), as if each had been started with
-``ros2 run ... --ros-args --params-file <out>/params.yaml -p use_sim_time:=true``, then writes
+SimBridge node on real rclpy, stepped (every ready callback runs before physics advances, see
+sim_bridge.runner.stepping), and each named node file in a sandboxed process of its own in
+lockstep with it (sim_bridge.runner.stepped_run), as if each had been started with ``ros2 run
+... --ros-args --params-file <out>/params.yaml -p use_sim_time:=true``, then writes
 ``metrics.json``, ``trajectory.png`` and a rosbag2 recording ``run/`` (MCAP) to ``--out``.
 """
 

@@ -20,7 +20,7 @@ from sim_bridge.common.paths import scenarios_dir
 from sim_bridge.grading.runs import run_scenario
 from sim_bridge.grading.scenario import load_scenario
 from sim_bridge.live.lab_tasks import HANDOUT_NUMBERS, TASK_SCENARIOS, video_name
-from sim_bridge.media.video import render_video, VideoError
+from sim_bridge.media.video import failure_line, render_video, VideoError
 
 #: The longest video (s) a TA watches without ``--speed``: a longer run is sped up to fit.
 MAX_VIDEO_S = 120.0
@@ -89,12 +89,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         speed = video_speed(scenario.duration_s, args.speed)
         info = render_video(out_dir, output, args.names, speed=speed,
                             teleop=bool(scenario.drive), view3d=True)
-    except (ValueError, VideoError) as error:
-        print(f'error: {error}', file=sys.stderr)
-        return 2
-    except OSError as error:
-        print(f'error: cannot write {error.filename or output}: {error.strerror or error}',
-              file=sys.stderr)
+    except (ValueError, VideoError, OSError) as error:
+        print(f'error: {failure_line(error, output)}', file=sys.stderr)
         return 2
     print(f'{info.path}: {info.duration_s:.1f} s of video ({speed:g}x simulated time); '
           f"the run's outputs are in {out_dir}")

@@ -25,7 +25,8 @@ from pathlib import Path
 import sys
 from typing import Sequence
 
-from sim_bridge.media.video import DEFAULT_FPS, render_video, VIDEO_NAME, VideoError
+from sim_bridge.media.video import (
+    DEFAULT_FPS, failure_line, render_video, VIDEO_NAME, VideoError)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -34,12 +35,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     output = args.output or args.out_dir / VIDEO_NAME
     try:
         info = render_video(args.out_dir, output, args.names, speed=args.speed, fps=args.fps)
-    except VideoError as error:
-        print(f'error: {error}', file=sys.stderr)
-        return 2
-    except OSError as error:
-        print(f'error: cannot write {error.filename or output}: {error.strerror or error}',
-              file=sys.stderr)
+    except (VideoError, OSError) as error:
+        print(f'error: {failure_line(error, output)}', file=sys.stderr)
         return 2
     print(f'{info.path}: {info.frames} frames, {info.duration_s:.1f} s at {info.fps:g} fps '
           f'({args.speed:g}x simulated time), {info.size[0]}x{info.size[1]}')

@@ -15,6 +15,7 @@ page; ``students/<student>/`` with each run's outputs, ``report.json`` and ``rep
 import csv
 import os
 from pathlib import Path
+from typing import Sequence
 
 from sim_bridge.common.console import text_table
 from sim_bridge.common.text import count_cell, one_line, OUTCOME_LEGEND, PathNames, printable
@@ -139,10 +140,12 @@ class ClassBatch:
             rows.append([one_line(student), *cells, ' '.join(filter(None, count_cell(runs)))])
         return rows
 
-    def write_outputs(self, reports: list[RunReport],
-                      names: PathNames | None = None) -> tuple[str, list[Path]]:
+    def write_outputs(self, reports: list[RunReport], names: PathNames | None = None,
+                      notes: Sequence[str] = ()) -> tuple[str, list[Path]]:
         """
         Write every student's report and page, class.csv and index.html.
+
+        ``notes`` come first in every report (how the runs were isolated, when not fully).
 
         Each file is written on its own: one that cannot be written (named on stderr) stops
         no other. Return the table with where the outputs are, and the files not written.
@@ -153,7 +156,7 @@ class ClassBatch:
         marks = self.marks(entries)
         index = self.out / INDEX_NAME
         pages = {student: self.folder(student) / PAGE_NAME for student in students}
-        notes = reuse_notes(reports, self.out / STUDENTS_DIR)
+        notes = [*notes, *reuse_notes(reports, self.out / STUDENTS_DIR)]
         writers = {}
         for student, runs in students.items():
             writers[self.folder(student) / REPORT_NAME] = (

@@ -9,10 +9,11 @@ stderr into a pipe the grader drains into the run's ``log.txt`` (at most ``LOG_H
 of its beginning and ``LOG_TAIL_BYTES`` of its end, see :class:`CappedLog`), becomes the
 subreaper of everything below it and forks the run itself. The run (:func:`run_job`) works in
 a scratch directory with a trimmed environment (:func:`trimmed_environment`) and a bounded
-address space; it runs the scenario with :func:`sim_bridge.grading.runs.run_scenario` exactly as an
-in-process run does, sending its progress in simulated seconds and, when it ends, the run's
-report over a pipe. It then ends at once, whatever threads a node left running (they are
-named in the report's ``metrics['warnings']``). However the run ends, the supervisor then kills
+address space; it runs the scenario with :func:`sim_bridge.grading.runs.run_scenario` (each node
+file in a sandboxed process of its own, sim_bridge.runner.node_sandbox), sending its progress in
+simulated seconds and, when it ends, the run's report over a pipe. It then ends at once,
+whatever threads a node left running (they are named in the report's
+``metrics['warnings']``). However the run ends, the supervisor then kills
 every process it started (a process in a session of its own or a double fork included: as a
 subreaper, the supervisor inherits them) and exits with the run's status.
 
@@ -55,6 +56,7 @@ from typing import Any
 from sim_bridge.grading.isolated_child import fork_server, process_stats, run_child
 from sim_bridge.grading.limits import Job
 from sim_bridge.grading.runs import LOG_NAME
+from sim_bridge.runner.sandbox import NO_NAMESPACES_VARIABLE
 from sim_bridge.runner.sandbox_host import grader_folder, remove_leftover_scratch
 
 #: Wall seconds a stopped run gets to write its outputs, a SIGABRT for its stack dump, and its
@@ -76,13 +78,14 @@ OUTPUT_CHUNKS_PER_POLL = 16
 LOG_TAIL_LINES = 40
 LOG_TAIL_READ = 16 * 2 ** 10
 #: Variables a child keeps: what Python, ROS 2 and the numeric libraries need to run, and
-#: where Gazebo's models and worlds are (sim_bridge.common.paths looks a world's models up there).
-#: Anything else (credentials, tokens, the user's settings) stays with the grader.
+#: where Gazebo's models and worlds are (sim_bridge.common.paths looks a world's models up
+#: there), and whether the grader turned the sandbox's namespaces off. Anything else
+#: (credentials, tokens, the user's settings) stays with the grader.
 KEPT_VARIABLES = ('PATH', 'LANG', 'LANGUAGE', 'TZ', 'PYTHONPATH', 'PYTHONHASHSEED',
                   'LD_LIBRARY_PATH', 'AMENT_PREFIX_PATH', 'COLCON_PREFIX_PATH',
                   'CMAKE_PREFIX_PATH', 'VIRTUAL_ENV', 'OMP_NUM_THREADS',
                   'GZ_SIM_RESOURCE_PATH', 'IGN_GAZEBO_RESOURCE_PATH', 'GAZEBO_MODEL_PATH',
-                  'GAZEBO_RESOURCE_PATH')
+                  'GAZEBO_RESOURCE_PATH', NO_NAMESPACES_VARIABLE)
 KEPT_PREFIXES = ('LC_', 'ROS_', 'RMW_', 'RCUTILS_', 'FASTRTPS_', 'FASTDDS_', 'OPENBLAS_')
 #: Process states (/proc/<pid>/stat) of a process stopped by a signal or a tracer.
 STOPPED_STATES = (b'T', b't')

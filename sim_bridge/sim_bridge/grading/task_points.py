@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from typing import Any, Callable, Mapping, Sequence
 
 from sim_bridge.scoring.metrics import (
-    BRAKING_MARGIN, MAX_BLOCKED_DRIVING_S, STOP_DISTANCE)
+    BRAKING_MARGIN, MAX_BLOCKED_DRIVING_S, STOP_DISTANCE, WALL_BAND)
 from sim_bridge.scoring.printed_values import judge_printed
 
 #: A stop counts as for an obstacle when something is this close (m) in the cone ahead:
@@ -32,8 +32,6 @@ REPEATS = 3
 MOST = 0.8
 #: The least distance (m) a robot must drive for points that only a moving robot can show.
 MIN_DRIVEN = 1.0
-#: A wall distance (m) a student may choose: nearer scrapes the wall, farther is not following.
-WALL_BAND = (0.2, 1.5)
 #: The wall distance's mean error (m) around the chosen distance while following.
 WALL_TOLERANCE = 0.15
 #: ... and must then follow for at least this share of the run.
@@ -138,7 +136,8 @@ def printed_points(kind: str, scored: Mapping[str, Any] | None) -> list[Point]:
     Judge a reading task's two points on its printed values' scores (printed_values).
 
     Printed for each scan (PRINTED_SHARE of the scans), and right (the worst value within
-    PRINTED_ERROR m of its scan's truth, no return as the lab's 10 m cap or inf).
+    PRINTED_ERROR m of its scan's truth, capped as the node caps: no return as the lab's 10 m,
+    inf or a word, or the node's own cap where it keeps one; see printed_values).
     """
     what = {'range_ahead': 'the range ahead', 'regions': 'the five region minima',
             'closest': 'the nearest obstacle'}[kind]
@@ -154,7 +153,7 @@ def printed_points(kind: str, scored: Mapping[str, Any] | None) -> list[Point]:
         if kind == 'regions' and scored.get('unprinted') and lines:
             missing += f" ({', '.join(scored['unprinted'])} never printed)"
     return [Point(f'prints {what} for each scan', printed, missing),
-            Point(f'{what} printed right (no return as 10 m or inf)', right and lines > 0, why)]
+            Point(f'{what} printed right (capped as the node caps)', right and lines > 0, why)]
 
 
 def judge_points(point_set: str, metrics: Mapping[str, Any]) -> list[Point]:

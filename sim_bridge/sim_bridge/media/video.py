@@ -78,6 +78,14 @@ class VideoError(Exception):
     """A run's outputs from which no video can be made; the text names the file and why."""
 
 
+def failure_line(error: Exception, path: os.PathLike) -> str:
+    """Return the one line a command prints when the video ``path`` could not be made."""
+    if isinstance(error, OSError):  # a rename names its target second
+        target = error.filename2 or error.filename or path
+        return f'cannot write {target}: {error.strerror or error}'
+    return str(error)
+
+
 @dataclass
 class Footage:
     """

@@ -74,8 +74,9 @@ def topic_type_hint(error: BaseException) -> str:
     """
     Return what to do when rcl refused a publisher or subscription of a second type, or ''.
 
-    The stepped runner runs every node in one process (one DDS participant), where Fast DDS
-    refuses a topic's second type; across processes the two would never connect.
+    The runner republishes every node process's topics in its own process (one DDS
+    participant), where Fast DDS refuses a topic's second type; across processes the two would
+    never connect.
     """
     if type(error).__name__ != 'RCLError':  # rclpy's; a student's error may not even str()
         return ''

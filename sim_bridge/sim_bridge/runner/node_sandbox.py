@@ -10,6 +10,7 @@ reference nodes readable. What the process prints names the copy: :class:`NodeSa
 maps it back to the student's own folder before anyone sees it.
 """
 
+import importlib.machinery
 import importlib.util
 import os
 from pathlib import Path
@@ -18,7 +19,7 @@ import sys
 from typing import Mapping
 
 from sim_bridge.runner.sandbox import ADDRESS_SPACE_SLACK_BYTES, KIT_PACKAGE, Sandbox, \
-    SandboxLimits
+    SandboxError, SandboxLimits
 from sim_bridge.runner.targets import split_target
 
 #: What of the trusted side's environment a node process gets (its DDS domain, its checks).
@@ -41,39 +42,77 @@ def reference_node_files() -> list[str]:
     Return the files of the kit's reference answers, to be hidden from a student's node.
 
     The modules of scan_pkg's console scripts (the lab's nodes), the pure controllers they run
-    (``scan_pkg.behaviors``), and the bytecode Python cached of each: a student could load
-    a ``.pyc`` by hand as well as a ``.py``.
+    (``scan_pkg.behaviors``), and the bytecode Python cached of each (a student could load a
+    ``.pyc`` by hand as well as a ``.py``), in every copy of scan_pkg a run could read
+    (:func:`library_copies`: an autograder's venv holds one beside the kit's own).
     """
-    sources = reference_node_sources()
-    cached = [str(pyc) for source in map(Path, sources)
-              for pyc in (source.parent / '__pycache__').glob(f'{source.stem}.*.pyc')]
-    return sources + cached
+    sources = [Path(source) for source in reference_node_sources()]
+    copies = library_copies()
+    files = []
+    for imported in library_folders():
+        names = [source.relative_to(imported) for source in sources
+                 if source.is_relative_to(imported)]
+        for copy in copies:
+            for name in names:
+                source = copy / name
+                if source.exists():
+                    files.append(str(source))
+                files += map(str, (source.parent / '__pycache__').glob(f'{source.stem}.*.pyc'))
+    return list(dict.fromkeys(files))
 
 
 def reference_node_sources() -> list[str]:
     """Return the source files of the kit's reference answers (see reference_node_files)."""
-    from importlib.metadata import distribution, PackageNotFoundError
-    try:
-        scripts = [entry for entry in distribution('scan_pkg').entry_points
-                   if entry.group == 'console_scripts']
-    except PackageNotFoundError:
-        return []
-    files = []
-    for entry in scripts:
-        spec = importlib.util.find_spec(entry.module)
-        if spec is not None and spec.origin:
-            files.append(os.path.realpath(spec.origin))
+    files = [os.path.realpath(spec.origin) for spec in console_script_specs()]
     behaviors = importlib.util.find_spec('scan_pkg.behaviors')
     for folder in (behaviors.submodule_search_locations or []) if behaviors else []:
         files.extend(os.path.realpath(path) for path in sorted(Path(folder).glob('*.py')))
     return files
 
 
-def reference_folders() -> list[Path]:
-    """Return the folders of the kit's reference nodes (the scan_pkg package)."""
+def console_script_specs() -> list[importlib.machinery.ModuleSpec]:
+    """Return the specs of scan_pkg's console scripts' modules, as this process finds them."""
+    from importlib.metadata import distribution, PackageNotFoundError
+    try:
+        scripts = [entry for entry in distribution('scan_pkg').entry_points
+                   if entry.group == 'console_scripts']
+    except PackageNotFoundError:
+        return []
+    specs = [importlib.util.find_spec(entry.module) for entry in scripts]
+    return [spec for spec in specs if spec is not None and spec.origin]
+
+
+def library_folders() -> list[Path]:
+    """
+    Return the folders of the kit's scan_pkg package as this process imports it, real paths.
+
+    The folder of each console script's module's package (``scan_pkg`` imported from the
+    workspace's top is a namespace of the ament package's folder; its modules are not).
+    """
+    folders = [Path(os.path.realpath(spec.origin)).parents[spec.name.count('.') - 1]
+               for spec in console_script_specs()]
     spec = importlib.util.find_spec('scan_pkg')
-    return [Path(folder).resolve() for folder in (spec.submodule_search_locations or [])] \
-        if spec else []
+    folders += [Path(os.path.realpath(folder)) for folder in
+                ((spec.submodule_search_locations or []) if spec else [])
+                if (Path(folder) / '__init__.py').is_file()]
+    return list(dict.fromkeys(folders))
+
+
+def library_copies() -> list[Path]:
+    """
+    Return every scan_pkg package folder a run could import (real paths).
+
+    This process's (:func:`library_folders`), and any other on Python's path or in its site
+    folders: a venv with the kit installed (Gradescope's setup.sh) holds a copy that a
+    ``PYTHONPATH`` to the kit's source only shadows.
+    """
+    import site
+    folders = library_folders()
+    for entry in dict.fromkeys([*sys.path, *site.getsitepackages()]):
+        candidate = Path(entry or '.') / 'scan_pkg'
+        if (candidate / '__init__.py').is_file():
+            folders.append(Path(os.path.realpath(candidate)))
+    return list(dict.fromkeys(folders))
 
 
 def node_limits(duration_s: float, address_space_bytes: int | None = None) -> SandboxLimits:
@@ -94,7 +133,7 @@ def node_limits(duration_s: float, address_space_bytes: int | None = None) -> Sa
 def is_kit_file(path: Path) -> bool:
     """Tell whether ``path`` is a file of the kit (its sim_bridge or scan_pkg package)."""
     resolved = path.resolve()
-    return any(resolved.is_relative_to(folder) for folder in [KIT_PACKAGE, *reference_folders()])
+    return any(resolved.is_relative_to(folder) for folder in [KIT_PACKAGE, *library_copies()])
 
 
 class NodeSandbox:
@@ -116,14 +155,14 @@ class NodeSandbox:
             files = {f'{name}/{sibling.name}': sibling for sibling in folder.glob('*.py')
                      if sibling.is_file()}
             files[f'{name}/{path.name}'] = path
-            self.sandbox = Sandbox(files, limits, readable=[*readable, *reference_folders()],
+            self.sandbox = Sandbox(files, limits, readable=readable, library=library_folders(),
                                    reference_nodes=True, hidden_files=reference_node_files())
             self.copy_folder = str(self.sandbox.scratch / name)
             self.own_folder = str(folder)
             inside = f'{self.copy_folder}/{path.name}'
             self.target = f'{inside}:{class_name}' if class_name else inside
         else:
-            self.sandbox = Sandbox({}, limits, readable=[*readable, *reference_folders()],
+            self.sandbox = Sandbox({}, limits, readable=readable, library=library_folders(),
                                    reference_nodes=True)
             # A kit file by its real path: the sandbox holds the package's real folder, not
             # the links to it that colcon's --symlink-install makes.
@@ -169,9 +208,17 @@ class NodeSandbox:
 
 
 def isolation_line(limits: SandboxLimits) -> str:
-    """Return the line that says how node processes with ``limits`` would be isolated."""
-    with Sandbox({}, limits) as sandbox:
-        return sandbox.isolation
+    """
+    Return the line that says how node processes with ``limits`` would be isolated.
+
+    When they cannot start at all here, the line says why (:class:`SandboxError`).
+    """
+    try:
+        with Sandbox({}, limits) as sandbox:
+            sandbox.check_reachable(sys.executable)  # a node process's Python (agent_command)
+            return sandbox.isolation
+    except SandboxError as error:
+        return f'{error} (no run can start)'
 
 
 def say_isolation(isolation: str) -> None:

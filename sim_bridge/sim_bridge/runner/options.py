@@ -55,8 +55,6 @@ BRIDGE_NODE = 'sim_bridge'
 #: the seed and gui options, the robot's start pose, and the pace (a run is on sim time; --gui
 #: paces it).
 RUNNER_BRIDGE_PARAMETERS = ('world', 'robot', 'robot_pose', 'seed', 'gui', 'real_time_factor')
-#: The node parameter wall_distance_m is measured against when the run is given no setpoint.
-SETPOINT_PARAMETER = 'distance'
 Params = dict[str, dict[str, Any]]
 
 
@@ -85,12 +83,13 @@ class RunSpec:
     the world's own (see :func:`load_world`); ``remap`` holds ROS remapping rules
     (``FROM:=TO``, ``NODE:FROM:=TO``) for the target nodes; ``ros_args`` (``--ros-args ...``,
     as given after ``ros2 run``'s executable) reach them unchanged; ``setpoint`` is the wall
-    distance (m) ``wall_distance_m`` is measured against, by default the value of a node's
-    ``distance`` parameter (SETPOINT_PARAMETER), if one has it; ``printed`` names the values
-    (printed_values.KINDS) whose printed lines are scored against the scans. ``gui`` shows the
-    run in the pybullet window at wall-clock pace. ``field_checks``: rosidl refuses a value of
-    the wrong type in a message field (see sim_bridge.common.run_environment); off, the run
-    behaves as Jazzy's default does on a robot. ``drive`` is a list of segments
+    distance (m) ``wall_distance_m`` is measured against, by default the wall distance a node
+    declares as a parameter (sim_bridge.scoring.metrics.declared_wall_distance), if one does;
+    ``printed`` names the values (printed_values.KINDS) whose printed lines are scored
+    against the scans. ``gui`` shows the run in the pybullet window at wall-clock pace.
+    ``field_checks``: rosidl refuses a value of the wrong type in a message field (see
+    sim_bridge.common.run_environment); off, the run behaves as Jazzy's default does on a
+    robot. ``drive`` is a list of segments
     (sim_bridge.ros.drive) the runner's teleop node publishes on the simulator's command topic
     while the nodes run. ``progress(sim_s, duration_s)`` is called as simulated time passes.
     """

@@ -2,7 +2,7 @@
 A run's outputs: what it observed, its recording, and the files it writes when it ends.
 
 ``metrics.json``, ``trajectory.png``, the node log and the rosbag2 recording ``run/`` (MCAP)
-in the run's output folder; the stepped and the process run open and close them alike.
+in the run's output folder, opened and closed alike by every run (and a live recording).
 """
 
 import functools
@@ -220,7 +220,7 @@ def write_outputs(out_dir: Path, observer: Observer, world_model: World,
 
 class RunOutputs:
     """
-    The skeleton a stepped and a process run share: watch, open the outputs, run, close, write.
+    The skeleton of every run: watch, open the outputs, run, close, write.
 
     :meth:`watch` puts the observer, the recorder and the teleop on the run's simulator;
     :meth:`start` starts the output folder and the recording. ``with outputs:`` around the run

@@ -9,6 +9,7 @@ lockstep (sim_bridge.runner.stepped_run): as if each had been started with ``ros
 """
 
 import gc
+import os
 from pathlib import Path
 import tempfile
 import time
@@ -19,12 +20,12 @@ from sim_bridge.common.text import json_safe
 from sim_bridge.runner.node_output import terminal_colours, to_terminal
 from sim_bridge.runner.node_sandbox import isolation_warning
 from sim_bridge.runner.options import (
-    node_commands, prepare_run, PreparedRun, RunResult, RunSpec, SETPOINT_PARAMETER,
-    write_params_files)
+    node_commands, prepare_run, PreparedRun, RunResult, RunSpec, write_params_files)
 from sim_bridge.runner.outputs import RunOutputs
 from sim_bridge.runner.ros_graph import NANOSECONDS_PER_SECOND
 from sim_bridge.runner.stepped_run import AgentFailure, LockstepRun, node_error
 from sim_bridge.runner.targets import target_name
+from sim_bridge.scoring.metrics import declared_wall_distance
 
 GUI_FRAME_RATE = 60
 #: How every run runs its target nodes (sim_bridge.runner.stepped_run).
@@ -118,6 +119,7 @@ def run_stepped(spec: RunSpec, prepared: PreparedRun) -> RunResult:
     with run_environment(spec.field_checks), terminal_colours(), \
             tempfile.TemporaryDirectory() as scratch:
         from sim_bridge.ros.bridge import SimBridge
+        os.chmod(scratch, 0o711)  # a run without namespaces (its uid alone) reads params.yaml
         params_file, bridge_params_file = write_params_files(Path(scratch), prepared.node_params)
         run = LockstepRun(params_file, spec.quiet, bridge_params_file=bridge_params_file,
                           remap=prepared.remap, ros_args=spec.ros_args)
@@ -133,7 +135,8 @@ def run_stepped(spec: RunSpec, prepared: PreparedRun) -> RunResult:
                             for warning in run.parameter_warnings(prepared.node_params):
                                 outputs.warn(warning)
                         if setpoint is None:
-                            setpoint = run.parameter(SETPOINT_PARAMETER)
+                            setpoint = declared_wall_distance(
+                                entry.get('values', {}) for entry in run.target_nodes())
                         outputs.start(prepared.out_dir, params_file)
                         if start_failure is not None:
                             raise start_failure

@@ -13,8 +13,12 @@ that holds depends on what the machine allows; :func:`isolation_mode` finds out 
   uid/gid (one of ``UID_COUNT`` from ``UID_BASE``, one per concurrent run on the machine,
   leased with a lock file), with a memory and pids control group on its whole tree where the
   kernel offers one (cgroup v2 or v1);
-- as root where bwrap cannot make namespaces (Docker's default seccomp profile refuses them):
-  the dedicated uid only, said loudly ("PARTLY sandboxed");
+- as root where bwrap cannot make namespaces (Docker's default seccomp profile refuses them),
+  or where the grader's environment sets NO_NAMESPACES_VARIABLE (to try that mode on a machine
+  that has namespaces; a run's environment never holds it): the dedicated uid only, said
+  loudly ("PARTLY sandboxed"); what a run executes and reads must then be reachable by other
+  users (:func:`unreachable_by_others`), or its sandbox says why not in one line
+  (:class:`SandboxError`);
 - as an ordinary user, bubblewrap in a user namespace of its own;
 - otherwise "NOT sandboxed: <why>", never silently (:attr:`Sandbox.isolation`).
 
@@ -40,8 +44,8 @@ import threading
 from typing import Iterator, Mapping, Sequence
 
 from sim_bridge.runner.sandbox_host import (
-    END_TIMEOUT_S, grader_folder, kill_uid, read_lines, RunCgroup, SCRATCH_PREFIX, uid_processes,
-    UidLease)
+    ANSWERS_GID, close_to_runs, END_TIMEOUT_S, grader_folder, kill_uid, read_lines, RunCgroup,
+    SandboxError, SCRATCH_PREFIX, uid_processes, UidLease, unreachable_by_others)
 
 #: Where a bwrap run's process finds the host copy of the student's files, read-only; the
 #: launcher copies them into the run's size-limited scratch tmpfs.
@@ -70,6 +74,9 @@ ADDRESS_SPACE_SLACK_BYTES = 2 ** 30
 LARGEST_LIMIT = 1e15
 #: prctl(2)'s PR_SET_NO_NEW_PRIVS: no setuid binary gives a run its privileges back.
 PR_SET_NO_NEW_PRIVS = 38
+#: Set (to anything but '') in the grader's environment, runs get no namespaces: as root the
+#: dedicated uid only (PARTLY sandboxed), as an ordinary user nothing (NOT sandboxed).
+NO_NAMESPACES_VARIABLE = 'LAB_SANDBOX_NO_NAMESPACES'
 
 #: The Python that runs LAUNCHER (any Python 3 a run's uid can execute).
 LAUNCHER_PYTHON = sys.executable
@@ -84,7 +91,7 @@ for name, soft, hard in spec["rlimits"]:
 if spec["uid"] is not None:
     for path in spec["own"]:
         os.chown(path, spec["uid"], spec["gid"])
-    os.setgroups([])
+    os.setgroups(spec["groups"])
     os.setgid(spec["gid"])
     os.setuid(spec["uid"])
 ctypes.CDLL(None).prctl(%d, 1, 0, 0, 0)
@@ -168,7 +175,9 @@ def isolation_mode() -> IsolationMode:
     """Find out once what isolation this machine allows (runs bwrap once, ~10 ms)."""
     root = os.geteuid() == 0
     bwrap = shutil.which('bwrap')
-    if bwrap is None:
+    if os.environ.get(NO_NAMESPACES_VARIABLE):
+        why = f'namespaces turned off by {NO_NAMESPACES_VARIABLE}'
+    elif bwrap is None:
         why = 'bubblewrap is not installed (apt-get install bubblewrap)'
     else:
         probe = [bwrap, *NAMESPACES, *([] if root else ['--unshare-user']),
@@ -195,12 +204,15 @@ def python_roots() -> list[str]:
     Return the folders outside the system ones a run needs read-only, outermost only.
 
     The Python installation and venv (``sys.prefix``, ``sys.base_prefix``, the site
-    folders), the kit's ``sim_bridge`` package, and a sourced ROS 2 (``/opt/ros/$ROS_DISTRO``).
+    folders: the installation's and any on Python's path, such as one a ``.pth`` file added),
+    the kit's ``sim_bridge`` package, and a sourced ROS 2 (``/opt/ros/$ROS_DISTRO``).
     """
     import site
+    site_folders = [path for path in sys.path
+                    if os.path.basename(path) in ('site-packages', 'dist-packages')]
     candidates = [sys.prefix, sys.base_prefix, sys.exec_prefix, sys.base_exec_prefix,
                   os.path.dirname(os.path.dirname(os.path.realpath(sys.executable))),
-                  *site.getsitepackages(), str(KIT_PACKAGE)]
+                  *site.getsitepackages(), *site_folders, str(KIT_PACKAGE)]
     if os.environ.get('ROS_DISTRO'):
         candidates.append(f'/opt/ros/{os.environ["ROS_DISTRO"]}')
     roots: list[str] = []
@@ -240,15 +252,17 @@ def system_mounts() -> list[str]:
     return arguments
 
 
-def clean_environment(scratch: Path, extra: Mapping[str, str] = {}) -> dict[str, str]:
+def clean_environment(scratch: Path, extra: Mapping[str, str] = {},
+                      library: Sequence[Path] = ()) -> dict[str, str]:
     """
     Return a run's whole environment: what Python and ROS 2 need, nothing of the grader's.
 
     HOME and TMPDIR are ``scratch``; library and Python paths keep only the folders a run
-    sees (:func:`python_roots` and the system's), and Python's starts with the folder of the
-    kit's package (where a run sees that package alone); ROS 2 discovery is OFF (a run's DDS
-    stays in its processes) and ROS_LOCALHOST_ONLY unset. ``extra`` is added last (it may
-    override).
+    sees (:func:`python_roots` and the system's), and Python's starts with the folders of the
+    kit's package and of the ``library`` packages (where a run sees those packages alone:
+    they are imported from where the grader imports them, whatever else is installed); ROS 2
+    discovery is OFF (a run's DDS stays in its processes) and ROS_LOCALHOST_ONLY unset.
+    ``extra`` is added last (it may override).
     """
     roots = [*python_roots(), *SYSTEM_PATHS]
     bin_folder = os.path.dirname(sys.executable)
@@ -262,8 +276,8 @@ def clean_environment(scratch: Path, extra: Mapping[str, str] = {}) -> dict[str,
     for name in ('PYTHONPATH', 'LD_LIBRARY_PATH', 'AMENT_PREFIX_PATH'):
         kept = [path for path in os.environ.get(name, '').split(os.pathsep)
                 if path and is_within(os.path.realpath(path), roots)]
-        if name == 'PYTHONPATH':  # the kit's package, however it is installed (colcon's too)
-            kept.insert(0, str(KIT_PACKAGE.parent))
+        if name == 'PYTHONPATH':  # the kit's packages, however installed (colcon's too)
+            kept[:0] = dict.fromkeys(str(package.parent) for package in [KIT_PACKAGE, *library])
         if kept:
             env[name] = os.pathsep.join(kept)
     for name in ('ROS_DISTRO', 'ROS_VERSION', 'ROS_PYTHON_VERSION', 'RMW_IMPLEMENTATION',
@@ -315,23 +329,26 @@ class Sandbox:
 
     ``student_files`` maps a name in the scratch folder (``'wall_follow.py'``, ``'pkg/'``)
     to the file or folder to copy there; ``readable`` are more paths the run may read (the
-    agent's files), read-only at the same place; ``reference_nodes``: the kit's reference
-    nodes are not hidden there (a run of the kit's own nodes); ``hidden_files`` are files
-    under those the run sees empty (the reference nodes' modules). :attr:`scratch` is
-    the host folder with the copy; in a bwrap run, the run's working folder at that same
-    path is a tmpfs of ``limits.scratch_bytes`` seeded from it (what the run writes stays in
-    the sandbox).
+    agent's files), read-only at the same place; ``library`` are package folders the run may
+    read and import (the kit's scan_pkg, from where the grader imports it);
+    ``reference_nodes``: the kit's reference nodes are not hidden there (a run of the kit's
+    own nodes); ``hidden_files`` are files under those the run sees empty (the reference
+    nodes' modules), or, without namespaces, cannot read (:func:`close_to_runs`).
+    :attr:`scratch` is the host folder with the copy; in a bwrap run, the run's working folder
+    at that same path is a tmpfs of ``limits.scratch_bytes`` seeded from it (what the run
+    writes stays in the sandbox).
     :attr:`isolation` says in one line how the run is isolated, or that it is NOT.
     """
 
     def __init__(self, student_files: Mapping[str, Path], limits: SandboxLimits = SandboxLimits(),
-                 *, readable: Sequence[Path] = (), reference_nodes: bool = False,
-                 hidden_files: Sequence[str] = ()) -> None:
+                 *, readable: Sequence[Path] = (), library: Sequence[Path] = (),
+                 reference_nodes: bool = False, hidden_files: Sequence[str] = ()) -> None:
         self.limits = limits
+        self.library = [Path(os.path.realpath(folder)) for folder in library]
         self.reference_nodes = reference_nodes
         self.hidden_files = list(hidden_files)
         self.mode = isolation_mode()
-        self.readable = [os.path.realpath(path) for path in readable]
+        self.readable = [os.path.realpath(path) for path in [*readable, *self.library]]
         self.processes: list[subprocess.Popen] = []
         self.inits: list[int] = []  # pidfds of the first process of each pid namespace
         self.timer: threading.Timer | None = None
@@ -345,12 +362,33 @@ class Sandbox:
             if self.mode.dedicated_uid:
                 self.lease = UidLease()
                 self.uid = self.lease.uid
+            if self.mode.kind == 'uid':
+                close_to_runs(self.hidden_files)
             copy_student_files(student_files, self.scratch, limits.scratch_bytes)
             memory = self.limit_memory()
         except BaseException:
             self.close()
             raise
         self.isolation = self.describe(memory)
+
+    def check_reachable(self, program: str) -> None:
+        """
+        Raise SandboxError unless the run's uid reaches what a command needs, no namespaces.
+
+        The launcher's Python, ``program`` (the command's) and ``readable``: without a mount
+        namespace the run sees them through the host's folders, as any other user would (with
+        namespaces, they are mounted where the run reaches them: nothing to check).
+        """
+        if self.mode.kind != 'uid':
+            return
+        for path in dict.fromkeys([LAUNCHER_PYTHON, shutil.which(program) or program,
+                                   *self.readable]):
+            why = unreachable_by_others(path)
+            if why:
+                raise SandboxError(
+                    f'PARTLY sandboxed: uid {self.uid} (no namespaces) cannot reach {path}: '
+                    f'{why}; install the kit and its Python where other users can read them '
+                    "(as the autograder's setup.sh does, in a venv of /usr/bin/python3)")
 
     def limit_memory(self) -> str:
         """Hand the scratch to the run's uid, make its cgroup if root; say how memory is held."""
@@ -378,12 +416,13 @@ class Sandbox:
             return f'bubblewrap: user namespace of uid {os.getuid()}, {namespaces}, {memory}'
         if self.mode.kind == 'uid':
             return (f'PARTLY sandboxed: uid {self.uid} only, no namespaces ({self.mode.why}): '
-                    f'the run can read world-readable files and use the network; {memory}')
+                    "the run can read world-readable files (not the kit's answers) and use the "
+                    f'network; {memory}')
         return f'NOT sandboxed: {self.mode.why}'
 
     def environment(self, extra: Mapping[str, str] = {}) -> dict[str, str]:
         """Return the run's clean environment: :func:`clean_environment` in its scratch."""
-        return clean_environment(self.scratch, extra)
+        return clean_environment(self.scratch, extra, self.library)
 
     @property
     def sandboxed(self) -> bool:
@@ -401,8 +440,10 @@ class Sandbox:
     def launcher(self, argv: Sequence[str]) -> list[str]:
         """Return the command that starts ``argv`` through LAUNCHER, with its JSON spec."""
         root_in_bwrap = self.mode.kind == 'bwrap-root'
+        answers = self.reference_nodes and not self.hidden_files  # a run of the kit's nodes
         spec = {'rlimits': self.limits.rlimits(uid_counted=self.mode.kind != 'none'),
                 'uid': self.uid, 'gid': self.uid, 'scratch': str(self.scratch),
+                'groups': [ANSWERS_GID] if answers else [],
                 'own': [str(self.scratch), '/tmp', '/dev/shm'] if root_in_bwrap else [],
                 'copy_from': FILES_MOUNT if self.mode.bwrap else None}
         return [LAUNCHER_PYTHON, '-I', '-S', '-c', LAUNCHER, json.dumps(spec), *argv]
@@ -444,6 +485,7 @@ class Sandbox:
         """
         if self.closed:
             raise RuntimeError('the sandbox is closed')
+        self.check_reachable(argv[0])
         command = self.launcher(argv)
         info_read = info_write = None
         if self.mode.bwrap:

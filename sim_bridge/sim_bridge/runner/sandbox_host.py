@@ -5,6 +5,8 @@ What the machine gives each sandbox (sim_bridge.runner.sandbox): an identity, gr
   leased machine-wide with a lock file in a root-only folder; :func:`kill_uid` ends every
   process of it.
 - :class:`RunCgroup`: the memory and pids control groups of a run's whole tree (root only).
+- :func:`unreachable_by_others` and :func:`close_to_runs`: what a run without namespaces (its
+  uid alone) can read of the host's files, and the kit's answers made unreadable to it.
 - :func:`grader_folder`: this grader's scratch parent, whose lock file the grader holds while
   it lives; :func:`remove_leftover_scratch` removes only the parents whose lock it can take
   (a pid says nothing across pid namespaces and containers sharing /tmp).
@@ -17,6 +19,7 @@ import os
 from pathlib import Path
 import shutil
 import signal
+import stat
 import tempfile
 import time
 from typing import Mapping, Sequence
@@ -24,6 +27,9 @@ from typing import Mapping, Sequence
 #: Dedicated uids (and gids of the same number) for runs of a grader running as root.
 UID_BASE = 60100
 UID_COUNT = 900
+#: Without namespaces, the group that alone may read the files a run must not (the kit's
+#: reference answers): a run of the kit's own nodes has it, a student's run does not.
+ANSWERS_GID = UID_BASE - 1
 #: Root-only folder of the uid leases' lock files (machine-wide), else in the temp folder.
 LEASE_FOLDERS = (Path('/run/lab-sandbox'), Path(tempfile.gettempdir()) / 'lab-sandbox-uids')
 #: A grader's scratch parent is ``<temp>/lab-sandbox-XXXX`` beside its lock file ``.lock``.
@@ -39,6 +45,47 @@ JOIN_SCRIPT = ('while [ "$1" != -- ]; do echo $$ > "$1" || exit 125; shift; done
 END_TIMEOUT_S = 10.0
 #: Wall seconds between two looks at whether a run's processes are gone.
 END_POLL_S = 0.01
+
+
+def close_to_runs(paths: Sequence[str]) -> None:
+    """
+    Make ``paths`` unreadable by the runs' uids, but for group ANSWERS_GID (no o+rwx, g+r).
+
+    Without a mount namespace a run sees the host's files: this hides the kit's reference
+    answers from it (the change stays: other users of the machine cannot read them either).
+    SandboxError when it cannot be done (a read-only installation).
+    """
+    for path in paths:
+        try:
+            status = os.stat(path)
+            if status.st_gid != ANSWERS_GID or status.st_mode & 0o007:
+                os.chown(path, -1, ANSWERS_GID)
+                os.chmod(path, stat.S_IMODE(status.st_mode) & ~0o007 | stat.S_IRGRP)
+        except OSError as error:
+            raise SandboxError(f'cannot hide {path} from runs without namespaces: '
+                               f'{error.strerror or error}') from None
+
+
+class SandboxError(RuntimeError):
+    """A run cannot start in its sandbox on this machine (the message says why, in one line)."""
+
+
+def unreachable_by_others(path: str) -> str | None:
+    """
+    Return why users other than the owner cannot reach ``path``, or None when they can.
+
+    A run's dedicated uid is such a user: it passes a folder with o+x, reads a file with o+r,
+    on the way to ``path`` as named and to what it links to.
+    """
+    for way in dict.fromkeys([Path(os.path.abspath(path)), Path(os.path.realpath(path))]):
+        for step in [*reversed(way.parents), way]:
+            try:
+                mode = os.stat(step).st_mode
+            except OSError as error:
+                return f'{step}: {error.strerror}'
+            if not mode & (stat.S_IXOTH if stat.S_ISDIR(mode) else stat.S_IROTH):
+                return f'{step} is closed to them ({stat.filemode(mode)})'
+    return None
 
 
 def lock_exclusive(path: Path, create: bool = True) -> int | None:

@@ -188,14 +188,6 @@ class LockstepRun:
         return unconnected_topics(GraphView(self.bridge, self.agents),
                                   [(e['name'], e['namespace']) for e in self.target_nodes()])
 
-    def parameter(self, name: str) -> Any:
-        """Return the number a target node's parameter ``name`` was, if one declared it."""
-        for entry in self.target_nodes():
-            value = entry.get('values', {}).get(name)
-            if type(value) in (int, float):
-                return float(value)
-        return None
-
     def advance(self, end_ns: int, step_ns: int, on_step: Callable[[int], None]) -> None:
         """
         Step physics to ``end_ns``, each step's due callbacks and exchanges done after it.

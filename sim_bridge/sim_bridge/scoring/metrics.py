@@ -12,6 +12,7 @@ footprints), no rclpy, no pybullet.
 """
 
 import math
+import re
 from typing import Any, Iterable, Mapping, Sequence
 
 import contourpy
@@ -55,6 +56,12 @@ RESUME_WINDOW_S = 3.0
 RESUME_DISTANCE = 0.2
 #: The robot has reached its wall distance once within this (m) of it ...
 WALL_SETTLED = 0.1
+#: A wall distance (m) a student may choose: nearer scrapes the wall, farther is not following.
+WALL_BAND = (0.2, 1.5)
+#: A parameter names the wall distance when a word of its name is one of these ...
+WALL_DISTANCE_WORD = re.compile(r'dist\w*|d|wall|setpoint|target|desired')
+#: ... and no word of it names a speed, a gain, an angle, a time or a tolerance.
+OTHER_QUANTITY_WORD = re.compile(r'(?:speed|vel|lin|ang|gain|rate|time|tol)\w*|k[pid]?')
 #: The directions a wall follower loops in, by the sign of its winding (+1 counter-clockwise).
 DIRECTIONS = {1: 'counterclockwise', -1: 'clockwise'}
 
@@ -65,8 +72,8 @@ NODE_ERROR_KEYS = ('node', 'error', 'traceback')
 _WORST_LINE = {'t': 'number', 'node': 'text', 'text': 'text', 'what': 'text', 'printed': 'text',
                'printed_m': 'number', 'truth_m': 'list'}
 _PRINTED_SCORES = {'scans': 'number', 'lines': 'number', 'missed': 'number',
-                   'matched_fraction': 'number', 'mae_m': 'number', 'worst_error_m': 'number',
-                   'worst': _WORST_LINE}
+                   'matched_fraction': 'number', 'cap_m': 'number', 'mae_m': 'number',
+                   'worst_error_m': 'number', 'worst': _WORST_LINE}
 #: What ``compute_metrics`` returns: each key's kind ('number', 'list', 'text') or, for a
 #: nested dict, the kinds of its keys. Scenario criteria are checked against it.
 METRIC_KINDS = {
@@ -377,6 +384,34 @@ def _resumed(time: np.ndarray, linear: np.ndarray, travelled: np.ndarray, last: 
     return bool(travelled[following] - travelled[window[0]] >= RESUME_DISTANCE)
 
 
+def _name_words(name: str) -> list[str]:
+    """Return the words of a parameter's name, lower case: 'wallDist_m' gives wall, dist, m."""
+    return [word.lower() for word in re.findall(r'[A-Z]?[a-z]+|[A-Z]+(?![a-z])|\d+', name)]
+
+
+def declared_wall_distance(nodes_values: Iterable[Mapping[str, float]]) -> float | None:
+    """
+    Return the wall distance (m) a node declares as a parameter, or None when it declares none.
+
+    ``nodes_values`` holds each node's numeric parameters by name. The distance is the value of
+    the parameter whose name says it, a number within WALL_BAND: a word of its name (split at
+    '_', '-', '.' and capitals) is a WALL_DISTANCE_WORD and none an OTHER_QUANTITY_WORD
+    (``distance``, ``wall_distance``, ``desired_distance``, ``target_dist``, ``d``,
+    ``setpoint``, ``followDistance``; not ``target_speed``, ``wall_gain``); exactly one such
+    parameter, or several of one value. None when there is none, or several of different
+    values: the run's behaviour then tells the distance the node chose.
+    """
+    low, high = WALL_BAND
+    values = set()
+    for node_values in nodes_values:
+        for name, value in node_values.items():
+            words = _name_words(name)
+            if (low <= value <= high and any(map(WALL_DISTANCE_WORD.fullmatch, words))
+                    and not any(map(OTHER_QUANTITY_WORD.fullmatch, words))):
+                values.add(float(value))
+    return values.pop() if len(values) == 1 else None
+
+
 def wall_follow_evidence(time: np.ndarray, x: np.ndarray, y: np.ndarray, laps: int,
                          inside: Sequence[tuple[float, float]], distances: np.ndarray,
                          declared: float | None) -> dict[str, Any]:
@@ -417,8 +452,7 @@ def compute_metrics(trace: Trace, world: Any, *, setpoint: float | None = None,
                     wall_time_s: float,
                     node_errors: Iterable[Mapping[str, str]] = (),
                     log_lines: Sequence[Mapping[str, Any]] = (), printed: Iterable[str] = (),
-                    runner_nodes: Iterable[str] = (),
-                    printed_lateness_s: float = 0.0) -> dict[str, Any]:
+                    runner_nodes: Iterable[str] = ()) -> dict[str, Any]:
     """
     Score a run; return a JSON-serialisable dict (plain floats and ints, None for no value).
 
@@ -431,8 +465,7 @@ def compute_metrics(trace: Trace, world: Any, *, setpoint: float | None = None,
     optionally ``traceback``; ``log_lines`` what the nodes printed (dicts with ``t`` s,
     ``node``, ``level``, ``text``, ``line``), scored for the ``printed`` values (of
     printed_values.KINDS) against the trace's scans, the lines of ``runner_nodes`` (the
-    simulator's own) left out, a line about a scan up to ``printed_lateness_s`` (s) before it
-    (see printed_values.score_printed).
+    simulator's own) left out (see printed_values.score_printed).
     """
     time, x, y = trace.array('time'), trace.array('x'), trace.array('y')
     sim_time = float(time[-1]) if len(time) else 0.0
@@ -475,7 +508,6 @@ def compute_metrics(trace: Trace, world: Any, *, setpoint: float | None = None,
         'wall_follow': wall_follow,
         'node_errors': [{key: str(error[key]) for key in NODE_ERROR_KEYS if key in error}
                         for error in node_errors],
-        'printed': {kind: score_printed(kind, trace.scans, log_lines, ignore_nodes=runner_nodes,
-                                        lateness_s=printed_lateness_s)
+        'printed': {kind: score_printed(kind, trace.scans, log_lines, ignore_nodes=runner_nodes)
                     for kind in PRINTED_KINDS if kind in printed},
     }

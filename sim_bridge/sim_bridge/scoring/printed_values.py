@@ -5,16 +5,19 @@ Lab tasks 1 and 3 (and the guide's closest-obstacle node) are graded on what a n
 every scan: the range straight ahead, the minimum of five regions, the nearest obstacle. A log
 line (a dict ``{'t', 'node', 'level', 'text', 'line'}``: sim time s, node name, level, message
 text, console line) is compared with the truth of the scan the node had just received: the last
-scan published at or before the line's time (a process run's lines, stamped as they arrive, may
-be about a scan a little before: see :func:`score_printed`). Lines on stderr (a traceback) and
+scan published at or before the line's time. Lines on stderr (a traceback) and
 the runner's own nodes' are not what a node prints. Numbers are read from free-form text as
-students write it ("Range ahead: 1.23", "F=1.2 m", "1.234", "inf", "front_left: 0.9 | left:
-2.1"); a scan that no line gives a value for counts as missed.
+students write it (:mod:`sim_bridge.scoring.printed_text`); a scan that no line gives a value
+for counts as missed.
 
 Truth, as ``scan_pkg`` computes it (:mod:`scan_pkg.laser`): readings are capped at the lab's
 ``max_range`` (10 m: +inf and longer readings become 10 m, -inf and readings below range_min
 become range_min, NaN is ignored), and a printed value is capped the same way (so "inf" for no
-return is right). Where the lab's definition leaves a choice, every reasonable choice is right:
+return is right, and so are "nan", "none", "out of range", "no obstacle" and "nothing", read
+as inf). A node may cap at a distance of its own instead (its lidar's range_max, 3.5 m, 5 m,
+12 m, a parameter of its own): the cap it applies is inferred from what it prints (see
+:func:`score_printed`), and its values are judged against it when it is consistent. Where the
+lab's definition leaves a choice, every reasonable choice is right:
 
 - range ahead: any beam within one increment of straight ahead, or any value between them
   (one beam, their minimum or their mean);
@@ -25,9 +28,7 @@ return is right). Where the lab's definition leaves a choice, every reasonable c
   a beam on the outer edge (+-90 deg: beam 35 at +89.95 deg) belongs to its band;
 - closest obstacle: the nearest valid return; with none, "nothing" (a line like "No valid
   obstacle readings." or a printed inf) is right. Its bearing, when printed, is compared
-  modulo 2 pi. A bearing's unit is the one written after it (deg, degrees, °, rad, radians);
-  without one it is read as rad (REP-103), unless its magnitude exceeds 2 pi, which only
-  degrees can.
+  modulo 2 pi.
 
 Pure: numpy and scan_pkg's scan geometry, no rclpy.
 """
@@ -35,12 +36,12 @@ Pure: numpy and scan_pkg's scan geometry, no rclpy.
 import bisect
 from dataclasses import dataclass
 import math
-import re
 from typing import Any, Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 from scan_pkg.laser import (
     ANGLE_TOLERANCE, normalize_angle, REGION_CENTRES, REGION_HALF_WIDTH, REGION_NAMES, Scan)
+from sim_bridge.scoring.printed_text import Number, read_closest, read_range_ahead, read_regions
 
 #: The printed values a run can be scored on, by the name metrics and scenarios use.
 KINDS = ('range_ahead', 'regions', 'closest')
@@ -49,6 +50,11 @@ KIND_TITLES = {'range_ahead': 'range ahead', 'regions': 'region minima',
                'closest': 'closest obstacle'}
 #: The lab's cap (m) for no return and readings beyond it (scan_pkg's ``max_range`` default).
 LAB_MAX_RANGE = 10.0
+#: The shortest lidar range (m) of a lab robot (TurtleBot3's LDS): a node's own cap is at
+#: least this, or its lidar's range_max when that is shorter; a smaller value is never a cap.
+SHORTEST_CAP = 3.5
+#: Values a node prints for its cap differ by no more than this (m): its printing's rounding.
+CAP_ROUNDING = 0.01
 #: A line this much (s) later than a scan is still about it: sim times are exact to the ns.
 TIME_SLACK_S = 1e-6
 #: A beam this many increments from the edge between two regions may be in either.
@@ -57,166 +63,6 @@ EDGE_SLACK = 0.25
 QUOTE_CHARS = 70
 #: Log levels that are not what a node prints about a scan: a traceback goes to stderr.
 IGNORED_LEVELS = frozenset({'STDERR'})
-
-_INF = r'[-+]?(?:inf(?:inity)?|\u221e)'
-_DECIMAL = r'[-+]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][-+]?\d+)?'
-_UNIT = (r'(?:\s*(?P<unit>mm|cm|m|meters?|metres?|deg(?:rees?)?|\u00b0|rad(?:ians?)?'
-         r'|s|sec|seconds?|ms|%)(?![A-Za-z]))?')
-_NUMBER = re.compile(rf'(?<![\w.])(?P<number>{_INF}|{_DECIMAL})(?![\w.]*\d)'
-                     + _UNIT, re.IGNORECASE)
-# An index, not a value: ``ranges[17]``, ``[0:7]``, ``[len(r)//2]`` (brackets without a
-# decimal number), "beam 17", "index: 3", "#4".
-_INDEXED = re.compile(r'\[(?:[^\[\].]|\.(?!\d))*\]'
-                      r'|(?<![A-Za-z])(?:index|idx|beam|ray|sample|scan|seq|count|no\.|#)'
-                      r'\s*[:=#]?\s*\d+(?![\d.])', re.IGNORECASE)
-# Between a label and its number: "front: ", "F=", "front distance is ", "['left'] = [".
-_SEPARATOR = r"""['"\])}]*\s*(?:(?:[:=]|->|=>|\bis\b|\bwas\b|\bat\b)\s*)*\[?\s*"""
-_LENGTH_UNITS = {'m': 1.0, 'meter': 1.0, 'meters': 1.0, 'metre': 1.0, 'metres': 1.0,
-                 'cm': 0.01, 'mm': 0.001}
-_ANGLE_UNITS = {'deg': 'deg', 'degree': 'deg', 'degrees': 'deg', '\u00b0': 'deg',
-                'rad': 'rad', 'radian': 'rad', 'radians': 'rad'}
-_TIME_UNITS = frozenset({'s', 'sec', 'second', 'seconds', 'ms', '%'})
-_AHEAD_WORDS = re.compile(r'(?<![A-Za-z])(?:ahead|front|forward|straight|f|range|distance|dist'
-                          r'|d)(?![A-Za-z])' + _SEPARATOR + r'$', re.IGNORECASE)
-_DISTANCE_WORDS = re.compile(r'(?<![A-Za-z])(?:closest|nearest|min(?:imum)?|distance|dist'
-                             r'|range|obstacle|d|r)(?![A-Za-z])' + _SEPARATOR + r'$',
-                             re.IGNORECASE)
-_BEARING_WORDS = re.compile(r'(?<![A-Za-z])(?:angle|bearing|heading|direction|dir|theta|yaw'
-                            r'|\u03b8)(?![A-Za-z])' + _SEPARATOR + r'$', re.IGNORECASE)
-_AT = re.compile(r'(?<![A-Za-z])at\s*$', re.IGNORECASE)
-_NOTHING = re.compile(r'(?<![A-Za-z])(?:no|none|nothing|clear|free)(?![A-Za-z])', re.IGNORECASE)
-# Region labels as students write them, the longer first so "front-right" is not "front".
-_REGION_LABELS = (
-    ('front_right', r'front[\s_-]*right|right[\s_-]*front|fright|f[_-]?r'),
-    ('front_left', r'front[\s_-]*left|left[\s_-]*front|fleft|f[_-]?l'),
-    ('front', r'front|ahead|f'),
-    ('right', r'right|r'),
-    ('left', r'left|l'),
-)
-_REGION = re.compile(
-    r'(?<![A-Za-z])(?P<label>' + '|'.join(f'(?P<{name}>{pattern})'
-                                          for name, pattern in _REGION_LABELS)
-    + r')(?:[\s_-]*(?:min(?:imum)?|region|sector|zone|side|dist(?:ance)?|range))?(?![A-Za-z])'
-    + _SEPARATOR + rf'(?P<number>{_INF}|{_DECIMAL})(?![\w.]*\d)' + _UNIT, re.IGNORECASE)
-
-
-@dataclass(frozen=True)
-class Number:
-    """A number read from a line: its value (m for a length, as written otherwise), where."""
-
-    value: float
-    written: str
-    start: int
-    unit: str | None
-
-
-def numbers_in(text: str) -> list[Number]:
-    """
-    Return the numbers of a line of text, indices left out, lengths in m.
-
-    ``ranges[17]``, "beam 17", "index 3" are indices, not values. A length written in cm or
-    mm is converted to m; inf, infinity and the infinity sign read as +inf (or -inf).
-    """
-    blanked = _INDEXED.sub(lambda match: ' ' * len(match.group()), text)
-    found = []
-    for match in _NUMBER.finditer(blanked):
-        unit = (match['unit'] or '').lower() or None
-        value = _parse(match['number']) * _LENGTH_UNITS.get(unit, 1.0)
-        found.append(Number(value, _written(match), match.start(), unit))
-    return found
-
-
-def _written(match: re.Match) -> str:
-    return match['number'] + (f" {match['unit']}" if match['unit'] else '')
-
-
-def _parse(written: str) -> float:
-    sign = -1.0 if written.startswith('-') else 1.0
-    digits = written.lstrip('+-').lower()
-    return sign * math.inf if digits.startswith(('inf', '\u221e')) else float(written)
-
-
-def _labelled(text: str, numbers: Sequence[Number], words: re.Pattern) -> list[Number]:
-    return [number for number in numbers if words.search(text[:number.start])]
-
-
-def read_range_ahead(text: str) -> Number | None:
-    """
-    Return the range ahead a line gives, or None when it gives none (or cannot be read).
-
-    The number labelled as the range ("ahead: 1.2", "F=1.2", "distance 1.2"), else the first
-    one written in a length unit, else the only number of the line. Times, angles and
-    percentages are not ranges; neither are indices.
-    """
-    candidates = [number for number in numbers_in(text)
-                  if number.unit not in _TIME_UNITS and number.unit not in _ANGLE_UNITS]
-    labelled = _labelled(text, candidates, _AHEAD_WORDS)
-    if labelled:
-        return labelled[0]
-    lengths = [number for number in candidates if number.unit in _LENGTH_UNITS]
-    if lengths:
-        return lengths[0]
-    return candidates[0] if len(candidates) == 1 else None
-
-
-def read_regions(text: str) -> list[tuple[str, Number]]:
-    """
-    Return the (region name, value) pairs a line gives, in the line's order.
-
-    Labels are read as students write them: "front-right", "front_right", "Front Right",
-    "fright", "FR", "right front"; "min_left", "left region", "left distance is ..."; "ahead"
-    is the front ("Range ahead: 1.2", the handout's label, one region a line). A line
-    of exactly five lengths and no label (``print(min(ranges[0:7]), ...)``) gives the regions
-    right to left, in the order of the beams.
-    """
-    pairs = []
-    blanked = _INDEXED.sub(lambda match: ' ' * len(match.group()), text)
-    for match in _REGION.finditer(blanked):
-        name = next(name for name, _ in _REGION_LABELS if match[name] is not None)
-        unit = (match['unit'] or '').lower() or None
-        if unit in _TIME_UNITS or unit in _ANGLE_UNITS:
-            continue
-        value = _parse(match['number']) * _LENGTH_UNITS.get(unit, 1.0)
-        pairs.append((name, Number(value, _written(match), match.start('number'), unit)))
-    if not pairs:
-        lengths = [number for number in numbers_in(text)
-                   if number.unit not in _TIME_UNITS and number.unit not in _ANGLE_UNITS]
-        if len(lengths) == len(REGION_NAMES):
-            pairs = list(zip(REGION_NAMES, lengths))
-    return pairs
-
-
-def read_closest(text: str) -> tuple[Number | None, float | None]:
-    """
-    Return (distance, bearing in rad) of the nearest obstacle a line gives; None for missing.
-
-    A bearing is a number written in an angle unit, or labelled ("angle", "bearing", ...),
-    or the number after "at" that follows the distance ("0.87 m at -35.0"); see the module
-    text for its unit. The distance is the labelled one ("closest: 0.87"), else the first
-    in a length unit, else the first other number. A line saying there is nothing ("No valid
-    obstacle readings.") gives an infinite distance.
-    """
-    numbers = [number for number in numbers_in(text) if number.unit not in _TIME_UNITS]
-    bearings = [number for number in numbers if number.unit in _ANGLE_UNITS]
-    bearings = bearings or _labelled(text, numbers, _BEARING_WORDS)
-    others = [number for number in numbers if number not in bearings]
-    distance = next(iter(_labelled(text, others, _DISTANCE_WORDS)
-                         or [number for number in others if number.unit in _LENGTH_UNITS]
-                         or others), None)
-    if not bearings and distance is not None:
-        bearings = [number for number in others if number.start > distance.start
-                    and number.unit is None and _AT.search(text[:number.start])]
-    bearing = None
-    if bearings:
-        number = bearings[0]
-        degrees = _ANGLE_UNITS.get(number.unit) == 'deg' or (
-            number.unit is None and abs(number.value) > 2.0 * math.pi + 1e-6)
-        bearing = math.radians(number.value) if degrees else number.value
-        if not math.isfinite(bearing):
-            bearing = None
-    if distance is None and _NOTHING.search(text):
-        distance = Number(math.inf, 'nothing', 0, None)
-    return distance, bearing
 
 
 def scan_of(snapshot: Any) -> Scan:
@@ -299,13 +145,29 @@ class Comparison:
     line: Mapping[str, Any]
 
 
-def _capped(value: float, cap: float) -> float:
-    return min(value, cap) if value >= 0.0 else 0.0
+@dataclass(frozen=True)
+class Cap:
+    """
+    The cap (m) printed values are judged with: what no return, and a reading beyond it, read as.
+
+    ``clamps``: a printed value beyond the cap reads as the cap too. True for a cap at or beyond
+    the lidar's range (no reading lies between them: 12 m is as right as 10 m); False for a
+    node's own cap below it, which a larger printed value breaks.
+    """
+
+    at: float
+    clamps: bool = True
+
+    def read(self, value: float) -> float:
+        """Return a printed value (m) as judged: below 0 as 0, no return as the cap."""
+        if value < 0.0:
+            return 0.0
+        return self.at if math.isinf(value) or (self.clamps and value > self.at) else value
 
 
-def _compare(what: str, printed: Number, truth: tuple[float, float], cap: float,
+def _compare(what: str, printed: Number, truth: tuple[float, float], cap: Cap,
              line: Mapping[str, Any]) -> Comparison:
-    value = _capped(printed.value, cap)
+    value = cap.read(printed.value)
     low, high = truth
     return Comparison(what, printed, truth, max(low - value, value - high, 0.0), line)
 
@@ -315,13 +177,12 @@ def _bearing_error(printed: float, truth: float) -> float:
 
 
 def _lines_per_scan(kind: str, lines: Iterable[Mapping[str, Any]], times: Sequence[float],
-                    ignored: set[str], lateness_s: float, truth_of: Callable[[int], Any],
-                    cap: float) -> dict[int, list[tuple[list[Comparison], float | None]]]:
+                    ignored: set[str], truth_of: Callable[[int], Any],
+                    cap: Cap) -> dict[int, list[tuple[list[Comparison], float | None]]]:
     """
     Return, per scan index, the comparisons (and printed bearing) of the lines about it.
 
-    A line is about the scan it matches best among those from ``lateness_s`` (s) before its
-    time ``t`` (s) to its time; of equal matches, the latest scan.
+    A line is about the last scan at or before its time ``t`` (s).
     """
     per_scan: dict[int, list[tuple[list[Comparison], float | None]]] = {}
     for line in lines:
@@ -331,49 +192,83 @@ def _lines_per_scan(kind: str, lines: Iterable[Mapping[str, Any]], times: Sequen
         if not values:
             continue
         time = float(line['t'])
-        last = bisect.bisect_right(times, time + TIME_SLACK_S) - 1
-        first = min(bisect.bisect_left(times, time - lateness_s - TIME_SLACK_S), last)
-        candidates = [(_compare_line(kind, values, truth_of(index), cap, line), index)
-                      for index in range(last, first - 1, -1)]
-        candidates = [(found, index) for found, index in candidates if found]
-        if candidates:
-            found, index = min(candidates, key=lambda item: max(c.error for c in item[0]))
+        index = bisect.bisect_right(times, time + TIME_SLACK_S) - 1
+        found = _compare_line(kind, values, truth_of(index), cap, line) if index >= 0 else []
+        if found:
             per_scan.setdefault(index, []).append((found, bearing))
     return per_scan
 
 
 def score_printed(kind: str, scans: Sequence[Any], lines: Iterable[Mapping[str, Any]], *,
-                  cap: float = LAB_MAX_RANGE, ignore_nodes: Iterable[str] = (),
-                  lateness_s: float = 0.0) -> dict[str, Any]:
+                  cap: float = LAB_MAX_RANGE, ignore_nodes: Iterable[str] = ()) -> dict[str, Any]:
     """
     Compare the values of ``kind`` (one of KINDS) the lines print with their scans' truth.
 
     ``scans`` are the run's scans in time order (``run_trace.ScanSnapshot``: time s, ranges m,
     angle_min and angle_increment rad, range_min and range_max m); ``lines`` the nodes' log
     lines (dicts with ``t`` s, ``node``, ``level``, ``text``), those of ``ignore_nodes`` and
-    of stderr left out. A line is about the last scan at or before its time; with
-    ``lateness_s`` (s: a process run's lines are stamped when they arrive, and a node that
-    falls behind prints about a scan it had queued) about whichever scan of that long before
-    it it matches best. Returns a JSON-ready dict: ``scans`` (those a value is defined for),
-    ``lines`` (lines a value was read from), ``missed`` (scans with no line giving it; for
-    regions, giving all five), ``matched_fraction``, ``mae_m`` and ``worst_error_m`` (m) and
-    ``worst`` (the line of the worst error: ``t``, ``node``, ``text``, ``what``, ``printed``
-    as written, ``printed_m``, ``truth_m`` [lowest, highest right value]); for ``closest``
-    also ``bearing_lines``, ``bearing_mae_deg``, ``worst_bearing_error_deg`` and
-    ``worst_bearing``; for ``regions``, ``unprinted``: the regions no line gave.
+    of stderr left out. A line is about the last scan at or before its time (the node runs in
+    lockstep with the simulator: it prints about the scan it has just received).
+
+    No return and readings beyond ``cap`` (m) are right as ``cap`` or more. A node that caps
+    at a distance of its own prints one value wherever the scan reads farther (at least
+    SHORTEST_CAP m, or its lidar's range_max when shorter) and, when that is within the
+    lidar's range, nothing larger but inf: its values are then judged against that cap
+    (inf, or a word for no return, is right wherever the scan reads farther than it), when
+    that makes their worst error smaller.
+
+    Returns a JSON-ready dict: ``scans`` (those a value is defined for), ``lines`` (lines a
+    value was read from), ``missed`` (scans with no line giving it; for regions, giving all
+    five), ``matched_fraction``, ``cap_m`` (the cap judged with, m), ``mae_m`` and
+    ``worst_error_m`` (m) and ``worst`` (the line of the worst error: ``t``, ``node``,
+    ``text``, ``what``, ``printed`` as written, ``printed_m``, ``truth_m`` [lowest, highest
+    right value]); for ``closest`` also ``bearing_lines``, ``bearing_mae_deg``,
+    ``worst_bearing_error_deg`` and ``worst_bearing``; for ``regions``, ``unprinted``: the
+    regions no line gave.
     """
     if kind not in KINDS:
         raise ValueError(f'unknown printed value {kind!r}; one of {", ".join(KINDS)}')
-    ignored = set(ignore_nodes)
+    lines, ignored = list(lines), set(ignore_nodes)
+    scored, comparisons = _score_with(kind, scans, lines, Cap(cap), ignored)
+    reach = min((float(snapshot.range_max) for snapshot in scans), default=cap)
+    own = _own_cap(comparisons, min(reach, SHORTEST_CAP), reach)
+    if own is not None:
+        again, _ = _score_with(kind, scans, lines, Cap(own, clamps=own >= reach), ignored)
+        if again['worst_error_m'] < scored['worst_error_m']:
+            return again
+    return scored
+
+
+def _own_cap(comparisons: Sequence[Comparison], lowest: float, reach: float) -> float | None:
+    """
+    Return the cap (m) a node's values keep, or None when they keep none.
+
+    Its cap is the value it prints wherever the scan reads farther: every value (at least
+    ``lowest`` m) printed below a farther truth is that one (to CAP_ROUNDING m), and below the
+    lidar's ``reach`` (m) no value printed is larger.
+    """
+    printed = [comparison.printed.value for comparison in comparisons]
+    beyond = [value for value, comparison in zip(printed, comparisons)
+              if lowest <= value < comparison.truth[0]]
+    if not beyond or max(beyond) - min(beyond) > CAP_ROUNDING:
+        return None
+    cap = max(beyond)
+    kept = cap >= reach or all(value <= cap or math.isinf(value) for value in printed)
+    return cap if kept else None
+
+
+def _score_with(kind: str, scans: Sequence[Any], lines: Sequence[Mapping[str, Any]], cap: Cap,
+                ignored: set[str]) -> tuple[dict[str, Any], list[Comparison]]:
+    """Return :func:`score_printed`'s scores judged with ``cap``, and their comparisons."""
     times = [snapshot.time for snapshot in scans]
     truths: dict[int, Any] = {}
 
     def truth_of(index: int) -> Any:
         if index not in truths:
-            truths[index] = _TRUTHS[kind](scan_of(scans[index]), cap)
+            truths[index] = _TRUTHS[kind](scan_of(scans[index]), cap.at)
         return truths[index]
 
-    per_scan = _lines_per_scan(kind, lines, times, ignored, lateness_s, truth_of, cap)
+    per_scan = _lines_per_scan(kind, lines, times, ignored, truth_of, cap)
     comparisons: list[Comparison] = []
     bearing_errors: list[tuple[float, Comparison, float]] = []
     matched_lines = counted = missed = 0
@@ -398,7 +293,7 @@ def score_printed(kind: str, scans: Sequence[Any], lines: Iterable[Mapping[str, 
     result: dict[str, Any] = {
         'scans': counted, 'lines': matched_lines, 'missed': missed,
         'matched_fraction': (counted - missed) / counted if counted else None,
-        'mae_m': None, 'worst_error_m': None, 'worst': None}
+        'cap_m': cap.at, 'mae_m': None, 'worst_error_m': None, 'worst': None}
     if comparisons:
         worst = max(comparisons, key=lambda comparison: comparison.error)
         result['mae_m'] = float(np.mean([comparison.error for comparison in comparisons]))
@@ -417,7 +312,7 @@ def score_printed(kind: str, scans: Sequence[Any], lines: Iterable[Mapping[str, 
             result['worst_bearing_error_deg'] = math.degrees(error)
             result['worst_bearing'] = {**_quote(comparison, cap),
                                        'truth_deg': math.degrees(truth)}
-    return result
+    return result, comparisons
 
 
 def _label(name: str) -> str:
@@ -463,7 +358,7 @@ def _wanted(kind: str, truth: Any) -> set[str]:
     return {'closest obstacle'} if kind == 'closest' else set(truth)
 
 
-def _compare_line(kind: str, values: list[tuple[str, Number]], truth: Any, cap: float,
+def _compare_line(kind: str, values: list[tuple[str, Number]], truth: Any, cap: Cap,
                   line: Mapping[str, Any]) -> list[Comparison]:
     """Return the comparisons of a line's values with a scan's truth (those it defines)."""
     if kind == 'closest':
@@ -484,13 +379,13 @@ def excerpt(text: str, at: int, chars: int = QUOTE_CHARS) -> str:
     return head + text[start + len(head):start + chars - len(tail)] + tail
 
 
-def _quote(comparison: Comparison, cap: float) -> dict[str, Any]:
+def _quote(comparison: Comparison, cap: Cap) -> dict[str, Any]:
     line = comparison.line
     text = str(line.get('text', ''))
     return {'t': float(line['t']), 'node': str(line.get('node') or ''),
             'text': excerpt(text, comparison.printed.start),
             'what': comparison.what, 'printed': comparison.printed.written,
-            'printed_m': _capped(comparison.printed.value, cap),
+            'printed_m': cap.read(comparison.printed.value),
             'truth_m': list(comparison.truth)}
 
 
@@ -514,8 +409,9 @@ def judge_printed(kind: str, scored: Mapping[str, Any] | None, *, max_error_m: f
     Judge a kind's scores (:func:`score_printed`) against tolerances; return (passed, why).
 
     ``why`` is one line: the worst printed value, where and what the truth was, how many lines
-    and missed scans, e.g. ``scan_around: front-left printed 2.31 m at t=4.2 s, truth
-    1.05 m: 'front-left: 2.31 m' (worst of 38 lines; 12 of 50 scans with no line)``.
+    and missed scans, the node's own cap when it has one (see :func:`score_printed`), e.g.
+    ``scan_around: front-left printed 2.31 m at t=4.2 s, truth 1.05 m: 'front-left: 2.31 m'
+    (worst of 38 lines; 12 of 50 scans with no line)``.
     """
     title = KIND_TITLES[kind]
     if not scored or not scored.get('scans'):
@@ -525,6 +421,8 @@ def judge_printed(kind: str, scored: Mapping[str, Any] | None, *, max_error_m: f
     tally = f'{lines} lines; {missed} of {scans} scans with no line'
     if kind == 'regions' and scored.get('unprinted') and lines:
         tally += f" ({', '.join(scored['unprinted'])} never printed)"
+    if scored.get('cap_m') not in (None, LAB_MAX_RANGE):
+        tally += f"; its own cap {scored['cap_m']:g} m"
     worst = scored.get('worst')
     if worst is None:
         return False, f'no line printed the {title} ({scans} scans)'
