@@ -9,11 +9,11 @@ that hands out nothing is the exact "nothing is ready": no message waits in any 
 its clock. This is the lockstep Gazebo keeps with its ROS nodes, on the real executor.
 
 Each wait is made with the executor's own guard condition triggered (``Executor.wake()``): a
-zero-timeout wait that finds nothing ready otherwise still sleeps (Fast DDS waits on a condition
-variable until "now": a timed futex wait, a switch out of the process and back, ~100 us, more on
-a busy machine). With the guard ready it returns at once, having checked every other entity as
-before: the same callbacks are handed out, and none is still the exact "nothing is ready". The
-guard is the executor's, no callback's.
+zero-timeout wait that finds nothing ready otherwise still waits out its timeout (Fast DDS waits
+on a condition variable until "now", a timed futex wait: an empty wait took ~170 us here, ~65 us
+with the guard ready). With the guard ready it returns at once, having checked every other
+entity as before: the same callbacks are handed out, and none is still the exact "nothing is
+ready". The guard is the executor's, no callback's.
 """
 
 import traceback
@@ -133,7 +133,7 @@ def spin_until_idle(executor: SteppedExecutor) -> int:
         ran_before = count
         try:
             while True:
-                executor.wake()  # a wait that finds nothing ready returns, not sleeps
+                executor.wake()  # a wait that finds nothing ready returns at once
                 task, entity, node = executor.wait_for_ready_callbacks(timeout_sec=0)
                 count += 1
                 place = callback_place(entity)
