@@ -3,8 +3,8 @@ How fast runs go through the trust boundary (sim_bridge.runner.boundary): figure
 
 ``python test/bench/bench_boundary.py [--duration S] [--case NAME ...] [--before CHECKOUT]``
 runs, recorded, each node in its own process in lockstep with the simulator: the lab's
-wall_follow (36 beams), a spin_once loop, a main() paced by time.sleep, and an idle node (what
-the simulator and the recorder cost alone). For each: sim time over wall time (x real time),
+wall_follow (36 beams), a spin_once loop, a main() paced by time.sleep, and an idle node in
+wall_follow's world (what the simulator and the recorder cost alone). For each: sim time over wall time (x real time),
 the exchanges with the node's process (per sim s, and wall us each: the round trip and the
 node's own work; physics steps need none), the CPU seconds of this (the trusted) process and
 of the node's, and the peak memory (PSS, MiB) of the whole tree: this process, the sandbox's
@@ -33,7 +33,7 @@ FIXTURES = HERE.parent.parent / 'sim_bridge' / 'test' / 'fixtures'
 CASES = (('wall_follow', 'wall_follow_box', 'wall_follow'),
          ('spin_once loop', 'obstacles', str(FIXTURES / 'spin_once_loop.py')),
          ('time.sleep loop', 'obstacles', str(HERE / 'boundary_sleeper.py')),
-         ('idle node', 'obstacles', str(HERE / 'boundary_idle.py')))
+         ('idle node', 'wall_follow_box', str(HERE / 'boundary_idle.py')))
 #: Wall seconds between two reads of the tree's memory.
 MEMORY_PERIOD_S = 0.25
 CLOCK_TICKS = 100
