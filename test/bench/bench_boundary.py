@@ -4,11 +4,11 @@ How fast runs go through the trust boundary (sim_bridge.runner.boundary): figure
 ``python test/bench/bench_boundary.py [--duration S] [--case NAME ...] [--before CHECKOUT]``
 runs, recorded, each node in its own process in lockstep with the simulator: the lab's
 wall_follow (36 beams), a spin_once loop, a main() paced by time.sleep, and an idle node in
-wall_follow's world (what the simulator and the recorder cost alone). For each: sim time over wall time (x real time),
-the exchanges with the node's process (per sim s, and wall us each: the round trip and the
-node's own work; physics steps need none), the CPU seconds of this (the trusted) process and
-of the node's, and the peak memory (PSS, MiB) of the whole tree: this process, the sandbox's
-and the node's. With ``--before CHECKOUT`` (another checkout of the kit, with its .venv:
+wall_follow's world (what the simulator and the recorder cost alone). For each: sim time over
+wall time (x real time), the exchanges with the node's process (per sim s, and wall us each:
+the round trip and the node's own work; physics steps need none), the CPU seconds of this
+(the trusted) process and of the node's, and the peak memory (PSS, MiB) of the whole tree:
+this process, the sandbox's and the node's. With ``--before CHECKOUT`` (another checkout of the kit, with its .venv:
 main's, or one from before the boundary), each case also runs there, by its ``run`` command,
 and the ratio of the two is printed. Not a test: figures to compare, on the machine of the day.
 """
