@@ -8,13 +8,13 @@ wall_follow's world (what the simulator and the recorder cost alone). For each: 
 wall time (x real time), the exchanges with the node's process (per sim s, and wall us each:
 the round trip and the node's own work; physics steps need none), the CPU seconds of this
 (the trusted) process and of the node's, and the peak memory (PSS, MiB) of the whole tree:
-this process, the sandbox's and the node's. With ``--before CHECKOUT`` (another checkout of the kit, with its .venv:
-main's, or one from before the boundary), each case also runs there, by its ``run`` command,
-and the ratio of the two is printed. Not a test: figures to compare, on the machine of the day.
+this process, the sandbox's and the node's. With ``--before CHECKOUT`` (another checkout of
+the kit with the boundary, with its .venv: main's), each case also runs with that checkout's
+code (this script, under its Python), and the ratio of the two is printed. Not a test: figures
+to compare, on the machine of the day.
 """
 
 import argparse
-import json
 import os
 from pathlib import Path
 import resource
@@ -116,29 +116,27 @@ class Meter:
         boundary.Agent.exchange, boundary.Agent.close = self.originals
 
 
-def before(checkout: Path, world: str, target: str, duration_s: float) -> float | None:
-    """Return the x real time of the case run by ``checkout``'s run command, or None."""
-    module = ('sim_bridge.commands.run'
-              if (checkout / 'sim_bridge' / 'sim_bridge' / 'commands' / 'run.py').is_file()
-              else 'sim_bridge.run')
+def before(checkout: Path, name: str, duration_s: float) -> float | None:
+    """
+    Return the x real time of case ``name`` run by ``checkout``'s code, or None.
+
+    This same script runs under that checkout's Python (its own sim_bridge, the same node
+    files, measured the same way); a checkout without the trust boundary cannot run it.
+    """
     # This venv's library paths out: that checkout's Python sets its own when it starts
     # (the ROS wheels' bootstrapper, unless told it already ran).
     own = os.path.join(sys.prefix, '')
-    env = {name: kept for name, value in os.environ.items()
+    env = {variable: kept for variable, value in os.environ.items()
            if (kept := os.pathsep.join(part for part in value.split(os.pathsep)
                                        if not part.startswith(own)))
-           and name != '_ROS_WHEELS_BOOTSTRAP_COMPLETE'}
-    with tempfile.TemporaryDirectory() as out:
-        subprocess.run(
-            [str(checkout / '.venv' / 'bin' / 'python'), '-m', module, '--world', world,
-             '--node', target, '--duration', str(duration_s), '--quiet', '--no-plot',
-             '--out', out], cwd=checkout / 'sim_bridge', env=env, capture_output=True,
-            text=True, timeout=10 * duration_s + 120)
-        try:
-            metrics = json.loads((Path(out) / 'metrics.json').read_text())
-        except (OSError, ValueError):
-            return None
-    return metrics['sim_time_s'] / metrics['wall_time_s']
+           and variable != '_ROS_WHEELS_BOOTSTRAP_COMPLETE'}
+    result = subprocess.run(
+        [str(checkout / '.venv' / 'bin' / 'python'), str(Path(__file__).resolve()),
+         '--case', name, '--duration', str(duration_s)], cwd=checkout, env=env,
+        capture_output=True, text=True, timeout=10 * duration_s + 120)
+    rows = [line[len(name):].split() for line in result.stdout.splitlines()
+            if line.startswith(name)]
+    return float(rows[0][2]) if rows else None
 
 
 def main() -> int:
@@ -147,7 +145,7 @@ def main() -> int:
     parser.add_argument('--case', action='append', choices=[name for name, *_ in CASES],
                         help='run only this case (again for more); all by default')
     parser.add_argument('--before', type=Path, metavar='CHECKOUT',
-                        help='also run each case with the run command of this checkout')
+                        help="also run each case with this checkout's code")
     args = parser.parse_args()
     keep_dds_in_process()
     print(f"{'node':16} {'sim s':>6} {'wall s':>7} {'x real':>7} {'exch/sim s':>10} "
@@ -156,7 +154,7 @@ def main() -> int:
     for name, world, target in CASES:
         if args.case and name not in args.case:
             continue
-        then = before(args.before, world, target, args.duration) if args.before else None
+        then = before(args.before, name, args.duration) if args.before else None
         with tempfile.TemporaryDirectory() as out, Meter() as meter:
             cpu = resource.getrusage(resource.RUSAGE_SELF)
             metrics = run_simulation(world, [target], duration_s=args.duration, out_dir=out,
