@@ -15,7 +15,7 @@ from mcap.reader import make_reader
 import pytest
 from rcl_interfaces.msg import Log
 from rclpy.serialization import deserialize_message
-from sim_bridge.runner import boundary
+from sim_bridge.runner import boundary, stepped_run
 from sim_bridge.runner.run import run_simulation
 
 FIXTURES = Path(__file__).parent / 'fixtures'
@@ -99,6 +99,28 @@ def test_the_same_seed_gives_the_same_messages_and_metrics(tmp_path):
         runs.append((metrics, messages))
     assert runs[0] == runs[1]
     assert any(topic == '/cmd_vel' for topic, *_ in runs[0][1])
+
+
+def test_the_runners_executor_spins_only_for_what_the_node_process_sent(tmp_path,
+                                                                        monkeypatch):
+    # No node of the runner's hears the scans and /clock (the node process's taps are not on
+    # its executor): a step that sent them makes no wait there, only the node's commands do.
+    counts = {'spins': 0, 'answered': 0}
+    spin, exchange = stepped_run.spin_until_idle, boundary.Agent.exchange
+
+    def counted_spin(executor):
+        counts['spins'] += 1
+        return spin(executor)
+
+    def counted_exchange(agent, messages):
+        published = exchange(agent, messages)
+        counts['answered'] += bool(published)
+        return published
+    monkeypatch.setattr(stepped_run, 'spin_until_idle', counted_spin)
+    monkeypatch.setattr(boundary.Agent, 'exchange', counted_exchange)
+    metrics = run(tmp_path, FIXTURES / 'spin_once_loop.py', duration_s=2.0)
+    assert metrics['node_errors'] == [] and counts['answered'] >= 10
+    assert counts['spins'] == counts['answered'] + 1  # + the one before the first step
 
 
 def test_lines_are_stamped_with_the_sim_time_and_node_of_the_code_that_wrote_them(tmp_path):

@@ -359,6 +359,7 @@ def install(lockstep: Lockstep) -> None:
         deadline = (None if timeout is None or timeout < 0
                     else lockstep.now_ns + round(timeout * NANOSECONDS_PER_SECOND))
         while True:
+            executor.wake()  # its guard ready: a wait with nothing else ready returns at once
             try:
                 task, entity, node = original_wait(executor, 0, nodes, condition)
             except executors.TimeoutException:

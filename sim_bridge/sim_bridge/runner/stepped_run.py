@@ -216,18 +216,32 @@ class LockstepRun:
         timer_due = next_timer_ns(own)
         next_call_ns = bridge.now_ns + step_ns
         physics_ns = bridge.step_ns
+        bridge_topics = {publisher.topic_name for publisher in bridge.publishers}
         while bridge.now_ns < end_ns:
             wakes = [wake for wake in (timer_due, lockstep.next_wake_ns()) if wake is not None]
             # Steps in which nothing is due are taken in one (SimBridge.quiet_steps).
             steps = bridge.quiet_steps(min([end_ns, next_call_ns, *wakes]))
             clock_due = bool(wakes) and min(wakes) <= bridge.now_ns + steps * physics_ns
             if bridge.step(clock_due, steps):  # something was sent: to the runner's or targets'
-                spin_until_idle(executor)
-                timer_due = next_timer_ns(own)
+                if self.hears(bridge_topics):
+                    spin_until_idle(executor)
                 lockstep.exchange_due(bridge.now_ns)  # a wake time due sends /clock: heard
+                timer_due = next_timer_ns(own)
             if bridge.now_ns >= next_call_ns:
                 on_step(bridge.now_ns)
                 next_call_ns += step_ns
+
+    def hears(self, topics: set[str]) -> bool:
+        """
+        Tell whether a node on this process's executor subscribes to one of ``topics``.
+
+        Only then can a step of the bridge (``topics``: those it publishes) make one of its
+        callbacks ready (a timer on sim time needs /clock, a subscription too): when none does
+        (the taps of the node processes are not on the executor), the wait that would find
+        nothing ready is not made.
+        """
+        return any(subscription.topic_name in topics
+                   for node in self.executor.get_nodes() for subscription in node.subscriptions)
 
     def close(self) -> None:
         """Destroy every node (the bridge last) and shut this run's rclpy context down."""

@@ -7,6 +7,13 @@ every callback found ready by one wait on the wait set, then raises ``TimeoutExc
 that hands out nothing is the exact "nothing is ready": no message waits in any subscription
 (in one process Fast DDS delivers a publish before ``publish`` returns) and no timer is due on
 its clock. This is the lockstep Gazebo keeps with its ROS nodes, on the real executor.
+
+Each wait is made with the executor's own guard condition triggered (``Executor.wake()``): a
+zero-timeout wait that finds nothing ready otherwise still waits out its timeout (Fast DDS waits
+on a condition variable until "now", a timed futex wait: an empty wait took ~170 us here, ~65 us
+with the guard ready). With the guard ready it returns at once, having checked every other
+entity as before: the same callbacks are handed out, and none is still the exact "nothing is
+ready". The guard is the executor's, no callback's.
 """
 
 import traceback
@@ -126,6 +133,7 @@ def spin_until_idle(executor: SteppedExecutor) -> int:
         ran_before = count
         try:
             while True:
+                executor.wake()  # a wait that finds nothing ready returns at once
                 task, entity, node = executor.wait_for_ready_callbacks(timeout_sec=0)
                 count += 1
                 place = callback_place(entity)
