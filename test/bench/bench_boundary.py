@@ -86,10 +86,10 @@ class Meter:
         exchange, close = self.originals
         meter = self
 
-        def timed_exchange(agent, messages):
+        def timed_exchange(agent, *args):
             start = time.perf_counter()
             try:
-                return exchange(agent, messages)
+                return exchange(agent, *args)
             finally:
                 meter.exchanges += 1
                 meter.exchange_s += time.perf_counter() - start

@@ -344,9 +344,15 @@ class Agent:
         failure.memory = frame.fields.get('memory') is True
         return failure
 
-    def exchange(self, messages: Sequence[Message]) -> list[Message]:
-        """Send the step (sim time now and ``messages``); return what the nodes published."""
+    def exchange(self, messages: Sequence[Message],
+                 meanwhile: Callable[[], Any] = lambda: None) -> list[Message]:
+        """
+        Send the step (sim time now and ``messages``); return what the nodes published.
+
+        ``meanwhile()`` runs while the process handles the step (the recorder writes then).
+        """
         self.send(encode('advance', messages, t_ns=self.clock_ns()))
+        meanwhile()
         return self.take_idle(self.next_frame(EXCHANGE_TIMEOUT_S))
 
     def send(self, data: bytes) -> None:
@@ -415,7 +421,12 @@ class Agent:
         return [message for _, message in taken]
 
     def republish(self, messages: Sequence[Message]) -> None:
-        """Publish here what the process's nodes published, each checked; fail if one is bad."""
+        """
+        Publish here what the process's nodes published, each checked; fail if one is bad.
+
+        Checked: its type is the one the topic is published as here, and its bytes deserialize
+        as that type. The bytes are published as they came (rclpy's ``publish_raw``).
+        """
         from rclpy.serialization import deserialize_message
         for message in messages:
             if message.topic in OWN_TOPICS:
@@ -431,12 +442,12 @@ class Agent:
             if type_name(msg_type) != message.type_name:
                 raise self.failure(f'sent {message.topic} as {message.type_name}, a type it '
                                    'did not publish it as')
-            try:
-                msg = deserialize_message(message.data, msg_type)
+            try:  # a check: the bytes that are a message go out as they came
+                deserialize_message(message.data, msg_type)
             except Exception as error:  # noqa: B902 whatever rclpy raises on bad bytes
                 raise self.failure(f'sent bytes that are not a {message.type_name} on '
                                    f'{message.topic} ({type(error).__name__})') from None
-            publisher.publish(msg)
+            publisher.publish(bytes(message.data))
         self.taken({m.topic for m in messages})  # not back to where they came from
 
     def kill(self) -> None:
@@ -499,12 +510,15 @@ class Lockstep:
     The run's node processes in lockstep with the simulator: who is due, and the exchanges.
 
     ``agents`` in the order of the run's targets; ``spin`` runs the trusted side's callbacks
-    until none is ready (sim_bridge.runner.stepping.spin_until_idle).
+    until none is ready (sim_bridge.runner.stepping.spin_until_idle); ``meanwhile`` is work
+    of the trusted side done while a process handles its step (a recorder's writes: on a
+    second CPU they take no time of the run's).
     """
 
     def __init__(self, agents: list[Agent], spin: Callable[[], Any]):
         self.agents = agents
         self.spin = spin
+        self.meanwhile: Callable[[], Any] = lambda: None
         self.exchanges = 0
         #: The process being exchanged with, while it is.
         self.current: Agent | None = None
@@ -523,7 +537,7 @@ class Lockstep:
                 if messages or force or (agent.wake_ns is not None
                                          and agent.wake_ns <= now_ns):
                     self.current = agent
-                    published = agent.exchange(messages)
+                    published = agent.exchange(messages, self.meanwhile)
                     self.current = None
                     self.exchanges += 1
                     exchanged = True

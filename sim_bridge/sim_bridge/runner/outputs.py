@@ -27,6 +27,8 @@ from sim_bridge.scoring.run_trace import CollisionEvent, ScanSnapshot, Trace
 from sim_bridge.simulation.geometry import point_in_world
 from sim_bridge.simulation.world import World
 
+#: Messages the recorder holds at most before it writes them to the bag.
+HELD_MESSAGES = 1000
 
 def close_outputs(warnings: list[str], log: NodeLog, teleop: 'Teleop | None',
                   recorder: 'RunRecorder | None', bag: BagRecorder | None) -> None:
@@ -37,6 +39,7 @@ def close_outputs(warnings: list[str], log: NodeLog, teleop: 'Teleop | None',
         warnings += teleop.plan.missed
     if bag is not None and recorder is not None:
         recorder.write_log()
+        recorder.flush()
         bag.close()
 
 
@@ -77,8 +80,9 @@ class RunRecorder:
     TF) has a raw subscription on the runner's own node, as ``ros2 bag record`` has. Messages
     are stamped with the sim time of the step that sent them. The lines the nodes wrote
     (``log``) are recorded on /rosout, each at its own time, before the next message. Messages
-    sent before :meth:`record` (while the nodes start) are held, so that a run which cannot
-    start has written nothing.
+    are held and written in order by :meth:`flush`: a stepped run flushes while a node process
+    handles its step. Those sent before :meth:`record` (while the nodes start) wait for it,
+    so that a run which cannot start has written nothing.
     """
 
     def __init__(self, run: RunGraph, observer: 'Observer', record: bool, log: NodeLog):
@@ -154,20 +158,33 @@ class RunRecorder:
             self.store(ROSOUT_TOPIC, ROSOUT_TYPE, data, t_ns)
 
     def store(self, topic: str, type_name: str, data: bytes, t_ns: int) -> None:
-        """Write (or hold) one message's CDR bytes at ``t_ns`` (ns)."""
-        if self.bag is not None:
-            self.bag.write(topic, type_name, data, t_ns)
-        elif self.held is not None:
+        """
+        Hold one message's CDR bytes at ``t_ns`` (ns) for the bag, in the order sent.
+
+        Held until :meth:`flush` (a stepped run flushes while a node process handles its
+        step), or until HELD_MESSAGES are held, once the bag is open.
+        """
+        if self.held is not None:
             self.held.append((topic, type_name, data, t_ns))
+            if self.bag is not None and len(self.held) >= HELD_MESSAGES:
+                self.flush()
+
+    def flush(self) -> None:
+        """Write the messages held to the bag, once it is open."""
+        if self.bag is not None and self.held:
+            held, self.held = self.held, []
+            for message in held:
+                self.bag.write(*message)
 
     def record(self, bag: BagRecorder | None) -> None:
         """Write the held messages to ``bag`` and everything sent from now on."""
         self.write_log()
-        if bag is not None:
-            bag.graph = self.node
-            for message in self.held:
-                bag.write(*message)
-        self.bag, self.held = bag, None
+        if bag is None:
+            self.held = None
+            return
+        bag.graph = self.node
+        self.bag = bag
+        self.flush()
 
 
 def open_outputs(out_dir: Path, params_file: Path, record: bool) -> BagRecorder | None:

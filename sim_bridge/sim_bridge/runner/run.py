@@ -129,6 +129,7 @@ def run_stepped(spec: RunSpec, prepared: PreparedRun) -> RunResult:
                 try:
                     bridge = run.start_simulator(SimBridge)
                     outputs.watch(run, bridge, prepared.world, prepared.segments)
+                    run.lockstep.meanwhile = outputs.recorder.flush
                     with run.capture_output(outputs.log):
                         start_failure = run.start_nodes(spec.targets, prepared.node_params)
                         if start_failure is None:
