@@ -15,7 +15,7 @@ from mcap.reader import make_reader
 import pytest
 from rcl_interfaces.msg import Log
 from rclpy.serialization import deserialize_message
-from sim_bridge.runner import boundary, outputs, stepped_run
+from sim_bridge.runner import boundary, outputs, stepped_run, stepping
 from sim_bridge.runner.run import run_simulation
 
 FIXTURES = Path(__file__).parent / 'fixtures'
@@ -105,22 +105,46 @@ def test_the_runners_executor_spins_only_for_what_the_node_process_sent(tmp_path
                                                                         monkeypatch):
     # No node of the runner's hears the scans and /clock (the node process's taps are not on
     # its executor): a step that sent them makes no wait there, only the node's commands do.
-    counts = {'spins': 0, 'answered': 0}
+    counts = {'spins': 0, 'answered': 0, 'after_publishing': 0}
     spin, exchange = stepped_run.spin_until_idle, boundary.Agent.exchange
+    after_publishing = stepped_run.spin_after_publishing
 
     def counted_spin(executor):
         counts['spins'] += 1
         return spin(executor)
+
+    def counted_after_publishing(executor, topics):
+        counts['after_publishing'] += 1
+        assert topics == {'/cmd_vel'}
+        return after_publishing(executor, topics)
 
     def counted_exchange(agent, *args):
         published = exchange(agent, *args)
         counts['answered'] += bool(published)
         return published
     monkeypatch.setattr(stepped_run, 'spin_until_idle', counted_spin)
+    monkeypatch.setattr(stepped_run, 'spin_after_publishing', counted_after_publishing)
     monkeypatch.setattr(boundary.Agent, 'exchange', counted_exchange)
     metrics = run(tmp_path, FIXTURES / 'spin_once_loop.py', duration_s=2.0)
     assert metrics['node_errors'] == [] and counts['answered'] >= 10
-    assert counts['spins'] == counts['answered'] + 1  # + the one before the first step
+    assert counts['after_publishing'] == counts['answered']
+    assert counts['spins'] == 1  # the one before the first step
+
+
+def test_the_runners_own_subscriptions_take_the_nodes_commands_without_a_wait(tmp_path,
+                                                                              monkeypatch):
+    # After a republish, the bridge and the recorder take the command from their
+    # subscriptions; the wait after them (the exact "nothing is ready") hands out nothing.
+    found = []
+    spin = stepping.spin_until_idle
+
+    def noted_spin(executor):
+        found.append(spin(executor))
+        return found[-1]
+    monkeypatch.setattr(stepping, 'spin_until_idle', noted_spin)
+    metrics = run(tmp_path, FIXTURES / 'spin_once_loop.py', duration_s=2.0)
+    assert metrics['node_errors'] == [] and metrics['distance_m'] > 0.1
+    assert len(found) >= 10 and set(found) == {0}
 
 
 def test_the_recording_is_written_while_the_node_process_handles_its_step(tmp_path,

@@ -135,8 +135,10 @@ class UpdateSchedule:
         """Return whether an update is due at ``now_ns`` (ns); if so, it counts as made."""
         if now_ns < self.next_ns:
             return False
-        self.updates = math.floor(now_ns / self.period_ns)
-        self.next_ns = math.ceil((self.updates + 1) * self.period_ns)
+        # floor and ceil of fractions in whole numbers (p / q ns a period): exact, and fast
+        periods, ns = self.period_ns.denominator, self.period_ns.numerator
+        self.updates = now_ns * periods // ns
+        self.next_ns = -(-(self.updates + 1) * ns // periods)
         self.elapsed_ns, self.last_ns = now_ns - self.last_ns, now_ns
         return True
 

@@ -509,13 +509,14 @@ class Lockstep:
     """
     The run's node processes in lockstep with the simulator: who is due, and the exchanges.
 
-    ``agents`` in the order of the run's targets; ``spin`` runs the trusted side's callbacks
-    until none is ready (sim_bridge.runner.stepping.spin_until_idle); ``meanwhile`` is work
+    ``agents`` in the order of the run's targets; ``spin(topics)`` runs the trusted side's
+    callbacks of what was republished on ``topics`` until none is ready
+    (sim_bridge.runner.stepping.spin_after_publishing); ``meanwhile`` is work
     of the trusted side done while a process handles its step (a recorder's writes: on a
     second CPU they take no time of the run's).
     """
 
-    def __init__(self, agents: list[Agent], spin: Callable[[], Any]):
+    def __init__(self, agents: list[Agent], spin: Callable[[set[str]], Any]):
         self.agents = agents
         self.spin = spin
         self.meanwhile: Callable[[], Any] = lambda: None
@@ -543,7 +544,7 @@ class Lockstep:
                     exchanged = True
                     if published:
                         agent.republish(published)
-                        self.spin()
+                        self.spin({message.topic for message in published})
             force = False
             if not exchanged:
                 return

@@ -23,7 +23,8 @@ from sim_bridge.runner.node_sandbox import node_limits, NodeSandbox, say_isolati
 from sim_bridge.runner.options import BRIDGE_NODE, Params
 from sim_bridge.runner.ros_graph import (
     NO_TYPE_DESCRIPTION_SERVICE, parameter_warnings, runner_node, unconnected_topics)
-from sim_bridge.runner.stepping import describe, next_timer_ns, spin_until_idle, SteppedExecutor
+from sim_bridge.runner.stepping import (
+    describe, next_timer_ns, spin_after_publishing, spin_until_idle, SteppedExecutor)
 from sim_bridge.runner.targets import target_name
 
 
@@ -90,7 +91,8 @@ class LockstepRun:
         self.executor = SteppedExecutor(self.context)
         self.boundary_node = runner_node('sim_bridge_boundary', self.context, False)
         self.agents: list[Agent] = []
-        self.lockstep = Lockstep(self.agents, lambda: spin_until_idle(self.executor))
+        self.lockstep = Lockstep(self.agents,
+                                 lambda topics: spin_after_publishing(self.executor, topics))
         self.bridge = None
         self.duration_s = 0.0
         self.lines: StreamLines | None = None

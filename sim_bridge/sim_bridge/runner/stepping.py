@@ -17,7 +17,7 @@ ready". The guard is the executor's, no callback's.
 """
 
 import traceback
-from typing import Iterable
+from typing import Collection, Iterable
 
 import rclpy
 from rclpy.clock import ClockType
@@ -148,6 +148,38 @@ def spin_until_idle(executor: SteppedExecutor) -> int:
         except TimeoutException:
             if count == ran_before:
                 return count
+
+
+def spin_after_publishing(executor: SteppedExecutor, topics: Collection[str]) -> int:
+    """
+    Run the callbacks of what was just published here on ``topics``, then spin until idle.
+
+    The runner's own nodes (``executor.own_nodes``: plain callbacks, no coroutines) take the
+    messages waiting in their subscriptions on ``topics`` first, each handed to its callback
+    in turn, without a wait: in one process Fast DDS delivers a publish before ``publish``
+    returns. A take is the executor's own first step (as the boundary's taps take); the wait
+    that would find them is the part left out. :func:`spin_until_idle` then runs whatever
+    else is ready, and its last wait is the exact "nothing is ready". Return the count.
+    """
+    count = 0
+    for node in list(executor.own_nodes):
+        for subscription in node.subscriptions:
+            if subscription.topic_name not in topics:
+                continue
+            place = callback_place(subscription)
+            while True:
+                with subscription.handle:
+                    taken = subscription.handle.take_message(subscription.msg_type,
+                                                             subscription.raw)
+                if taken is None:
+                    break
+                count += 1
+                try:
+                    subscription.callback(taken[0])
+                except BaseException as error:  # noqa: B902 as spin_until_idle
+                    raise NodeError(node.get_name(), error, place, executor.code) from error
+                check_ros_state(executor, node, place)
+    return count + spin_until_idle(executor)
 
 
 def next_timer_ns(nodes: Iterable[Node]) -> int | None:
