@@ -147,8 +147,8 @@ def test_the_runners_own_subscriptions_take_the_nodes_commands_without_a_wait(tm
     assert len(found) >= 10 and set(found) == {0}
 
 
-def test_the_recording_is_written_while_the_node_process_handles_its_step(tmp_path,
-                                                                         monkeypatch):
+def test_the_recording_is_written_while_the_node_process_handles_its_step(
+        tmp_path, monkeypatch):
     # The bag's writes are the trusted side's work the node's turn can hide (a second CPU).
     state = {'handling': False, 'written_then': 0, 'written': 0}
     exchange, write = boundary.Agent.exchange, outputs.BagRecorder.write
@@ -173,6 +173,40 @@ def test_the_recording_is_written_while_the_node_process_handles_its_step(tmp_pa
         scans = [message for _, channel, message in make_reader(bag).iter_messages()
                  if channel.topic == '/scan']
     assert len(scans) == 20  # 2 s at 10 Hz: every scan sent is in the bag
+
+
+ODOM_NODE = """
+import rclpy
+from geometry_msgs.msg import Twist
+from nav_msgs.msg import Odometry
+from rclpy.node import Node
+
+
+def main():
+    rclpy.init()
+    node = Node('circler')
+    if {hears}:
+        node.create_subscription(Odometry, 'odom', lambda msg: None, 10)
+    pub = node.create_publisher(Twist, 'cmd_vel', 10)
+    command = Twist()
+    command.linear.x, command.angular.z = 0.2, 0.4
+    node.create_timer(0.1, lambda: pub.publish(command))
+    rclpy.spin(node)
+"""
+
+
+def test_odometry_no_node_hears_is_recorded_as_the_odometry_a_node_hears(tmp_path):
+    # Odometry with no subscription is not published; the bag holds the same bytes.
+    recorded = []
+    for hears in (True, False):
+        node = tmp_path / f'circler_{hears}.py'
+        node.write_text(ODOM_NODE.format(hears=hears))
+        metrics = run(tmp_path / str(hears), node, duration_s=2.0)
+        assert metrics['node_errors'] == [] and metrics['distance_m'] > 0.2
+        with (tmp_path / str(hears) / 'run' / 'run_0.mcap').open('rb') as bag:
+            recorded.append([(message.log_time, message.data) for _, channel, message
+                             in make_reader(bag).iter_messages() if channel.topic == '/odom'])
+    assert len(recorded[0]) >= 99 and recorded[0] == recorded[1]
 
 
 def test_lines_are_stamped_with_the_sim_time_and_node_of_the_code_that_wrote_them(tmp_path):

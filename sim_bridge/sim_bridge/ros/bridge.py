@@ -27,6 +27,7 @@ says so once and publishes everything else.
 
 from array import array
 from fractions import Fraction
+from functools import partial
 import math
 
 from geometry_msgs.msg import PointStamped, TransformStamped, Twist, TwistStamped
@@ -62,6 +63,7 @@ DEFAULT_PHYSICS_RATE = 100.0
 #: the bridge subscribes, and after (when a second type is an error).
 COMMAND_GRAPH_CHECK_S = (0.1, 1.0)
 COMMAND_TYPES = {'geometry_msgs/msg/Twist': Twist, 'geometry_msgs/msg/TwistStamped': TwistStamped}
+ODOMETRY_TYPE = 'nav_msgs/msg/Odometry'
 NO_TF_WARNING = ('tf2_ros is not installed (it comes with a ROS 2 installation, not from PyPI): '
                  'publishing no TF (odom -> base, base -> lidar frame); odometry, scans and '
                  '/clock are published as usual')
@@ -188,6 +190,10 @@ class SimBridge(Node):
         #: Called as ``on_publish(topic, msg, data)`` after each message the bridge publishes
         #: itself, with the CDR bytes ``data`` it published (rclpy's ``serialize_message``).
         self.on_publish = None
+        #: Stepped: called as ``on_unheard(topic, type_name, make_data)`` instead of a publish
+        #: for odometry no subscription would receive; ``make_data()`` returns its CDR bytes
+        #: (see :meth:`publish_odometry`). None: every message is published.
+        self.on_unheard = None
         # Stepped, every QoS event handler is one more entity in every wait of the executor;
         # the other side's handlers still report incompatible QoS.
         events, cmd_vel_events = ({}, {}) if not stepped else (
@@ -421,7 +427,7 @@ class SimBridge(Node):
             due.append((self.scan_pub, self.scan_message(stamp)))
         odom_due = self.odom_schedule.due(now_ns)
         if odom_due:
-            due.append((self.odom_pub, self.odometry(stamp)))
+            due.append((self.odom_pub, self.odometry_state()))
         collisions = self.sim.collisions
         while self.collisions_reported < len(collisions):
             due.append((self.collision_pub,
@@ -433,7 +439,10 @@ class SimBridge(Node):
         if heard:
             self.publish(self.clock_pub, self.clock)
         for publisher, msg in due:
-            self.publish(publisher, msg)
+            if publisher is self.odom_pub:
+                self.publish_odometry(msg, send_tf)
+            else:
+                self.publish(publisher, msg)
         if send_tf:
             self.odom_transform.header.stamp = stamp
             self.tf_broadcaster.sendTransform(self.odom_transform)
@@ -470,18 +479,45 @@ class SimBridge(Node):
         msg.header.frame_id = self.frames['laser']
         return msg
 
-    def odometry(self, stamp) -> Odometry:
-        """Fill the odometry message (and the odom → base_link transform) for ``stamp``."""
+    def odometry_state(self) -> tuple[int, int, float, float, float, float, float, float]:
+        """
+        Return what odometry says now: the stamp, the pose in ``odom``, the velocity.
+
+        (stamp s, stamp ns, x m, y m, sin(yaw / 2), cos(yaw / 2), linear m/s, angular rad/s).
+        """
         x, y, yaw = pose_from(self.odom_origin, self.sim.pose)
         linear, angular = self.sim.velocity
         # A rotation about z only: (0, 0, sin(yaw / 2), cos(yaw / 2)).
-        half_yaw_sin, half_yaw_cos = math.sin(yaw / 2.0), math.cos(yaw / 2.0)
+        return (*divmod(self.now_ns, NANOSECONDS_PER_SECOND), float(x), float(y),
+                math.sin(yaw / 2.0), math.cos(yaw / 2.0), float(linear), float(angular))
+
+    def publish_odometry(self, state: tuple, send_tf: bool) -> None:
+        """
+        Publish odometry ``state`` (see :meth:`odometry_state`), or hand it to ``on_unheard``.
+
+        Stepped, odometry no subscription would receive (and no TF to send) is not published:
+        ``on_unheard`` (the recorder) gets the topic, the type and what makes its bytes later.
+        """
+        if self.on_unheard is not None and not send_tf and \
+                self.odom_pub.get_subscription_count() == 0:
+            self.on_unheard(self.odom_pub.topic_name, ODOMETRY_TYPE,
+                            partial(self.odometry_bytes, state))
+        else:
+            self.publish(self.odom_pub, self.odometry(state))
+
+    def odometry_bytes(self, state: tuple) -> bytes:
+        """Return the CDR bytes of the odometry message of ``state``."""
+        return serialize_message(self.odometry(state))
+
+    def odometry(self, state: tuple) -> Odometry:
+        """Fill the odometry message (and the odom → base_link transform) with ``state``."""
+        sec, nanosec, x, y, half_yaw_sin, half_yaw_cos, linear, angular = state
         odom = self.odom
-        odom.header.stamp = stamp
+        odom.header.stamp.sec, odom.header.stamp.nanosec = sec, nanosec
         pose = odom.pose.pose
-        pose.position.x, pose.position.y = float(x), float(y)
+        pose.position.x, pose.position.y = x, y
         pose.orientation.z, pose.orientation.w = half_yaw_sin, half_yaw_cos
-        odom.twist.twist.linear.x, odom.twist.twist.angular.z = float(linear), float(angular)
+        odom.twist.twist.linear.x, odom.twist.twist.angular.z = linear, angular
         translation = self.odom_transform.transform.translation
         translation.x, translation.y = pose.position.x, pose.position.y
         rotation = self.odom_transform.transform.rotation

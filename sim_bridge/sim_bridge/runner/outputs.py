@@ -10,7 +10,7 @@ import json
 from pathlib import Path
 import shutil
 import time
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 from rclpy.event_handler import SubscriptionEventCallbacks
@@ -29,6 +29,7 @@ from sim_bridge.simulation.world import World
 
 #: Messages the recorder holds at most before it writes them to the bag.
 HELD_MESSAGES = 1000
+
 
 def close_outputs(warnings: list[str], log: NodeLog, teleop: 'Teleop | None',
                   recorder: 'RunRecorder | None', bag: BagRecorder | None) -> None:
@@ -91,11 +92,12 @@ class RunRecorder:
         self.observer = observer
         self.recording = record
         self.log = log
-        self.held: list[tuple[str, str, bytes, int]] | None = []
+        self.held: list[tuple[str, str, bytes | Callable[[], bytes], int]] | None = []
         self.bag = None
         self.type_names: dict[type, str] = {}
         bridge = run.bridge
         bridge.on_publish = self.on_bridge_message
+        bridge.on_unheard = self.on_unheard_message
         self.node = None
         if not record:
             return
@@ -147,8 +149,14 @@ class RunRecorder:
         if self.recording and topic in DEFAULT_TOPICS:
             self.write(topic, self.type_name(type(msg)), data)
 
-    def write(self, topic: str, type_name: str, data: bytes) -> None:
-        """Write (or hold) one message's CDR bytes at the current sim time."""
+    def on_unheard_message(self, topic: str, type_name: str,
+                           make_data: Callable[[], bytes]) -> None:
+        """Record a message the bridge sent to no one: ``make_data()`` makes its bytes later."""
+        if self.recording and topic in DEFAULT_TOPICS:
+            self.write(topic, type_name, make_data)
+
+    def write(self, topic: str, type_name: str, data: bytes | Callable[[], bytes]) -> None:
+        """Hold one message's CDR bytes (or what makes them) at the current sim time."""
         self.write_log()
         self.store(topic, type_name, data, self.run.bridge.now_ns)
 
@@ -157,9 +165,10 @@ class RunRecorder:
         for t_ns, data in self.log.take_rosout():
             self.store(ROSOUT_TOPIC, ROSOUT_TYPE, data, t_ns)
 
-    def store(self, topic: str, type_name: str, data: bytes, t_ns: int) -> None:
+    def store(self, topic: str, type_name: str, data: bytes | Callable[[], bytes],
+              t_ns: int) -> None:
         """
-        Hold one message's CDR bytes at ``t_ns`` (ns) for the bag, in the order sent.
+        Hold one message's CDR bytes (or what makes them) at ``t_ns`` (ns), in the order sent.
 
         Held until :meth:`flush` (a stepped run flushes while a node process handles its
         step), or until HELD_MESSAGES are held, once the bag is open.
@@ -173,8 +182,8 @@ class RunRecorder:
         """Write the messages held to the bag, once it is open."""
         if self.bag is not None and self.held:
             held, self.held = self.held, []
-            for message in held:
-                self.bag.write(*message)
+            for topic, type_name, data, t_ns in held:
+                self.bag.write(topic, type_name, data() if callable(data) else data, t_ns)
 
     def record(self, bag: BagRecorder | None) -> None:
         """Write the held messages to ``bag`` and everything sent from now on."""
