@@ -28,7 +28,7 @@ from sim_bridge.simulation.geometry import point_in_world
 from sim_bridge.simulation.world import World
 
 #: Messages the recorder holds at most before it writes them to the bag.
-HELD_MESSAGES = 1000
+HELD_MESSAGES = 100
 
 
 def close_outputs(warnings: list[str], log: NodeLog, teleop: 'Teleop | None',
