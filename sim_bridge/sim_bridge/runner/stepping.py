@@ -163,7 +163,7 @@ def spin_after_publishing(executor: SteppedExecutor, topics: Collection[str]) ->
     """
     count = 0
     for node in list(executor.own_nodes):
-        for subscription in node.subscriptions:
+        for subscription in list(node.subscriptions):
             if subscription.topic_name not in topics:
                 continue
             place = callback_place(subscription)
