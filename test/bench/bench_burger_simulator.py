@@ -9,7 +9,8 @@ The case of issue 26's speed point without ROS: Burger (the Gazebo Sim files in
 (-2, -0.5, 0), its 360-beam 5 Hz lidar, 1 ms physics. The :class:`~sim_bridge.simulation.
 simulator.Simulator` is stepped as the bridge steps it under the runner: one
 ``step(0.001, n)`` to each next event of a 20 Hz wanderbot command, 50 Hz odometry and the
-5 Hz scan (60 calls per simulated second), a scan when one is due. The commands come from
+5 Hz scan (60 calls per simulated second), a scan when one is due; the drive's limits are the
+Burger plugin's (the wanderbot's 0.5 m/s is not capped). The commands come from
 scan_pkg's wanderbot core (:class:`scan_pkg.behaviors.wander.Wanderer`) fed with the scans
 and the yaw, so the run is the wanderbot's own, and the same command sequence as long as the
 simulator's behaviour is unchanged: the fingerprint printed (a hash of every pose, range and
@@ -66,7 +67,8 @@ def measure(assets: Path, duration_s: float) -> dict:
 
     world_file = assets / 'turtlebot3_gazebo_sim' / 'worlds' / 'turtlebot3_world.world'
     world = World.load(str(world_file), robot='turtlebot3_burger', robot_pose=SPAWN)
-    simulator = Simulator(world, seed=1)
+    # As the bridge makes it: the drive's limits from the Burger's diff-drive plugin.
+    simulator = Simulator(world, seed=1, limits=world.robot.drive.limits)
     simulator.trajectory = []
     scan_rate = round(simulator.lidar_config.update_rate)
     odometry_rate = round(world.robot.drive.odometry_rate)
