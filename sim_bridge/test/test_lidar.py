@@ -7,8 +7,8 @@ import numpy as np
 import pybullet
 import pytest
 
-from sim_bridge.simulation.geometry import Mesh, Shape
 from sim_bridge.simulation import lidar as lidar_module
+from sim_bridge.simulation.geometry import Mesh, Shape
 from sim_bridge.simulation.lidar import beam_directions, build_scene, cast_rays, Lidar
 from sim_bridge.simulation.sdf_lidar import LidarConfig
 import trimesh

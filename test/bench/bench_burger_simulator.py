@@ -17,7 +17,9 @@ simulator's behaviour is unchanged: the fingerprint printed (a hash of every pos
 collision) says whether it was.
 
 Prints ms of Simulator.step and of Simulator.scan per simulated second, us per call, and the
-simulator's own real-time factor. ``--compare CHECKOUT`` runs the same script's measurement
+simulator's own real-time factor, all in CPU time of the process (pybullet's ray threads
+included): on a machine shared with other work, time spent waiting for a processor would
+count in wall time. ``--compare CHECKOUT`` runs the same script's measurement
 with another checkout's ``sim_bridge`` and ``scan_pkg`` (e.g. ``git worktree add /tmp/base
 main``), alternately, ``--repeat`` times (default 3); each figure is the best of its repeats.
 """
@@ -79,16 +81,16 @@ def measure(assets: Path, duration_s: float) -> dict:
     step_s = scan_s = 0.0
     calls = scans = done = 0
     for event in event_steps(duration_s, (COMMAND_RATE, odometry_rate, scan_rate)):
-        start = time.perf_counter()
+        start = time.process_time()
         simulator.step(STEP_S, event - done)
-        step_s += time.perf_counter() - start
+        step_s += time.process_time() - start
         calls += 1
         done = event
         now = event * STEP_S
         if event % steps_per_scan == 0:
-            start = time.perf_counter()
+            start = time.process_time()
             scan = simulator.scan()
-            scan_s += time.perf_counter() - start
+            scan_s += time.process_time() - start
             scans += 1
             digest.update(scan.ranges.tobytes())
             wanderer.update_scan(Scan(scan.ranges, scan.angle_min, scan.angle_increment,
@@ -125,17 +127,17 @@ def best_of(runs: list[dict]) -> dict:
 
 def report(name: str, figures: dict) -> None:
     """Print one checkout's figures."""
-    total = figures['step_ms'] + figures['scan_ms']
-    print(f"{name}:\n"
-          f"  Simulator.step  {figures['step_ms']:6.2f} ms per sim s "
-          f"({figures['calls']:.0f} calls, {figures['step_us']:6.1f} us each)\n"
-          f"  Simulator.scan  {figures['scan_ms']:6.2f} ms per sim s "
-          f"({figures['scans']:.0f} scans, {figures['scan_us']:6.1f} us each)\n"
-          f"  together        {total:6.2f} ms per sim s: the simulator alone at "
-          f"{1000.0 / total:.0f}x real time\n"
-          f"  behaviour: {figures['collisions']} collisions, final pose "
-          f"({figures['pose'][0]:.6f}, {figures['pose'][1]:.6f}, {figures['pose'][2]:.6f}), "
-          f"fingerprint {figures['fingerprint']}")
+    step_ms, scan_ms, pose = figures['step_ms'], figures['scan_ms'], figures['pose']
+    total = step_ms + scan_ms
+    print(f'{name}:')
+    print(f'  Simulator.step  {step_ms:6.2f} CPU ms per sim s ({figures["calls"]:.0f} calls, '
+          f'{figures["step_us"]:6.1f} us each)')
+    print(f'  Simulator.scan  {scan_ms:6.2f} CPU ms per sim s ({figures["scans"]:.0f} scans, '
+          f'{figures["scan_us"]:6.1f} us each)')
+    print(f'  together        {total:6.2f} CPU ms per sim s: the simulator alone at '
+          f'{1000.0 / total:.0f}x real time')
+    print(f'  behaviour: {figures["collisions"]} collisions, final pose ({pose[0]:.6f}, '
+          f'{pose[1]:.6f}, {pose[2]:.6f}), fingerprint {figures["fingerprint"]}')
 
 
 def main() -> int:
