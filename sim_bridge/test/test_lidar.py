@@ -7,6 +7,7 @@ import numpy as np
 import pybullet
 import pytest
 
+from sim_bridge.simulation import lidar as lidar_module
 from sim_bridge.simulation.geometry import Mesh, Shape
 from sim_bridge.simulation.lidar import beam_directions, build_scene, cast_rays, Lidar
 from sim_bridge.simulation.sdf_lidar import LidarConfig
@@ -267,3 +268,26 @@ def test_a_rolled_cylinder_and_a_mesh_are_seen_where_their_surfaces_are(client):
     distances = cast_rays(client, starts, ends)
     wheel_front = 2.0 - math.sqrt(0.3 ** 2 - 0.2 ** 2)
     assert distances == pytest.approx([1.7, wheel_front, 1.8, 1.6], abs=1e-3)
+
+
+def test_a_robot_standing_still_casts_no_rays_and_reads_as_if_it_had(scene, monkeypatch):
+    casts = []
+    cast = lidar_module._fractions
+    monkeypatch.setattr(lidar_module, '_fractions',
+                        lambda *args: casts.append(args[0]) or cast(*args))
+    config = replace(NOISELESS, samples=90, min_angle=-math.pi, max_angle=math.pi,
+                     noise_stddev=0.01)
+    here, there = (0.0, 0.0, 0.3), (0.4, -0.2, 1.0)
+    still = Lidar(scene, config, np.random.default_rng(3))
+    moving = Lidar(scene, config, np.random.default_rng(3))
+    first, second = still.scan(here).ranges, still.scan(here).ranges
+    assert len(casts) == 1
+    # Each lidar's second scan takes the same noise; the moving one casts anew.
+    moving.scan(there)
+    assert np.array_equal(second, moving.scan(here).ranges)
+    assert not np.array_equal(first, second)
+    assert np.array_equal(still.scan(there).ranges, moving.scan(there).ranges)
+    assert len(casts) == 5
+    # What a caller does to a reading does not reach the next.
+    still.true_ranges(there).fill(0.0)
+    assert np.array_equal(still.true_ranges(there), moving.true_ranges(there))

@@ -130,8 +130,13 @@ class OutlineGaps:
         self._corners = shapely.get_coordinates(outline)
         #: Radius (m) of the circle about the robot's origin holding its outline.
         self.robot_radius = float(np.hypot(self._corners[:, 0], self._corners[:, 1]).max())
-        # The outline at a pose is made in this one-element array from its corners (m).
+        # The outline at a pose is made in this one-element array from its corners (m): turned
+        # (kept for the last yaw, rad: a robot driving straight keeps its yaw), then moved by
+        # the position written into _position (x, y m).
         self._posed = np.array([outline], dtype=object)
+        self._turned_yaw: float | None = None
+        self._turned = self._corners
+        self._position = np.zeros(2)
         pieces = []  # (footprint index, shapely outline, offset m)
         for index, fp in enumerate(footprints):
             if fp.kind == 'circle':
@@ -161,7 +166,7 @@ class OutlineGaps:
         if len(self._geometries):
             owners, geometries, offsets = self._candidates(pose[0], pose[1])
             gaps = shapely.distance(self.outline_at(pose), geometries) - offsets
-            best = int(np.argmin(gaps))
+            best = int(gaps.argmin())
             result = (float(gaps[best]), int(owners[best]))
         self._last = (pose, result)
         return result
@@ -193,11 +198,15 @@ class OutlineGaps:
     def outline_at(self, pose: tuple[float, float, float]) -> shapely.Geometry:
         """Return the robot's outline (shapely, m) at ``pose`` (x m, y m, yaw rad)."""
         x, y, yaw = pose
-        cos_yaw = math.cos(yaw)
-        sin_yaw = math.sin(yaw)
-        rotation = np.array([[cos_yaw, sin_yaw], [-sin_yaw, cos_yaw]])
+        if yaw != self._turned_yaw:
+            cos_yaw = math.cos(yaw)
+            sin_yaw = math.sin(yaw)
+            self._turned = self._corners @ np.array([[cos_yaw, sin_yaw], [-sin_yaw, cos_yaw]])
+            self._turned_yaw = yaw
+        self._position[0] = x
+        self._position[1] = y
         # A new geometry in the array each time: one returned before stays as it was.
-        shapely.set_coordinates(self._posed, self._corners @ rotation + (x, y))
+        shapely.set_coordinates(self._posed, self._turned + self._position)
         return self._posed[0]
 
 

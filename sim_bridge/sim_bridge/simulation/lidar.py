@@ -191,6 +191,8 @@ class Lidar:
 
     ``rng`` supplies the noise (the only randomness); ``threads`` is pybullet's numThreads
     (0: pybullet's choice), by default 1 below ``THREADED_FROM_BEAMS`` beams and 0 from there.
+    The scene's bodies are static: a scan from the pose of the last cast reuses its distances
+    (a robot standing still casts no rays; its readings get fresh noise all the same).
     """
 
     def __init__(self, client: int, config: LidarConfig, rng: np.random.Generator, *,
@@ -213,6 +215,10 @@ class Lidar:
         self._ends = np.empty_like(self._reach)
         self._ends[:, 2] = height + self._reach[:, 2]
         self._noisy = config.noise_stddev > 0.0 or config.noise_mean != 0.0
+        # The robot pose (m, m, rad) of the last rays cast and their distances (m): the scene
+        # is static, so a robot that has not moved since sees the same and casts no rays.
+        self._cast_pose: tuple[float, float, float] | None = None
+        self._cast = np.empty(0)
 
     def origin(self, pose: tuple[float, float, float]) -> tuple[float, float, float]:
         """Return where the laser frame is (m, world frame) for the robot pose (m, m, rad)."""
@@ -246,14 +252,21 @@ class Lidar:
         return origin
 
     def _distances(self, pose: tuple[float, float, float]) -> np.ndarray:
-        """Return the distance (m) along each beam to the first surface, range_max for none."""
-        origin = self._world_points(pose, self._reach_x, self._reach_y, self._ends)
-        self._starts[:, 0].fill(origin[0])
-        self._starts[:, 1].fill(origin[1])
-        distances = _fractions(self.client, self._starts, self._ends, RAY_BATCH_SIZE,
-                               self.threads)
-        distances *= self.config.range_max
-        return distances
+        """
+        Return the distance (m) along each beam to the first surface, range_max for none.
+
+        A new array, cast anew unless the pose is the last one cast from.
+        """
+        pose = tuple(pose)  # a list or an array compares as its values
+        if pose != self._cast_pose:
+            origin = self._world_points(pose, self._reach_x, self._reach_y, self._ends)
+            self._starts[:, 0].fill(origin[0])
+            self._starts[:, 1].fill(origin[1])
+            self._cast = _fractions(self.client, self._starts, self._ends, RAY_BATCH_SIZE,
+                                    self.threads)
+            self._cast *= self.config.range_max
+            self._cast_pose = pose
+        return self._cast.copy()
 
     def true_ranges(self, pose: tuple[float, float, float]) -> np.ndarray:
         """Return the noise-free distance (m) along each beam, +inf from range_max on."""
