@@ -35,10 +35,11 @@ from sim_bridge.common.paths import find_world
 from sim_bridge.live import live
 from sim_bridge.ros import bridge as bridge_module
 from sim_bridge.ros.bridge import command_type, NO_TF_WARNING, SimBridge
-from sim_bridge.runner.stepping import spin_until_idle, SteppedExecutor
+from sim_bridge.runner.stepping import spin_after_publishing, spin_until_idle, SteppedExecutor
 from sim_bridge.simulation.robot import DiffDriveConfig, DriveLimits, pose_from
 from sim_bridge.simulation.simulator import Simulator
 from sim_bridge.simulation.world import World
+from std_msgs.msg import String
 import yaml
 
 NANOSECONDS_PER_SECOND = 10 ** 9
@@ -994,3 +995,25 @@ def test_ctrl_c_while_the_world_loads_ends_the_bridge_cleanly(monkeypatch):
     monkeypatch.setattr(bridge_module, 'SimBridge', interrupted_while_loading)
     bridge_module.main(args=[])
     assert not rclpy.ok()
+
+
+def test_after_a_publish_sinks_take_it_without_a_wait_and_any_other_callback_spins(session):
+    # A relay (not a sink) republishes /a on /b: only the wait after its callback finds the
+    # sink's /b subscription ready. Sinks alone leave nothing ready.
+    relay, sink = session.add(rclpy.create_node('relay')), session.add(rclpy.create_node('sink'))
+    session.executor.own_nodes |= {relay, sink}
+    session.executor.sink_nodes.add(sink)
+    relayed = relay.create_publisher(String, 'b', 10)
+    relay.create_subscription(String, 'a', relayed.publish, 10)
+    heard_a, heard_b = [], []
+    sink.create_subscription(String, 'a', lambda msg: heard_a.append(msg.data), 10)
+    sink.create_subscription(String, 'b', lambda msg: heard_b.append(msg.data), 10)
+    source = session.probe('source')
+    to_a, to_b = (source.create_publisher(String, topic, 10) for topic in ('a', 'b'))
+    session.spin()
+    to_a.publish(String(data='first'))
+    assert spin_after_publishing(session.executor, {'/a'}) == 3  # relay, sink, then sink
+    assert (heard_a, heard_b) == (['first'], ['first'])
+    to_b.publish(String(data='second'))
+    assert spin_after_publishing(session.executor, {'/b'}) == 1
+    assert heard_b == ['first', 'second'] and session.spin() == 0

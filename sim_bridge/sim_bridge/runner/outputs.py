@@ -102,7 +102,7 @@ class RunRecorder:
         if not record:
             return
         # Its view of the run's graph gives the bag each topic's offered QoS.
-        self.node = node = run.node('sim_bridge_recorder')
+        self.node = node = run.node('sim_bridge_recorder', sink=True)  # it only records
         bridge_topics = {publisher.topic_name for publisher in bridge.publishers}
         subscribed = {sub.topic_name: sub.msg_type for sub in bridge.subscriptions
                       if sub is not bridge.command_subscription}

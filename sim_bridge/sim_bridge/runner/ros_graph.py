@@ -31,8 +31,13 @@ class RunGraph(Protocol):
 
     bridge: Any
 
-    def node(self, name: str, sim_time: bool = False) -> Any:
-        """Create one of the runner's own nodes in the run's context and executor."""
+    def node(self, name: str, sim_time: bool = False, sink: bool = False) -> Any:
+        """
+        Create one of the runner's own nodes in the run's context and executor.
+
+        ``sink``: its subscriptions' callbacks make nothing ready (they publish nothing,
+        trigger nothing, create nothing), see sim_bridge.runner.stepping.spin_after_publishing.
+        """
 
 
 def nearest_topic(topic: str, topics: Iterable[str]) -> str | None:

@@ -99,11 +99,17 @@ class LockstepRun:
         #: What the node processes said as they were stopped: threads left running.
         self.stop_warnings: list[str] = []
 
-    def node(self, name: str, sim_time: bool = False):
-        """Create one of the runner's own nodes: no services or /rosout; on sim time if asked."""
+    def node(self, name: str, sim_time: bool = False, sink: bool = False):
+        """
+        Create one of the runner's own nodes: no services or /rosout; on sim time if asked.
+
+        ``sink``: its callbacks make nothing ready (SteppedExecutor.sink_nodes).
+        """
         node = runner_node(name, self.context, sim_time)
         self.executor.add_node(node)
         self.executor.own_nodes.add(node)
+        if sink:
+            self.executor.sink_nodes.add(node)
         return node
 
     @contextmanager
@@ -131,6 +137,7 @@ class LockstepRun:
             raise RunError(f'{BRIDGE_NODE}: {describe(error)}') from None
         self.executor.add_node(self.bridge)
         self.executor.own_nodes.add(self.bridge)
+        self.executor.sink_nodes.add(self.bridge)  # its one callback sets the drive's command
         return self.bridge
 
     def start_nodes(self, targets: Iterable[str], params: Params) -> AgentFailure | None:

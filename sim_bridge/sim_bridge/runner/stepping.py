@@ -67,13 +67,16 @@ class SteppedExecutor(SingleThreadedExecutor):
     The runner's executor; it notes the node code that takes a node off it or ends ROS.
 
     So that :func:`spin_until_idle` reports a callback doing either at the node's line. The
-    nodes in ``own_nodes`` are the runner's.
+    nodes in ``own_nodes`` are the runner's; those of them in ``sink_nodes`` have callbacks
+    that make nothing ready: they publish nothing, trigger nothing and create nothing (the
+    bridge's command handler, the recorder's writes).
     """
 
     def __init__(self, context: Context, code: StudentCode = StudentCode()):
         super().__init__(context=context)
         self.code = code
         self.own_nodes: set[Node] = set()
+        self.sink_nodes: set[Node] = set()
         #: Nodes taken off this executor, with the node's line that did it (' at file:line').
         self.removed: dict[Node, str] = {}
         self.shutdown_where: str | None = None
@@ -152,16 +155,18 @@ def spin_until_idle(executor: SteppedExecutor) -> int:
 
 def spin_after_publishing(executor: SteppedExecutor, topics: Collection[str]) -> int:
     """
-    Run the callbacks of what was just published here on ``topics``, then spin until idle.
+    Run the callbacks of what was just published here on ``topics``, until none is ready.
 
-    The runner's own nodes (``executor.own_nodes``: plain callbacks, no coroutines) take the
-    messages waiting in their subscriptions on ``topics`` first, each handed to its callback
-    in turn, without a wait: in one process Fast DDS delivers a publish before ``publish``
-    returns. A take is the executor's own first step (as the boundary's taps take); the wait
-    that would find them is the part left out. :func:`spin_until_idle` then runs whatever
-    else is ready, and its last wait is the exact "nothing is ready". Return the count.
+    Called when the executor was idle (nothing ready) before the publish. The runner's own
+    nodes (``executor.own_nodes``: plain callbacks, no coroutines) take the messages waiting
+    in their subscriptions on ``topics`` first, each handed to its callback in turn, without
+    a wait: in one process Fast DDS delivers a publish before ``publish`` returns. A take is
+    the executor's own first step (as the boundary's taps take); the wait that would find
+    them is the part left out. When only sinks (``executor.sink_nodes``) took, nothing is
+    ready now either; otherwise :func:`spin_until_idle` runs whatever else is, and its last
+    wait is the exact "nothing is ready". Return the number of callbacks run.
     """
-    count = 0
+    count, only_sinks = 0, True
     for node in list(executor.own_nodes):
         for subscription in list(node.subscriptions):
             if subscription.topic_name not in topics:
@@ -174,12 +179,13 @@ def spin_after_publishing(executor: SteppedExecutor, topics: Collection[str]) ->
                 if taken is None:
                     break
                 count += 1
+                only_sinks = only_sinks and node in executor.sink_nodes
                 try:
                     subscription.callback(taken[0])
                 except BaseException as error:  # noqa: B902 as spin_until_idle
                     raise NodeError(node.get_name(), error, place, executor.code) from error
                 check_ros_state(executor, node, place)
-    return count + spin_until_idle(executor)
+    return count if only_sinks else count + spin_until_idle(executor)
 
 
 def next_timer_ns(nodes: Iterable[Node]) -> int | None:
