@@ -11,10 +11,11 @@ from pathlib import Path
 import subprocess
 import sys
 
+from geometry_msgs.msg import TwistStamped
 from mcap.reader import make_reader
 import pytest
 from rcl_interfaces.msg import Log
-from rclpy.serialization import deserialize_message
+from rclpy.serialization import deserialize_message, serialize_message
 from sim_bridge.runner import boundary, outputs, stepped_run, stepping
 from sim_bridge.runner.run import run_simulation
 
@@ -66,6 +67,18 @@ def test_a_pickle_and_garbage_on_every_fd_fail_that_run_only(tmp_path):
                    for _, channel, _ in make_reader(bag).iter_messages())
     honest = run(tmp_path / 'honest', FIXTURES / 'spin_once_loop.py')
     assert honest['node_errors'] == [] and honest['distance_m'] > 0.1
+
+
+def test_bytes_after_a_message_never_reach_the_runners_side_or_the_bag(tmp_path):
+    # What is republished is the message rclpy read from the bytes, not the bytes.
+    metrics = run(tmp_path, HOSTILE / 'padded_commands.py', duration_s=1.0)
+    with (tmp_path / 'run' / 'run_0.mcap').open('rb') as bag:
+        commands = [message.data for _, channel, message in make_reader(bag).iter_messages()
+                    if channel.topic == '/cmd_vel']
+    assert metrics['node_errors'] == [] and metrics['distance_m'] > 0.05
+    command = deserialize_message(commands[0], TwistStamped)
+    assert len(commands) >= 9 and command.twist.linear.x == 0.2
+    assert {len(data) for data in commands} == {len(serialize_message(command))}
 
 
 def test_a_callback_that_never_returns_ends_its_run_with_the_line(tmp_path, monkeypatch):

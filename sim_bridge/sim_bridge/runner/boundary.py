@@ -425,7 +425,8 @@ class Agent:
         Publish here what the process's nodes published, each checked; fail if one is bad.
 
         Checked: its type is the one the topic is published as here, and its bytes deserialize
-        as that type. The bytes are published as they came (rclpy's ``publish_raw``).
+        as that type. What is published is the message rclpy read from them, never the bytes
+        (bytes after a message of an unbounded type would go on to the bag).
         """
         from rclpy.serialization import deserialize_message
         for message in messages:
@@ -442,12 +443,12 @@ class Agent:
             if type_name(msg_type) != message.type_name:
                 raise self.failure(f'sent {message.topic} as {message.type_name}, a type it '
                                    'did not publish it as')
-            try:  # a check: the bytes that are a message go out as they came
-                deserialize_message(message.data, msg_type)
+            try:
+                msg = deserialize_message(message.data, msg_type)
             except Exception as error:  # noqa: B902 whatever rclpy raises on bad bytes
                 raise self.failure(f'sent bytes that are not a {message.type_name} on '
                                    f'{message.topic} ({type(error).__name__})') from None
-            publisher.publish(bytes(message.data))
+            publisher.publish(msg)
         self.taken({m.topic for m in messages})  # not back to where they came from
 
     def kill(self) -> None:
