@@ -49,6 +49,7 @@ try:
 except ImportError:  # tf2_ros is part of a ROS 2 installation, not of the PyPI wheels
     StaticTransformBroadcaster = TransformBroadcaster = None
 
+from sim_bridge.common.message_types import message_type_name
 from sim_bridge.simulation.robot import DiffDriveConfig, DriveLimits, pose_from
 from sim_bridge.simulation.sdf_frames import relative_pose
 from sim_bridge.simulation.sdf_lidar import LidarConfig
@@ -63,7 +64,7 @@ DEFAULT_PHYSICS_RATE = 100.0
 #: the bridge subscribes, and after (when a second type is an error).
 COMMAND_GRAPH_CHECK_S = (0.1, 1.0)
 COMMAND_TYPES = {'geometry_msgs/msg/Twist': Twist, 'geometry_msgs/msg/TwistStamped': TwistStamped}
-ODOMETRY_TYPE = 'nav_msgs/msg/Odometry'
+ODOMETRY_TYPE = message_type_name(Odometry)
 NO_TF_WARNING = ('tf2_ros is not installed (it comes with a ROS 2 installation, not from PyPI): '
                  'publishing no TF (odom -> base, base -> lidar frame); odometry, scans and '
                  '/clock are published as usual')
