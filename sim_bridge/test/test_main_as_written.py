@@ -18,7 +18,7 @@ import pytest
 from rosbags.rosbag2 import Reader
 from sim_bridge.commands.run import main
 from sim_bridge.common.errors import RunError
-from sim_bridge.runner.agent import prepare
+from sim_bridge.runner.node_main import prepare
 from sim_bridge.runner.node_styles import node_class
 from sim_bridge.runner.options import gui_problem
 from sim_bridge.runner.run import run_simulation, STEPPED_REASON

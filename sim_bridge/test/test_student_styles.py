@@ -8,6 +8,7 @@ MultiThreadedExecutor, one made as a plain ``Node('...')`` in main(), and two no
 base class.
 """
 
+import json
 from pathlib import Path
 
 import pytest
@@ -67,3 +68,15 @@ def test_a_cautious_driver_in_main_drives_up_to_the_cube_and_stops(tmp_path, nam
     # nodes' own topic (gap_ahead) has both its ends, so nothing is warned of.
     assert 1.0 < metrics['distance_m'] < 1.85 and metrics['max_stationary_s'] > 2.0
     assert metrics['warnings'] == []
+
+
+def test_a_node_spun_in_a_thread_handles_every_scan_before_main_goes_on(tmp_path):
+    # main() loops on a Rate while a thread spins the node, whose callbacks take wall time:
+    # each step is handled by the thread before the main thread says it is idle.
+    result = run_simulation('obstacles', [str(FIXTURES / 'threaded_spinner.py')],
+                            duration_s=5.0, out_dir=tmp_path, quiet=True, plot=False,
+                            record=False)
+    lines = [json.loads(line) for line in (tmp_path / 'log.jsonl').read_text().splitlines()]
+    printed = [(line['t'], line['text']) for line in lines if line['level'] == 'STDOUT']
+    assert result.metrics['node_errors'] == []
+    assert printed == [(t / 2, f'handled {5 * t} scans') for t in range(1, 11)]

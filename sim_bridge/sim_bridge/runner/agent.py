@@ -25,26 +25,28 @@ import argparse
 import ctypes
 import faulthandler
 from importlib import import_module
-from importlib.metadata import entry_points
+import math
 import os
-from pathlib import Path
 import signal
 import sys
 import threading
 import time
 import traceback
-from types import ModuleType
 from typing import Any, Callable
 
 from sim_bridge.runner.frames import encode, FrameDecoder, Message, TRUSTED_KINDS, type_name
+from sim_bridge.runner.node_main import MAX_TRACEBACK_CHARS, prepare, start_failure
 
 #: ROS's own topics of every node: not forwarded (the run records the nodes' lines itself).
 OWN_TOPICS = ('/rosout', '/parameter_events')
-#: Longest traceback text (characters) sent with a node's error.
-MAX_TRACEBACK_CHARS = 32_000
 #: Messages the proxy keeps per topic between two exchanges.
 PROXY_DEPTH = 1000
 NANOSECONDS_PER_SECOND = 10 ** 9
+#: Wall seconds the main thread waits, after a step, for the nodes' other spinning threads to
+#: handle it; a thread that takes longer is no longer waited for (it runs at its own pace).
+THREAD_DRAIN_S = 2.0
+#: A spinning thread's count of steps handled while its code runs, and while it sleeps.
+BUSY, ASLEEP = -1, math.inf
 #: What a run says of a MultiThreadedExecutor, which the agent runs in lockstep.
 MULTITHREADED_NOTE = ('its MultiThreadedExecutor ran its callbacks one at a time, in lockstep '
                       "with the simulator (their order is the executor's, every time)")
@@ -113,6 +115,10 @@ class Lockstep:
         self.shutdown_where = ''
         self.shutdown_in: tuple[str, str] | None = None
         self.time_passed = threading.Condition()
+        #: Steps delivered; threads other than the main one that spin an executor, each with
+        #: the count of steps it has handled when it last found nothing ready (BUSY, ASLEEP).
+        self.steps = 0
+        self.spinners: dict[threading.Thread, float] = {}
         #: Writes of the nodes' streams and loggers since the last sync, the last one's stream.
         self.printed = 0
         self.last_stream = ''
@@ -174,6 +180,62 @@ class Lockstep:
             publisher = self._publisher(message)
             if publisher is not None:
                 publisher.publish(message.data)
+        self._drain_threads()
+
+    def _drain_threads(self) -> None:
+        """
+        Let the nodes' other spinning threads handle the step just delivered, then go on.
+
+        As the main thread's own callbacks run before it says idle. A thread still busy after
+        THREAD_DRAIN_S is no longer waited for until it next finds nothing ready.
+        """
+        with self.time_passed:
+            self.steps += 1
+            self.time_passed.notify_all()
+            if not self.time_passed.wait_for(self._threads_idle, THREAD_DRAIN_S):
+                for thread, handled in list(self.spinners.items()):
+                    if handled < self.steps:
+                        del self.spinners[thread]
+
+    def _threads_idle(self) -> bool:
+        return all(handled >= self.steps for thread, handled in self.spinners.items()
+                   if thread.is_alive())
+
+    def thread_wait(self, original_wait: Callable, executor, timeout_sec, nodes, condition):
+        """
+        Wait as ``original_wait`` for a thread other than the main one, in step with it.
+
+        Each step delivered is handled (every callback it makes ready, handed out one at a
+        time) before the thread parks with nothing ready; the main thread waits for that
+        (:meth:`_drain_threads`). A timeout lasts its simulated time.
+        """
+        from rclpy.executors import TimeoutException
+        timeout = getattr(timeout_sec, 'timeout', timeout_sec)
+        deadline = (None if timeout is None or timeout < 0
+                    else self.now_ns + round(timeout * NANOSECONDS_PER_SECOND))
+        thread = threading.current_thread()
+        while True:
+            with self.time_passed:
+                seen = self.steps
+            executor.wake()
+            try:
+                found = original_wait(executor, 0, nodes, condition)
+            except TimeoutException:
+                found = None
+            with self.time_passed:
+                if found is not None or getattr(executor, '_lab_ran', False):
+                    executor._lab_ran = found is not None  # after callbacks, one more wait
+                    self.spinners[thread] = BUSY
+                    if found is not None:
+                        return found
+                    continue
+                if deadline is not None and self.now_ns >= deadline:
+                    self.spinners[thread] = BUSY
+                    raise TimeoutException()
+                self.spinners[thread] = seen
+                self.time_passed.notify_all()
+                self.time_passed.wait_for(lambda: self.steps > seen or (
+                    deadline is not None and self.now_ns >= deadline))
 
     def stop(self) -> None:
         """End this process at the run's end, naming the threads the nodes left running."""
@@ -188,9 +250,15 @@ class Lockstep:
 
     def sleep_until(self, deadline_ns: int, context=None) -> None:
         """Exchange until sim time reaches ``deadline_ns`` (ns); other threads just wait."""
-        if threading.current_thread() is not threading.main_thread():
+        thread = threading.current_thread()
+        if thread is not threading.main_thread():
             with self.time_passed:
+                if thread in self.spinners:
+                    self.spinners[thread] = ASLEEP
+                    self.time_passed.notify_all()
                 self.time_passed.wait_for(lambda: self.now_ns >= deadline_ns)
+                if thread in self.spinners:
+                    self.spinners[thread] = BUSY
             return
         self.exchange(deadline_ns, context)
         while self.now_ns < deadline_ns:
@@ -354,7 +422,7 @@ def install(lockstep: Lockstep) -> None:
 
     def stepped_wait(executor, timeout_sec=None, nodes=None, condition=lambda: False):
         if threading.current_thread() is not threading.main_thread():
-            return original_wait(executor, timeout_sec, nodes, condition)
+            return lockstep.thread_wait(original_wait, executor, timeout_sec, nodes, condition)
         timeout = getattr(timeout_sec, 'timeout', timeout_sec)
         deadline = (None if timeout is None or timeout < 0
                     else lockstep.now_ns + round(timeout * NANOSECONDS_PER_SECOND))
@@ -417,80 +485,6 @@ def install(lockstep: Lockstep) -> None:
         lockstep.shutdown_in = lockstep.running
     lockstep.note_shutdown = note_shutdown  # the context keeps a weak reference to methods
     rclpy.utilities.get_default_context().on_shutdown(note_shutdown)
-
-
-def _file_main(path: str) -> Callable[[], Any]:
-    """
-    Run the node file's module code now, as ``python3 FILE`` does; return what starts it.
-
-    Its ``if __name__ == '__main__'`` block (run with what follows it), else its ``main()``;
-    None when it has neither.
-    """
-    import ast
-    from sim_bridge.runner.node_styles import has_main_guard
-    source = Path(path).read_bytes()
-    tree = ast.parse(source, path)
-    guards = [index for index, statement in enumerate(tree.body)
-              if has_main_guard(ast.unparse(statement))]
-    if not guards and not any(isinstance(statement, ast.FunctionDef) and statement.name == 'main'
-                              for statement in tree.body):
-        return None  # a module of Node classes: the class is loaded and spun
-    module = ModuleType('__main__' if guards else 'node_file')
-    module.__file__ = path
-    sys.modules[module.__name__] = module
-    split = guards[0] if guards else len(tree.body)
-    exec(compile(ast.Module(tree.body[:split], []), path, 'exec'), vars(module))
-    if guards:
-        rest = compile(ast.Module(tree.body[split:], []), path, 'exec')
-        return lambda: exec(rest, vars(module))
-    return getattr(module, 'main', None)
-
-
-def prepare(target: str) -> tuple[Callable[[], Any], str | None]:
-    """
-    Import TARGET as ``ros2 run`` / ``python3`` would; return what starts it, and its file.
-
-    A file: its module code runs now, then its ``__main__`` block or ``main()``; a console
-    script: its entry point; a module: its ``main()``. ``FILE:Class``, or a file of Node
-    classes alone: the class, spun by a canonical main (``rclpy.init``, ``rclpy.spin``).
-    """
-    from sim_bridge.runner.targets import (
-        load_module, load_node_class, module_file, split_target, TargetError)
-    where, class_name = split_target(target)
-    path = module_file(where)
-    start = None
-    if class_name is None and (where.endswith('.py') or '/' in where or Path(where).is_file()):
-        if path is None or not Path(path).is_file():
-            raise TargetError(f'node file not found: {where}')
-        sys.path.insert(0, str(Path(path).resolve().parent))
-        start = _file_main(path)
-    elif class_name is None:
-        scripts = entry_points(group='console_scripts', name=where)
-        start = next(iter(scripts)).load() if scripts else getattr(
-            load_module(where), 'main', None)
-    if start is None:
-        from rclpy.node import Node
-        node_class = load_node_class(target, Node)
-
-        def start() -> None:
-            import rclpy
-            rclpy.init()
-            rclpy.spin(node_class())
-    return start, path
-
-
-def start_failure(target: str, error: BaseException, code) -> dict:
-    """Return the ended frame's fields of TARGET failing to start: RunError on the trusted side."""
-    from sim_bridge.runner.targets import describe, split_target, TargetError
-    cause = error.__cause__ if isinstance(error, TargetError) else error
-    if isinstance(error, TargetError):  # load_node_class's own words
-        message = str(error)
-    else:
-        message = f"'{split_target(target)[0]}' fails to import: {describe(error, code)}"
-    if cause is None:
-        return {'status': 'start', 'error': message}
-    return {'status': 'start', 'error': message,
-            'traceback': code.traceback(cause)[-MAX_TRACEBACK_CHARS:]}
 
 
 def run(target: str, ros_args: list[str], link: Link) -> None:
