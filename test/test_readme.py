@@ -66,3 +66,44 @@ def test_lab_test_prints_its_total_when_tests_fail(tmp_path):
     assert done.stdout.splitlines()[-2:] == [
         'lab test: colcon test of scan_pkg and sim_bridge, then pytest test/: 0 s in all',
         '4 passed, 3 failed, 3 skipped']
+
+
+def ensure_bubblewrap(tmp_path: Path, uid: int, apt_works: bool | None) -> tuple[str, str]:
+    """
+    Run ./lab's ensure_bubblewrap with no bwrap on PATH; return its stderr and what apt did.
+
+    ``uid`` is what ``id -u`` says; ``apt_works`` None: no apt-get, else whether it succeeds.
+    """
+    tools = tmp_path / 'bin'
+    tools.mkdir()
+    (tools / 'dirname').symlink_to('/usr/bin/dirname')  # ./lab finds its folder with it
+    (tools / 'id').write_text(f'#!/bin/sh\necho {uid}\n')
+    if apt_works is not None:
+        (tools / 'apt-get').write_text(f'#!/bin/sh\necho "$@" >> "{tmp_path}/apt.log"\n'
+                                       f'exit {0 if apt_works else 100}\n')
+    for tool in ('id', 'apt-get'):
+        if (tools / tool).exists():
+            (tools / tool).chmod(0o755)
+    done = subprocess.run(['/bin/bash', '-c', 'source "$1"; ensure_bubblewrap', 'bash',
+                           ROOT / 'lab'], capture_output=True, text=True, timeout=60,
+                          env={'PATH': str(tools)})
+    assert done.returncode == 0, done.stderr
+    log = tmp_path / 'apt.log'
+    return done.stderr, log.read_text() if log.exists() else ''
+
+
+@pytest.mark.parametrize('uid, apt_works, says, apt', [
+    (0, True, "lab: installing bubblewrap with apt-get (the sandbox of students' runs)\n",
+     'install -y -qq bubblewrap'),
+    (0, False, "apt-get could not install bubblewrap: students' runs are PARTLY sandboxed", ''),
+    (0, None, "bubblewrap is not installed: students' runs are PARTLY sandboxed", None),
+    (1000, True, "bubblewrap is not installed: students' runs are NOT sandboxed", None),
+], ids=['root with apt', 'apt fails', 'root without apt', 'ordinary user'])
+def test_lab_installs_bubblewrap_as_root_with_apt_else_says_what_runs_get(
+        tmp_path, uid, apt_works, says, apt):
+    stderr, apt_log = ensure_bubblewrap(tmp_path, uid, apt_works)
+    assert says in stderr and len(stderr.splitlines()) == (2 if apt_works is False else 1)
+    if apt is None:
+        assert apt_log == ''
+    elif apt:
+        assert apt_log.splitlines() == ['update -qq', apt]
