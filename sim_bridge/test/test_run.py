@@ -355,6 +355,30 @@ def test_start_error_is_one_line_exit_2_and_writes_nothing(args, mentions, tmp_p
     assert not out_dir.exists()
 
 
+def test_a_missing_node_file_is_the_only_line_said_and_nothing_starts():
+    """No pybullet banner, no simulator log: the command says what is wrong, alone."""
+    done = subprocess.run([sys.executable, '-m', 'sim_bridge.commands.run', '--world',
+                           'obstacles', '--node', 'missing_dir/missing.py'],
+                          capture_output=True, text=True, timeout=120)
+    assert (done.returncode, done.stdout) == (2, '')
+    assert done.stderr == 'error: node file not found: missing_dir/missing.py\n'
+
+
+def test_a_machine_no_node_can_run_on_is_one_start_error_not_a_traceback(
+        tmp_path, monkeypatch, run_main):
+    """A Python the sandbox's uid cannot reach (PARTLY sandboxed, /root closed): one line."""
+    from sim_bridge.runner.sandbox import Sandbox, SandboxError
+
+    def closed(sandbox, program):
+        raise SandboxError(f'PARTLY sandboxed: uid 1 (no namespaces) cannot reach {program}')
+    monkeypatch.setattr(Sandbox, 'check_reachable', closed)
+    status, _, stderr = run_main('--world', 'obstacles', '--node', 'scan_ahead', '--duration',
+                                 '0.2', '--quiet', '--out', str(tmp_path / 'out'))
+    assert status == 2 and 'Traceback' not in stderr
+    (error,) = [line for line in stderr.splitlines() if line.startswith('error: ')]
+    assert error.startswith('error: PARTLY sandboxed: uid 1 (no namespaces) cannot reach ')
+
+
 def test_output_folder_that_cannot_be_created_is_a_start_error(tmp_path, run_main):
     not_a_folder = tmp_path / 'file'
     not_a_folder.write_text('')

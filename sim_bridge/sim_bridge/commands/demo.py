@@ -20,6 +20,7 @@ from typing import Sequence
 
 from sim_bridge.commands import grade, live as live_command
 from sim_bridge.commands.run import summary_table
+from sim_bridge.common.errors import RunError
 from sim_bridge.common.paths import output_folder, repo_root, scenarios_dir
 from sim_bridge.common.run_environment import rclpy_origin
 from sim_bridge.grading.scenario import load_scenario
@@ -135,7 +136,11 @@ def main(argv: Sequence[str] | None = None) -> int:
                         help='skip the live run at the end (separate ROS 2 processes)')
     args = parser.parse_args(argv)
     print(f'ROS 2: {rclpy_origin()}', flush=True)
-    tasks_ok = run_tasks(args.out / 'tasks')
+    try:
+        tasks_ok = run_tasks(args.out / 'tasks')
+    except RunError as error:  # this machine cannot run a node (a Python closed to the sandbox)
+        print(f'error: {error}', file=sys.stderr)
+        return 2
     status = 0 if args.no_grade else grade_scenarios(args.out / 'grade')
     if not args.no_grade:
         grade_class(args.out / 'class')  # its table shows who failed; that is the demo

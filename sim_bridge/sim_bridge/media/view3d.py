@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 from PIL import Image
-import pybullet
+from sim_bridge.simulation.bullet import pybullet
 
 from sim_bridge.simulation.lidar import build_scene
 from sim_bridge.simulation.viewer import ROBOT_COLOUR, robot_mesh

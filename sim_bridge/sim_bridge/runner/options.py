@@ -18,7 +18,7 @@ from sim_bridge.common.errors import RunError
 from sim_bridge.common.paths import find_world
 from sim_bridge.common.values import described
 from sim_bridge.ros.drive import check_obstacles, DriveError, parse_drive, Segment
-from sim_bridge.runner.targets import node_command, target_name
+from sim_bridge.runner.targets import missing_node_file, node_command, target_name
 from sim_bridge.simulation.world import World, WorldError
 import yaml
 
@@ -131,6 +131,9 @@ def prepare_run(spec: RunSpec) -> PreparedRun:
     if not (math.isfinite(spec.duration_s) and spec.duration_s > 0):
         raise RunError(f'duration must be a positive number of seconds, got {spec.duration_s}')
     remap = tuple(check_remap(rule) for rule in spec.remap)
+    for target in spec.targets:
+        if missing_node_file(target):
+            raise RunError(f'node file not found: {missing_node_file(target)}')
     if spec.gui and gui_problem(os.environ):
         raise RunError(gui_problem(os.environ))
     world = load_world(spec.world, spec.robot, spec.start)

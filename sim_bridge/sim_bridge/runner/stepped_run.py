@@ -23,6 +23,7 @@ from sim_bridge.runner.node_sandbox import node_limits, NodeSandbox, say_isolati
 from sim_bridge.runner.options import BRIDGE_NODE, Params
 from sim_bridge.runner.ros_graph import (
     NO_TYPE_DESCRIPTION_SERVICE, parameter_warnings, runner_node, unconnected_topics)
+from sim_bridge.runner.sandbox_host import SandboxError
 from sim_bridge.runner.stepping import (
     describe, next_timer_ns, spin_after_publishing, spin_until_idle, SteppedExecutor)
 from sim_bridge.runner.targets import target_name
@@ -145,7 +146,8 @@ class LockstepRun:
         Start a process for each TARGET; return the failure of a node that did not start.
 
         RunError when a TARGET cannot start: it does not import, it names no Node class, a
-        parameter is of the wrong type (see :func:`start_error`).
+        parameter is of the wrong type (see :func:`start_error`), or no node process can start
+        in its sandbox on this machine (:class:`SandboxError`, one line).
         """
         limits = node_limits(self.duration_s)
         try:
@@ -168,6 +170,8 @@ class LockstepRun:
         except RunStopped as stop:  # the grader's watchdog: the node is stuck as it starts
             return AgentFailure(f'{stop}: {self.agents[-1].where_stuck()}',
                                 self.agents[-1].running)
+        except SandboxError as error:  # this machine cannot run any node: not the node's fault
+            raise RunError(str(error)) from None
         except AgentStartError as error:
             if not self.quiet and error.traceback:
                 to_terminal(error.traceback)  # what `python3 node.py` would print

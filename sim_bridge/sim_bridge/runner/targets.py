@@ -68,6 +68,14 @@ def split_target(target: str, base: Path | None = None) -> tuple[str, str | None
     return where, class_name
 
 
+def missing_node_file(target: str) -> str | None:
+    """Return the file TARGET names when it names a node file that is not there, else None."""
+    where, _ = split_target(target)
+    if (where.endswith('.py') or '/' in where) and not Path(where).is_file():
+        return where
+    return None
+
+
 def is_library_frame(filename: str) -> bool:
     """Return True when code in ``filename`` is not a node's own: see LIBRARY_DIRS."""
     return (filename.startswith('<') or '/msg/_' in filename or '/rclpy/' in filename

@@ -24,7 +24,7 @@ import math
 from operator import itemgetter
 
 import numpy as np
-import pybullet
+from sim_bridge.simulation.bullet import pybullet
 from sim_bridge.simulation.geometry import MESH_TOLERANCE, rotation_matrix, Shape, triangulate
 from sim_bridge.simulation.sdf_lidar import LidarConfig
 

@@ -28,7 +28,7 @@ import os
 import weakref
 
 import numpy as np
-import pybullet
+from sim_bridge.simulation.bullet import pybullet
 from sim_bridge.simulation.geometry import wrap_angle
 from sim_bridge.simulation.lidar import build_scene, LaserScanData, Lidar
 from sim_bridge.simulation.robot import DiffDrive, DriveLimits, integrate_arc

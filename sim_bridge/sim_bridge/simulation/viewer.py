@@ -11,7 +11,7 @@ from collections.abc import Sequence
 import math
 
 import numpy as np
-import pybullet
+from sim_bridge.simulation.bullet import pybullet
 from sim_bridge.simulation.geometry import Shape, triangulate
 
 ROBOT_COLOUR = (0.1, 0.3, 0.8, 1.0)
