@@ -170,7 +170,7 @@ def test_a_start_pose_is_three_numbers(tmp_path):
     (('start: mirrored', 'start: mirrored\nsetpoint: {wall_distance_m: .inf}'),
      'setpoint.wall_distance_m', 'must be a number (m)'),
     (('description: follow the box', 'descripton: follow the box'), 'descripton',
-     'unknown key; expected one of description, world'),
+     "unknown key (did you mean 'description'?); expected one of description, world"),
     (('seeds: [1, 2, 3]', 'seeds: []'), 'seeds', 'must be a non-empty list of integers'),
     (('duration: 76.2', 'duration: ten'), 'duration', "(a day), got 'ten'"),
     (('duration: 76.2', 'duration: 1e9'), 'duration', 'at most 86400 (a day), got 1000000000.0'),

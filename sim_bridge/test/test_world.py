@@ -367,6 +367,15 @@ def test_a_broken_model_is_reported_with_the_entry_that_places_it(tmp_path, monk
     assert '<geometry>/<mesh>' in message
 
 
+def test_a_misspelt_key_is_named_with_the_key_it_looks_like_not_as_a_missing_one(tmp_path):
+    path = tmp_path / 'typo.yaml'
+    path.write_text('obstacles:\n- {name: can, type: cylinder, pose: [3, 0], raduis: 0.2}\n')
+    with pytest.raises(WorldError) as caught:
+        World.load(path)
+    assert caught.value.field == 'raduis'
+    assert caught.value.problem.startswith("unknown key (did you mean 'radius'?); expected")
+
+
 @pytest.mark.parametrize('text, entry, problem', [
     ('colour: red\n', None, 'expected one of name, description, floor, robot, walls, '
      'obstacles, target, bounds'),

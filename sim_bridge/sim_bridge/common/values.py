@@ -1,5 +1,6 @@
 """What the validators of world, scenario and drive files say of a value, and test it for."""
 
+import difflib
 import math
 from typing import Any
 
@@ -27,3 +28,10 @@ def described(value: Any) -> str:
 def with_type(value: Any) -> str:
     """Return ``value`` with its Python type, as in ``'3' (str)``."""
     return f'{value!r} ({type(value).__name__})'
+
+
+def unknown_key_problem(key: str | None, known: list[str]) -> str:
+    """Return why ``key`` is refused: unknown, the known key it looks like a misspelling of."""
+    close = difflib.get_close_matches(str(key), known, n=1)
+    hint = f' (did you mean {close[0]!r}?)' if close else ''
+    return f"unknown key{hint}; expected one of {', '.join(known)}"

@@ -13,7 +13,7 @@ import math
 from typing import Annotated, Any
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, ValidationError
-from sim_bridge.common.values import described, is_number_not_nan
+from sim_bridge.common.values import described, is_number_not_nan, unknown_key_problem
 from sim_bridge.runner.options import is_seed, MAX_SEED
 
 #: The longest simulated run (s): a day. A lab's run lasts minutes; ``duration: 1e9`` (a typo,
@@ -163,7 +163,7 @@ def _scenario_error(errors: list[dict[str, Any]], label: str) -> ScenarioError:
     if error['type'] == 'value_error':
         problem = str(error['ctx']['error'])
     elif error['type'] == 'extra_forbidden':
-        problem = f"unknown key; expected one of {', '.join(ScenarioFile.model_fields)}"
+        problem = unknown_key_problem(error['loc'][-1], list(ScenarioFile.model_fields))
     else:
         problem = 'missing' if error['type'] == 'missing' else error['msg']
     return ScenarioError(': '.join(part for part in (label, where, problem) if part))

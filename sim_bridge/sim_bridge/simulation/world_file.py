@@ -12,7 +12,7 @@ from collections.abc import Mapping
 from typing import Annotated, Any, Literal, Union
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError
-from sim_bridge.common.values import is_finite_number, with_type
+from sim_bridge.common.values import is_finite_number, unknown_key_problem, with_type
 
 DEFAULT_ROBOT_MODEL = 'lab_robot'
 DEFAULT_WALL_THICKNESS = 0.15
@@ -213,7 +213,9 @@ def validate_world_file(data: Any, label: str) -> WorldFile:
     try:
         return WorldFile.model_validate({} if data is None else data, strict=False)
     except ValidationError as error:
-        raise _world_error(error.errors()[0], data, label) from None
+        # An unknown key first: a misspelt key ('raduis') also leaves its own key missing.
+        first = min(error.errors(), key=lambda item: item['type'] != 'extra_forbidden')
+        raise _world_error(first, data, label) from None
 
 
 def entry_label(key: str, index: int, entry: Any) -> str:
@@ -242,7 +244,7 @@ def _world_error(error: dict[str, Any], data: Any, label: str) -> WorldError:
     if kind == 'value_error':
         problem = str(error['ctx']['error'])
     elif kind == 'extra_forbidden':
-        problem = f"unknown key; expected one of {', '.join(model.model_fields)}"
+        problem = unknown_key_problem(field_name, list(model.model_fields))
     elif kind == 'missing':
         hint = _MISSING_HINTS.get(field_name) or f'a {tag} needs it'
         problem = f'missing; {hint}' if tag or field_name in _MISSING_HINTS else 'missing'
