@@ -23,7 +23,8 @@ from sim_bridge.commands import grade
 from sim_bridge.commands.demo import CLASS, CLASS_SCENARIOS, make_class
 from sim_bridge.common.text import TEXT_LIMIT_BYTES
 from sim_bridge.grading import batch
-from sim_bridge.grading.class_batch import ClassBatch, CSV_NAME, INDEX_NAME, STUDENTS_DIR
+from sim_bridge.grading.class_batch import (
+    ClassBatch, CSV_NAME, INDEX_NAME, STUDENTS_DIR, write_csv)
 from sim_bridge.grading.html_report import linked_files
 from sim_bridge.grading.scenario import load_scenarios
 
@@ -276,3 +277,15 @@ def test_a_second_invocation_says_it_reused_the_runs(awkward):
     assert 'note: 7 of 7 runs reused from an earlier invocation' in outputs[1][1]
     page = (out / STUDENTS_DIR / 'zoe' / grade.PAGE_NAME).read_text(encoding='utf-8')
     assert '7 of 7 runs reused from an earlier invocation' in page
+
+
+def test_class_csv_cells_a_spreadsheet_would_run_as_formulas_are_text(tmp_path):
+    """A student's folder named as a formula (CSV injection, OWASP) opens as its name."""
+    hostile = ['=HYPERLINK("evil","click")', '+1+1', '-2+3+cmd', '@SUM(A1)', '\t=1+1']
+    write_csv(tmp_path / CSV_NAME, [['student', 'marks'], *([name, '-0.5'] for name in hostile),
+                                    ['ana', '1e-3']])
+    with open(tmp_path / CSV_NAME, newline='', encoding='utf-8') as file:
+        rows = list(csv.reader(file))
+    assert [row[0] for row in rows[1:-1]] == ["'" + name for name in hostile]
+    assert {row[1] for row in rows[1:]} == {'-0.5', '1e-3'}  # numbers stay numbers
+    assert rows[-1][0] == 'ana'

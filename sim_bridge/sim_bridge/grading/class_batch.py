@@ -15,6 +15,7 @@ page; ``students/<student>/`` with each run's outputs, ``report.json`` and ``rep
 import csv
 import os
 from pathlib import Path
+import re
 from typing import Sequence
 
 from sim_bridge.common.console import text_table
@@ -30,6 +31,9 @@ from sim_bridge.grading.submission_files import (
 from sim_bridge.runner.targets import target_name
 
 CSV_NAME = 'class.csv'
+#: What a spreadsheet reads as the start of a formula, and a number it reads as a number.
+FORMULA_STARTS = ('=', '+', '-', '@', '\t', '\r')
+PLAIN_NUMBER = re.compile(r'[-+]?[0-9]+(\.[0-9]+)?([eE][-+]?[0-9]+)?')
 INDEX_NAME = 'index.html'
 #: The folder of ``--out`` holding a folder per student: no student's name can collide with
 #: the class's own outputs.
@@ -242,11 +246,25 @@ def oversized(files: list[Path]) -> str | None:
     return None
 
 
+def spreadsheet_text(field: str) -> str:
+    """
+    Return ``field`` as a spreadsheet shows it as text, never as a formula.
+
+    A cell that begins with ``= + - @``, a tab or a carriage return is read as a formula (a
+    student's folder named ``=HYPERLINK(...)``): it gets a leading ``'``, as OWASP's CSV
+    injection page advises. A plain number (``-0.5``) stays a number.
+    """
+    if field.startswith(FORMULA_STARTS) and not PLAIN_NUMBER.fullmatch(field):
+        return "'" + field
+    return field
+
+
 def write_csv(path: Path, rows: list[list[str]]) -> None:
-    """Write ``rows`` as a CSV file (UTF-8)."""
+    """Write ``rows`` as a CSV file (UTF-8), every cell text or a number (spreadsheet_text)."""
     path.parent.mkdir(parents=True, exist_ok=True)
     with open(path, 'w', newline='', encoding='utf-8') as file:
-        csv.writer(file).writerows(rows)
+        csv.writer(file).writerows([spreadsheet_text(str(field)) for field in row]
+                                   for row in rows)
 
 
 def format_rows(rows: list[list[str]]) -> str:
