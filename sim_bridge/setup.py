@@ -54,6 +54,7 @@ setup(
             'sim_bridge = sim_bridge.ros.bridge:main',
             'lab_run = sim_bridge.commands.run:main',
             'lab_grade = sim_bridge.commands.grade:main',
+            'lab_check = sim_bridge.commands.check:main',
             'lab_video = sim_bridge.commands.video:main',
             'teleop_keyboard = sim_bridge.ros.teleop:main',
             'send_cmd_vel = sim_bridge.ros.send_cmd_vel:main',
