@@ -26,7 +26,7 @@ setup(
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         (share, ['package.xml']),
         (os.path.join(share, 'launch'), glob('launch/*.launch.py')),
-        (os.path.join(share, 'params'), glob('params/*.yaml')),
+        (os.path.join(share, 'params'), glob('params/*.yaml') + glob('params/*.rviz')),
         # The worlds, models, shipped scenarios and example nodes: links to the workspace's
         # top-level folders (their source), so that the package built alone, a copy of its
         # folder, installs them too; sim_bridge.common.paths finds them in a checkout or here.

@@ -33,6 +33,10 @@ def test_a_copy_of_sim_bridge_built_alone_installs_the_worlds_and_models(tmp_pat
     share = tmp_path / 'install' / 'sim_bridge' / 'share' / 'sim_bridge'
     for name in ('worlds', 'models', 'scenarios', 'examples'):
         assert files_below(share / name) == files_below(ROOT / name) != set(), name
+    # launch files and their params, RViz's display config among them (lab.launch.py rviz:=true)
+    for name in ('launch', 'params'):
+        assert files_below(share / name) == files_below(ROOT / 'sim_bridge' / name), name
+    assert (share / 'params' / 'lab.rviz').is_file()
     # The grading pages' templates are package data beside the modules.
     templates = ROOT / 'sim_bridge' / 'sim_bridge' / 'grading' / 'templates'
     installed = list((tmp_path / 'install' / 'sim_bridge').glob(

@@ -35,11 +35,16 @@ from sim_bridge.common.paths import find_world
 from sim_bridge.live import live
 from sim_bridge.ros import bridge as bridge_module
 from sim_bridge.ros.bridge import command_type, NO_TF_WARNING, SimBridge
+from sim_bridge.ros.rviz import LATCHED, shape_pose
 from sim_bridge.runner.stepping import spin_after_publishing, spin_until_idle, SteppedExecutor
+from sim_bridge.simulation.geometry import quaternion_from_euler
 from sim_bridge.simulation.robot import DiffDriveConfig, DriveLimits, pose_from
+from sim_bridge.simulation.sdf_frames import relative_pose
 from sim_bridge.simulation.simulator import Simulator
 from sim_bridge.simulation.world import World
 from std_msgs.msg import String
+from urdf_parser_py import urdf
+from visualization_msgs.msg import MarkerArray
 import yaml
 
 NANOSECONDS_PER_SECOND = 10 ** 9
@@ -463,7 +468,7 @@ def test_static_laser_transform_is_sent_once_at_start_from_the_robot_model(sessi
     rotation = transform.transform.rotation
     assert yaw_of(rotation) == pytest.approx(laser[5])
     assert (rotation.x, rotation.y, rotation.z, rotation.w) == pytest.approx(
-        bridge_module.quaternion_from_euler(*laser[3:]))
+        quaternion_from_euler(*laser[3:]))
 
 
 def test_a_turtlebot3_has_the_tf_tree_robot_state_publisher_and_the_diff_drive_give(
@@ -1017,3 +1022,42 @@ def test_after_a_publish_sinks_take_it_without_a_wait_and_any_other_callback_spi
     to_b.publish(String(data='second'))
     assert spin_after_publishing(session.executor, {'/b'}) == 1
     assert heard_b == ['first', 'second'] and session.spin() == 0
+
+
+def test_a_live_bridge_latches_the_robot_and_the_worlds_obstacles_for_rviz(session):
+    """What params/lab.rviz displays: /robot_description and /world_markers, in odom."""
+    bridge = session.bridge(stepped=False, world='obstacles', robot_pose=[0.5, -0.2, 0.7])
+    probe = session.probe()  # joins later: the messages are kept for it
+    descriptions = session.listen(probe, String, 'robot_description', LATCHED)
+    markers = session.listen(probe, MarkerArray, 'world_markers', LATCHED)
+    deadline = time.monotonic() + 10.0
+    while not (descriptions and markers) and time.monotonic() < deadline:
+        session.executor.spin_once(timeout_sec=0.1)
+    robot = urdf.URDF.from_xml_string(descriptions[0][1].data)
+    laser = next(joint for joint in robot.joints if joint.child == bridge.frames['laser'])
+    (static,) = [transform for transform in bridge.static_transforms()
+                 if transform.child_frame_id == bridge.frames['laser']]
+    assert laser.parent == bridge.frames['base_link'] == static.header.frame_id
+    offset = static.transform.translation
+    assert laser.origin.xyz == pytest.approx([offset.x, offset.y, offset.z], abs=1e-6)
+    assert len(robot.link_map[laser.parent].visuals) == len(bridge.sim.world.robot.shapes)
+    shapes = bridge.sim.world.shapes()
+    (array,) = [msg for _, msg in markers]
+    rviz = yaml.safe_load((Path(__file__).parents[1] / 'params' / 'lab.rviz').read_text())
+    topics = {(display.get('Topic') or display.get('Description Topic'))['Value']
+              for display in rviz['Visualization Manager']['Displays']
+              if 'Topic' in display or 'Description Topic' in display}
+    assert topics == {'/robot_description', '/world_markers', '/scan', '/odom'}
+    assert all(bridge.get_publishers_info_by_topic(topic) for topic in topics)
+    assert len(array.markers) == len(shapes) > 0
+    for marker, shape in zip(array.markers, shapes):
+        assert marker.header.frame_id == bridge.frames['odom']
+        x, y, z, *_ = relative_pose((0.5, -0.2, 0.0, 0.0, 0.0, 0.7), shape_pose(shape))
+        position = marker.pose.position
+        assert (position.x, position.y, position.z) == pytest.approx((x, y, z))
+
+
+def test_a_stepped_bridge_publishes_nothing_for_rviz(session):
+    bridge = session.bridge()
+    assert not bridge.get_publishers_info_by_topic('/robot_description')
+    assert not bridge.get_publishers_info_by_topic('/world_markers')

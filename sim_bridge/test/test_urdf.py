@@ -9,12 +9,14 @@ Gazebo Sim tags.
 import math
 
 import pytest
+from sim_bridge.ros.rviz import robot_description
 from sim_bridge.runner.run import run_simulation
 from sim_bridge.simulation.sdf import load_model
 from sim_bridge.simulation.sdf_values import SdfError
 from sim_bridge.simulation.simulator import Simulator
 from sim_bridge.simulation.world import World
 import trimesh
+import xacro
 
 LINKS = """
   <link name="base_footprint"/>
@@ -195,3 +197,10 @@ def test_a_broken_xacro_is_one_error_naming_the_file(tmp_path):
                     '</robot>')
     with pytest.raises(SdfError, match='broken.xacro: xacro cannot expand it'):
         load_model(path)
+
+
+def test_a_urdf_robots_description_for_rviz_is_its_own_file_expanded(packages):
+    path = write_xacro(packages)
+    model = load_model(path)
+    assert robot_description(model, 'base_footprint', 'base_scan', (0.0,) * 6) == (
+        xacro.process_file(str(path)).toxml())

@@ -50,6 +50,8 @@ except ImportError:  # tf2_ros is part of a ROS 2 installation, not of the PyPI 
     StaticTransformBroadcaster = TransformBroadcaster = None
 
 from sim_bridge.common.message_types import message_type_name
+from sim_bridge.ros.rviz import publish_scene
+from sim_bridge.simulation.geometry import quaternion_from_euler
 from sim_bridge.simulation.robot import DiffDriveConfig, DriveLimits, pose_from
 from sim_bridge.simulation.sdf_frames import relative_pose
 from sim_bridge.simulation.sdf_lidar import LidarConfig
@@ -68,16 +70,6 @@ ODOMETRY_TYPE = message_type_name(Odometry)
 NO_TF_WARNING = ('tf2_ros is not installed (it comes with a ROS 2 installation, not from PyPI): '
                  'publishing no TF (odom -> base, base -> lidar frame); odometry, scans and '
                  '/clock are published as usual')
-
-
-def quaternion_from_euler(roll: float, pitch: float, yaw: float
-                          ) -> tuple[float, float, float, float]:
-    """Return the (x, y, z, w) quaternion of fixed-axis roll, pitch, yaw rotations (rad)."""
-    cr, sr = math.cos(roll / 2.0), math.sin(roll / 2.0)
-    cp, sp = math.cos(pitch / 2.0), math.sin(pitch / 2.0)
-    cy, sy = math.cos(yaw / 2.0), math.sin(yaw / 2.0)
-    return (sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy,
-            cr * cp * sy - sr * sp * cy, cr * cp * cy + sr * sp * sy)
 
 
 def float32_array(values: np.ndarray) -> array:
@@ -203,6 +195,10 @@ class SimBridge(Node):
         self.create_publishers(drive, publish_tf, events)
         self.start_commands(drive, stepped, stamped, cmd_vel_events)
         if not stepped:
+            # For RViz (params/lab.rviz), live only: nobody watches a stepped run's displays.
+            x, y, yaw = self.odom_origin
+            publish_scene(self, world, self.frames, (x, y, 0.0, 0.0, 0.0, yaw),
+                          self.sim.lidar_config.pose)
             # The steady clock: this timer makes sim time, so it cannot wait for it.
             self.create_timer(1.0 / physics_rate / real_time_factor, self.step,
                               clock=RclpyClock(clock_type=ClockType.STEADY_TIME))

@@ -376,6 +376,16 @@ def rotation_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
     return transformations.euler_matrix(roll, pitch, yaw, 'sxyz')[:3, :3]
 
 
+def quaternion_from_euler(roll: float, pitch: float, yaw: float
+                          ) -> tuple[float, float, float, float]:
+    """Return the (x, y, z, w) quaternion of fixed-axis roll, pitch, yaw rotations (rad)."""
+    cr, sr = math.cos(roll / 2.0), math.sin(roll / 2.0)
+    cp, sp = math.cos(pitch / 2.0), math.sin(pitch / 2.0)
+    cy, sy = math.cos(yaw / 2.0), math.sin(yaw / 2.0)
+    return (sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy,
+            cr * cp * sy - sr * sp * cy, cr * cp * cy + sr * sp * sy)
+
+
 def euler_from_matrix(rotation: np.ndarray) -> tuple[float, float, float]:
     """Return fixed-axis (roll, pitch, yaw) in rad of a 3x3 or 4x4 rotation, yaw wrapped."""
     roll, pitch, yaw = transformations.euler_from_matrix(rotation, 'sxyz')

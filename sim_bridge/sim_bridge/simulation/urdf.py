@@ -40,6 +40,11 @@ def is_urdf_file(path: Path) -> bool:
     return path.suffix.lower() in URDF_SUFFIXES
 
 
+def expanded_urdf(path: Path) -> str:
+    """Return the URDF text of a URDF or xacro robot file, expanded as for spawning it."""
+    return _read(Path(path))[1]
+
+
 def urdf_to_sdf(path: Path) -> str:
     """
     Return the SDF text of the robot of a URDF or xacro file, as Gazebo converts it to spawn it.
