@@ -195,7 +195,7 @@ class _Reader(DriveReading, GeometryReading, LidarReading):
                          planes=(Plane(0.0, GROUND_PLANE_SIZE),))
         if builtin == 'sun':
             return Model('sun', self.path, (), static=True, ignored=(('light', ''),))
-        folder = self.model_folder(uri, f'{where}/<uri>')
+        folder = self.model_folder(uri, f'{where}/<uri>', include=True)
         try:
             return load_model(folder, world_folder=self.world_folder)
         except FileNotFoundError as error:
