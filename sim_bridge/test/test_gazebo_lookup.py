@@ -11,6 +11,8 @@ from pathlib import Path
 
 import pytest
 
+from sim_bridge.simulation.sdf import load_model
+from sim_bridge.simulation.sdf_values import SdfError
 from sim_bridge.simulation.world import World, WorldError
 
 #: A robot SDF as a course writes one: a body, a 0..2π lidar and Gazebo Sim's diff drive.
@@ -72,8 +74,8 @@ def test_an_include_relative_to_where_gazebo_starts_is_found(uri, tmp_path, monk
     assert [obstacle.name for obstacle in world.obstacles] == ['wall']
 
 
-def test_the_working_directory_wins_over_the_world_folder_as_in_sdformat(tmp_path,
-                                                                        monkeypatch):
+def test_the_working_directory_wins_over_the_world_folder_as_in_sdformat(
+        tmp_path, monkeypatch):
     world_file = course_workspace(tmp_path / 'ws', uri='file://robot.sdf')
     (world_file.parent / 'robot.sdf').write_text(ROBOT_SDF.format(name='beside', samples=90))
     elsewhere = tmp_path / 'elsewhere'
@@ -94,8 +96,8 @@ def test_an_include_on_sdf_path_or_the_resource_path_is_found(tmp_path, monkeypa
     assert World.load(world_file).robot_model == 'lab05_bot'
 
 
-def test_an_include_found_nowhere_names_the_working_directory_and_what_to_do(tmp_path,
-                                                                            monkeypatch):
+def test_an_include_found_nowhere_names_the_working_directory_and_what_to_do(
+        tmp_path, monkeypatch):
     world_file = course_workspace(tmp_path / 'ws')
     monkeypatch.chdir(tmp_path)
     monkeypatch.delenv('GZ_SIM_RESOURCE_PATH', raising=False)
@@ -105,3 +107,138 @@ def test_an_include_found_nowhere_names_the_working_directory_and_what_to_do(tmp
     assert 'file://src/lab05/description/robot.sdf not found in the working directory' in message
     assert str(tmp_path) in message and 'GZ_SIM_RESOURCE_PATH' in message
     assert '\n' not in message
+
+
+#: A ROS 1 description package's main xacro, as ROBOTIS's turtlebot3_burger.urdf.xacro is
+#: written: its parts included by $(find), a package:// mesh, Gazebo Classic ROS 1 tags.
+ROS1_XACRO = """<?xml version="1.0" ?>
+<robot name="rbot" xmlns:xacro="http://ros.org/wiki/xacro">
+  <xacro:include filename="$(find {package})/urdf/common_properties.xacro"/>
+  <xacro:include filename="$(find {package})/urdf/rbot.gazebo.xacro"/>
+  <link name="base_footprint"/>
+  <joint name="base_joint" type="fixed">
+    <parent link="base_footprint"/><child link="base_link"/>
+    <origin xyz="0.0 0.0 0.010" rpy="0 0 0"/>
+  </joint>
+  <link name="base_link">
+    <collision><origin xyz="-0.032 0 0.070" rpy="0 0 0"/>
+      <geometry><mesh filename="package://{package}/meshes/bases/base.stl"/></geometry>
+    </collision>
+  </link>
+  <joint name="scan_joint" type="fixed">
+    <parent link="base_link"/><child link="base_scan"/>
+    <origin xyz="-0.032 0 0.172" rpy="0 0 0"/>
+  </joint>
+  <link name="base_scan">
+    <collision><origin xyz="0.015 0 -0.0065" rpy="0 0 0"/>
+      <geometry><cylinder length="0.0315" radius="${{lds_radius}}"/></geometry>
+    </collision>
+  </link>
+</robot>
+"""
+COMMON_XACRO = """<?xml version="1.0" ?>
+<robot name="xacro_properties" xmlns:xacro="http://ros.org/wiki/xacro">
+  <xacro:property name="lds_radius" value="0.055"/>
+</robot>
+"""
+#: ROS 1's gazebo_ros plugins: libgazebo_ros_laser.so, and the diff drive's camelCase names.
+GAZEBO_XACRO = """<?xml version="1.0" ?>
+<robot name="rbot_sim" xmlns:xacro="http://ros.org/wiki/xacro">
+  <gazebo reference="base_scan">
+    <sensor type="ray" name="lds_lfcd_sensor">
+      <update_rate>5</update_rate>
+      <ray><scan><horizontal><samples>360</samples><resolution>1</resolution>
+        <min_angle>0.0</min_angle><max_angle>6.28319</max_angle></horizontal></scan>
+        <range><min>0.120</min><max>3.5</max><resolution>0.015</resolution></range></ray>
+      <plugin name="gazebo_ros_lds_lfcd_controller" filename="libgazebo_ros_laser.so">
+        <topicName>scan</topicName><frameName>base_scan</frameName>
+      </plugin>
+    </sensor>
+  </gazebo>
+  <gazebo>
+    <plugin name="rbot_controller" filename="libgazebo_ros_diff_drive.so">
+      <commandTopic>cmd_vel</commandTopic><odometryTopic>odom</odometryTopic>
+      <odometryFrame>odom</odometryFrame><publishOdomTF>true</publishOdomTF>
+      <robotBaseFrame>base_footprint</robotBaseFrame><updateRate>30</updateRate>
+      <leftJoint>wheel_left_joint</leftJoint><rightJoint>wheel_right_joint</rightJoint>
+      <wheelSeparation>0.160</wheelSeparation><wheelDiameter>0.066</wheelDiameter>
+      <wheelAcceleration>1</wheelAcceleration><wheelTorque>10</wheelTorque>
+    </plugin>
+  </gazebo>
+</robot>
+"""
+PACKAGE_XML = """<?xml version="1.0"?>
+<package format="2"><name>{name}</name><version>1.0.0</version>
+  <description>test</description><maintainer email="a@b.c">a</maintainer>
+  <license>Apache 2.0</license><buildtool_depend>catkin</buildtool_depend></package>
+"""
+
+
+def ros1_description(src: Path, package: str = 'rbot_description') -> Path:
+    """Write a ROS 1 description package into workspace folder ``src``; return its xacro."""
+    trimesh = pytest.importorskip('trimesh')
+    folder = src / package
+    (folder / 'urdf').mkdir(parents=True)
+    (folder / 'meshes' / 'bases').mkdir(parents=True)
+    (folder / 'package.xml').write_text(PACKAGE_XML.format(name=package))
+    trimesh.creation.box((0.14, 0.14, 0.143)).export(folder / 'meshes' / 'bases' / 'base.stl')
+    (folder / 'urdf' / 'common_properties.xacro').write_text(COMMON_XACRO)
+    (folder / 'urdf' / 'rbot.gazebo.xacro').write_text(GAZEBO_XACRO)
+    xacro_file = folder / 'urdf' / 'rbot.urdf.xacro'
+    xacro_file.write_text(ROS1_XACRO.format(package=package))
+    return xacro_file
+
+
+@pytest.fixture
+def no_ros(monkeypatch, tmp_path):
+    """Neither a sourced ROS 2 workspace nor ROS 1's package path, away from the workspace."""
+    for variable in ('AMENT_PREFIX_PATH', 'ROS_PACKAGE_PATH', 'GZ_SIM_RESOURCE_PATH'):
+        monkeypatch.delenv(variable, raising=False)
+    monkeypatch.chdir(tmp_path)
+
+
+def test_a_ros1_xacro_finds_its_own_package_without_a_sourced_ros(no_ros, tmp_path):
+    model = load_model(ros1_description(tmp_path / 'catkin_ws' / 'src'))
+    assert model.name == 'rbot'
+    body = next(shape for shape in model.shapes if shape.kind == 'mesh')
+    assert body.z_range() == pytest.approx((0.0085, 0.1515))  # 0.143 m tall, centre 0.08 m
+    lidar = model.lidar
+    assert (lidar.samples, lidar.max_angle, lidar.frame_id) == (360, 6.28319, 'base_scan')
+    drive = model.drive  # ROS 1's camelCase elements
+    assert (drive.wheel_separation, drive.wheel_radius, drive.odometry_rate) == (0.16, 0.033,
+                                                                                 30.0)
+    assert drive.limits.max_linear_accel == 1.0 and drive.publish_tf
+
+
+def test_a_sibling_package_of_the_workspace_and_ros_package_path_are_found(
+        no_ros, tmp_path, monkeypatch):
+    src = tmp_path / 'catkin_ws' / 'src'
+    ros1_description(src)
+    (src / 'rbot_gazebo' / 'urdf').mkdir(parents=True)
+    (src / 'rbot_gazebo' / 'package.xml').write_text(PACKAGE_XML.format(name='rbot_gazebo'))
+    sibling = src / 'rbot_gazebo' / 'urdf' / 'rbot.urdf.xacro'
+    sibling.write_text(ROS1_XACRO.format(package='rbot_description'))
+    assert load_model(sibling).lidar.samples == 360
+    outside = tmp_path / 'robot.urdf.xacro'  # in no package: only ROS_PACKAGE_PATH finds it
+    outside.write_text(ROS1_XACRO.format(package='rbot_description'))
+    with pytest.raises(SdfError, match="ROS package 'rbot_description' not found"):
+        load_model(outside)
+    monkeypatch.setenv('ROS_PACKAGE_PATH', str(tmp_path / 'catkin_ws'))
+    assert load_model(outside).lidar.samples == 360
+
+
+def test_a_package_nowhere_is_one_line_naming_it_and_ros_package_path(
+        no_ros, tmp_path, monkeypatch):
+    src = tmp_path / 'catkin_ws' / 'src'
+    xacro_file = ros1_description(src)
+    (src / 'rbot_description' / 'CATKIN_IGNORE').touch()  # ignored by rospack, not by its own
+    outside = tmp_path / 'robot.urdf.xacro'
+    outside.write_text(ROS1_XACRO.format(package='rbot_description'))
+    monkeypatch.setenv('ROS_PACKAGE_PATH', str(src))
+    with pytest.raises(SdfError) as caught:
+        load_model(outside)
+    message = str(caught.value)
+    assert "ROS package 'rbot_description' not found" in message
+    assert 'ROS_PACKAGE_PATH' in message and '\n' not in message
+    assert 'AMENT_PREFIX_PATH is not set' not in message
+    assert load_model(xacro_file).name == 'rbot'  # its own package tree still holds it

@@ -164,11 +164,10 @@ class ModelLookup(SdfValues):
         folders = include_folders(self.path, self.world_folder)
         found = next((folder / path for folder in folders if (folder / path).exists()), None)
         if found is None:
-            raise self.error(where, f"{uri} not found in the working directory ({Path.cwd()}), "
-                             'as Gazebo looks first, nor in '
-                             f"{', '.join(str(folder) for folder in folders[1:])}: start from "
-                             "the folder it is relative to, or put that folder on "
-                             'GZ_SIM_RESOURCE_PATH')
+            others = ', '.join(str(folder) for folder in folders[1:])
+            raise self.error(where, f'{uri} not found in the working directory ({Path.cwd()}), '
+                             f'as Gazebo looks first, nor in {others}: start from the folder '
+                             'it is relative to, or put that folder on GZ_SIM_RESOURCE_PATH')
         return found
 
     def uri_path(self, uri: str, where: str) -> Path:

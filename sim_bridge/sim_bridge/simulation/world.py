@@ -69,9 +69,10 @@ the field, e.g.
 Gazebo's SDF worlds (``.world``, ``.sdf``, or any file holding ``<sdf><world>``) load too:
 their models and ``<include>``s (see :mod:`.sdf`), the ground plane as the floor (a
 ``<plane>``, or a ground slab, :func:`~.sdf.ground_of`: never an obstacle; the world is read
-with its top at z = 0, where the robot stands), and ``<physics><max_step_size>``. The robot is the world's model with a diff-drive plugin and a
-lidar, or the model passed to :meth:`World.load` / :meth:`World.with_robot`. Other models are
-obstacles, held fixed; what is not simulated is summed up in :attr:`World.ignored`.
+with its top at z = 0, where the robot stands), and ``<physics><max_step_size>``. The robot is
+the world's model with a diff-drive plugin and a lidar, or the model passed to
+:meth:`World.load` / :meth:`World.with_robot`. Other models are obstacles, held fixed; what
+is not simulated is summed up in :attr:`World.ignored`.
 
 What the simulator sees: every obstacle is one or more :class:`~.geometry.Shape`
 primitives (walls and cubes are boxes); the lidar sees their 3-D shapes, and the robot
