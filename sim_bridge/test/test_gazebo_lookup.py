@@ -7,6 +7,7 @@ to where the author starts Gazebo), and a ROS 1 description package whose xacro 
 ``$(find PKG)/urdf/...`` and names ``package://PKG/meshes/...``, as ROBOTIS's TurtleBot3 does.
 """
 
+import os
 from pathlib import Path
 
 import pytest
@@ -52,6 +53,12 @@ COURSE_WORLD = """<?xml version="1.0"?>
 """
 
 
+#: Real third-party Gazebo assets beside the repository (../shared/gazebo_assets, see its
+#: README), read in place; GAZEBO_ASSETS names another copy.
+ASSETS = Path(os.environ.get('GAZEBO_ASSETS') or
+              Path(__file__).resolve().parents[3] / 'shared' / 'gazebo_assets')
+
+
 def course_workspace(root: Path, uri: str = 'file://src/lab05/description/robot.sdf') -> Path:
     """Write a course workspace under ``root``; return its world file."""
     description = root / 'src' / 'lab05' / 'description'
@@ -72,6 +79,19 @@ def test_an_include_relative_to_where_gazebo_starts_is_found(uri, tmp_path, monk
     world = World.load(world_file)
     assert world.robot_model == 'lab05_bot' and world.robot.lidar.samples == 360
     assert [obstacle.name for obstacle in world.obstacles] == ['wall']
+
+
+@pytest.mark.skipif(not (ASSETS / 'turtlebot3_gazebo_sim').is_dir(),
+                    reason='../shared/gazebo_assets is not beside the repository')
+def test_robotis_burger_folder_included_relative_to_where_gazebo_starts(tmp_path, monkeypatch):
+    world_file = tmp_path / 'lab.sdf'  # ROBOTIS's folder, read in place, named from ASSETS
+    world_file.write_text(COURSE_WORLD.format(
+        uri='file://turtlebot3_gazebo_sim/models/turtlebot3_burger'))
+    monkeypatch.setenv('GZ_SIM_RESOURCE_PATH', str(ASSETS / 'turtlebot3_gazebo_sim' / 'models'))
+    monkeypatch.chdir(ASSETS)
+    world = World.load(world_file)
+    assert world.robot_model == 'turtlebot3_burger' and world.robot.lidar.frame_id == 'base_scan'
+    assert ASSETS.resolve() in world.robot.path.resolve().parents
 
 
 def test_the_working_directory_wins_over_the_world_folder_as_in_sdformat(

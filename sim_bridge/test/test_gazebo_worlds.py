@@ -8,6 +8,8 @@ elements never declared, cameras, lights, system plugins), Classic's ``sun`` mod
 """
 
 import math
+import os
+from pathlib import Path
 
 import pytest
 
@@ -16,6 +18,11 @@ from sim_bridge.simulation.sdf import load_model
 from sim_bridge.simulation.sdf_values import SdfError
 from sim_bridge.simulation.simulator import Simulator
 from sim_bridge.simulation.world import World, WorldError
+
+#: Real third-party Gazebo assets beside the repository (../shared/gazebo_assets, see its
+#: README), read in place; GAZEBO_ASSETS names another copy.
+ASSETS = Path(os.environ.get('GAZEBO_ASSETS') or
+              Path(__file__).resolve().parents[3] / 'shared' / 'gazebo_assets')
 
 #: A world as Gazebo Sim's examples/worlds/empty.sdf writes one (abridged, same XML forms).
 EMPTY_SDF = """<?xml version="1.0" ?>
@@ -162,6 +169,18 @@ def test_a_ground_plane_written_as_a_slab_is_the_floor_never_an_obstacle(tmp_pat
         scan = simulator.scan()
     ahead = scan.ranges[0]  # the Burger's 0 rad: straight ahead, between the two boxes
     assert math.isinf(ahead)
+
+
+@pytest.mark.skipif(not (ASSETS / 'turtlebot3_gazebo_sim').is_dir(),
+                    reason='../shared/gazebo_assets is not beside the repository')
+def test_robotis_burger_spawns_on_a_slab_ground_plane(tmp_path, monkeypatch):
+    models = ASSETS / 'turtlebot3_gazebo_sim' / 'models'  # read in place
+    monkeypatch.setenv('GZ_SIM_RESOURCE_PATH', str(models))
+    path = tmp_path / 'retro.sdf'
+    path.write_text(SLAB_GROUND_SDF.format(mat=''))
+    world = World.load(path, robot=models / 'turtlebot3_burger')
+    assert 'ground_plane' not in world.footprint_owners()
+    assert world.robot.lidar.frame_id == 'base_scan' and world.floor_size == (20.0, 20.0)
 
 
 def test_a_step_on_the_floor_smaller_than_a_floor_is_still_an_obstacle(tmp_path):
