@@ -7,12 +7,22 @@ elements never declared, cameras, lights, system plugins), Classic's ``sun`` mod
 3-D lidars, ``<cone>`` and ``<heightmap>`` collisions, sizes left to SDF's defaults.
 """
 
+import math
+import os
+from pathlib import Path
+
 import pytest
 
 from sim_bridge.common import paths
 from sim_bridge.simulation.sdf import load_model
 from sim_bridge.simulation.sdf_values import SdfError
-from sim_bridge.simulation.world import World
+from sim_bridge.simulation.simulator import Simulator
+from sim_bridge.simulation.world import World, WorldError
+
+#: Real third-party Gazebo assets beside the repository (../shared/gazebo_assets, see its
+#: README), read in place; GAZEBO_ASSETS names another copy.
+ASSETS = Path(os.environ.get('GAZEBO_ASSETS') or
+              Path(__file__).resolve().parents[3] / 'shared' / 'gazebo_assets')
 
 #: A world as Gazebo Sim's examples/worlds/empty.sdf writes one (abridged, same XML forms).
 EMPTY_SDF = """<?xml version="1.0" ?>
@@ -105,6 +115,82 @@ def test_what_is_not_simulated_is_one_ignored_line_never_a_refused_world(tmp_pat
     assert cone_slice.bounds()[2] - 2.0 == pytest.approx(0.5 * (1.0 - low), abs=0.01)
     assert ball.shapes[0].radius == 1.0 and velodyne.shapes
     assert world.robot.lidar.samples == 360  # the robot's lidar, not the 3-D one
+
+
+#: A world as gz-sim's sensor examples (gpu_lidar_retro_values_sensor.sdf) write one: the
+#: ground plane is a 20 x 20 x 0.1 m box centred on z = 0 (its <plane> commented out), a 3-D
+#: lidar on a floating box, and two 1 m boxes standing on z = 0.
+SLAB_GROUND_SDF = """<?xml version="1.0" ?>
+<sdf version="1.6">
+  <world name="retro">
+    <model name="ground_plane">
+      <static>true</static>
+      <link name="link">
+        <collision name="collision">
+          <geometry>
+            <!--plane>
+              <normal>0 0 1</normal>
+              <size>100 100</size>
+            </plane-->
+            <box><size>20 20 0.1</size></box>
+          </geometry>
+        </collision>
+      </link>
+    </model>
+    <model name="box_a"><pose>2 -1 0.5 0 0 0</pose>
+      <link name="box_link"><collision name="c"><geometry><box><size>1 1 1</size></box>
+      </geometry></collision></link></model>
+    {mat}
+    <model name="model_with_lidar"><pose>4 0 0.5 0 0.0 3.14</pose><static>true</static>
+      <link name="link"><pose>0.05 0.05 0.05 0 0 0</pose>
+        <collision name="collision"><geometry><box><size>0.1 0.1 0.1</size></box></geometry>
+        </collision>
+        <sensor name="gpu_lidar" type="gpu_lidar"><lidar><scan>
+          <horizontal><samples>640</samples><min_angle>-1.396263</min_angle>
+            <max_angle>1.396263</max_angle></horizontal>
+          <vertical><samples>16</samples></vertical></scan></lidar></sensor>
+      </link>
+    </model>
+  </world>
+</sdf>
+"""
+
+
+def test_a_ground_plane_written_as_a_slab_is_the_floor_never_an_obstacle(tmp_path):
+    path = tmp_path / 'retro.sdf'
+    path.write_text(SLAB_GROUND_SDF.format(mat=''))
+    world = World.load(path, robot=paths.models_dir() / 'turtlebot3_burger')
+    assert [obstacle.name for obstacle in world.obstacles] == ['box_a', 'model_with_lidar']
+    assert world.floor_size == (20.0, 20.0)
+    # The robot stands on the slab's top, 0.05 m up: the box standing on z = 0 is 0.05 m
+    # lower for it, as in Gazebo.
+    assert world.obstacle('box_a').shapes[0].z_range() == pytest.approx((-0.05, 0.95))
+    with Simulator(world) as simulator:
+        scan = simulator.scan()
+    ahead = scan.ranges[0]  # the Burger's 0 rad: straight ahead, between the two boxes
+    assert math.isinf(ahead)
+
+
+@pytest.mark.skipif(not (ASSETS / 'turtlebot3_gazebo_sim').is_dir(),
+                    reason='../shared/gazebo_assets is not beside the repository')
+def test_robotis_burger_spawns_on_a_slab_ground_plane(tmp_path, monkeypatch):
+    models = ASSETS / 'turtlebot3_gazebo_sim' / 'models'  # read in place
+    monkeypatch.setenv('GZ_SIM_RESOURCE_PATH', str(models))
+    path = tmp_path / 'retro.sdf'
+    path.write_text(SLAB_GROUND_SDF.format(mat=''))
+    world = World.load(path, robot=models / 'turtlebot3_burger')
+    assert 'ground_plane' not in world.footprint_owners()
+    assert world.robot.lidar.frame_id == 'base_scan' and world.floor_size == (20.0, 20.0)
+
+
+def test_a_step_on_the_floor_smaller_than_a_floor_is_still_an_obstacle(tmp_path):
+    step = ('<model name="step"><static>true</static><pose>0.5 0 0.1 0 0 0</pose><link name="l">'
+            '<collision name="c"><geometry><box><size>2 2 0.1</size></box></geometry>'
+            '</collision></link></model>')
+    path = tmp_path / 'retro.sdf'
+    path.write_text(SLAB_GROUND_SDF.format(mat=step))
+    with pytest.raises(WorldError, match="overlaps obstacle 'step'"):
+        World.load(path, robot=paths.models_dir() / 'turtlebot3_burger')
 
 
 def test_a_model_folder_holding_only_a_light_is_a_light(tmp_path, monkeypatch):

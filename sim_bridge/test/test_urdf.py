@@ -204,3 +204,70 @@ def test_a_urdf_robots_description_for_rviz_is_its_own_file_expanded(packages):
     model = load_model(path)
     assert robot_description(model, 'base_footprint', 'base_scan', (0.0,) * 6) == (
         xacro.process_file(str(path)).toxml())
+
+
+#: A robot in nav2_minimal_tb4_description's gz form: the RPLIDAR's joint turns its link
+#: +90° (rpy="0 0 ${pi/2}") 4 cm behind the centre, and its gpu_lidar scans 0..6.28 rad in that
+#: link's frame (<gz_frame_id>).
+TB4_FORM_XACRO = """<?xml version="1.0"?>
+<robot name="tb4_form" xmlns:xacro="http://ros.org/wiki/xacro">
+  <xacro:property name="cm2m" value="${1/100.0}"/>
+  <link name="base_link">
+    <collision><origin xyz="0 0 0.06"/>
+      <geometry><cylinder length="0.1" radius="0.17"/></geometry></collision>
+  </link>
+  <joint name="rplidar_joint" type="fixed">
+    <parent link="base_link"/><child link="rplidar_link"/>
+    <origin xyz="${-4*cm2m} 0 ${19.3*cm2m}" rpy="0 0 ${pi/2}"/>
+  </joint>
+  <link name="rplidar_link">
+    <collision><origin xyz="0 ${1.3*cm2m} ${-1.9*cm2m}"/>
+      <geometry><box size="0.071 0.1 0.06"/></geometry></collision>
+  </link>
+  <gazebo reference="rplidar_link">
+    <sensor name="rplidar" type="gpu_lidar">
+      <update_rate>10.0</update_rate><gz_frame_id>rplidar_link</gz_frame_id>
+      <lidar><scan><horizontal><samples>360</samples><resolution>1.0</resolution>
+        <min_angle>0.000</min_angle><max_angle>6.280000</max_angle></horizontal></scan>
+        <range><min>0.164</min><max>20.0</max><resolution>0.01</resolution></range></lidar>
+    </sensor>
+  </gazebo>
+  <gazebo>
+    <plugin filename="gz-sim-diff-drive-system" name="gz::sim::systems::DiffDrive">
+      <left_joint>left_wheel_joint</left_joint><right_joint>right_wheel_joint</right_joint>
+      <wheel_separation>0.233</wheel_separation><wheel_radius>0.03575</wheel_radius>
+      <topic>cmd_vel</topic><frame_id>odom</frame_id><child_frame_id>base_link</child_frame_id>
+    </plugin>
+  </gazebo>
+</robot>
+"""
+
+
+#: A wall 2.5 m from the robot's centre (x0, y0, x1, y1 in m), by where it stands.
+WALLS = {'ahead': (2.575, -3.0, 2.575, 3.0), 'left': (-3.0, 2.575, 3.0, 2.575)}
+
+
+@pytest.mark.parametrize('side', ['ahead', 'left'])
+def test_a_lidar_turned_on_its_joint_scans_from_where_its_link_points(side, tmp_path):
+    # Gazebo's gpu_lidar casts angle 0 along its link's x axis: for a TurtleBot4 that is the
+    # robot's left (+y), so with a wall only ahead ranges[0] is inf in Gazebo too, and the
+    # wall is at 3π/2 in the scan (index 269 of 360: 6.28 rad over 359 steps).
+    robot = tmp_path / 'tb4_form.urdf.xacro'
+    robot.write_text(TB4_FORM_XACRO)
+    x0, y0, x1, y1 = WALLS[side]
+    world_file = tmp_path / 'wall.yaml'
+    world_file.write_text(f'walls:\n  - start: [{x0}, {y0}]\n    end: [{x1}, {y1}]\n')
+    world = World.load(world_file, robot=robot)
+    lidar = world.robot.lidar
+    assert lidar.frame_id == 'rplidar_link'
+    assert lidar.pose == pytest.approx((-0.04, 0.0, 0.193, 0.0, 0.0, math.pi / 2))
+    assert ('base_link', 'rplidar_link') in [joint[:2] for joint in world.robot.joints]
+    with Simulator(world) as simulator:
+        scan = simulator.scan()
+    ahead = round(1.5 * math.pi / scan.angle_increment)
+    if side == 'ahead':  # 2.5 m from the wall's face to the centre, 2.54 m to the lidar
+        assert math.isinf(scan.ranges[0])
+        assert scan.ranges[ahead] == pytest.approx(2.54, abs=0.01)
+    else:
+        assert scan.ranges[0] == pytest.approx(2.5, abs=0.01)
+        assert math.isinf(scan.ranges[ahead])

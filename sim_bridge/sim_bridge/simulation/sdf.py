@@ -59,6 +59,13 @@ from sim_bridge.simulation.urdf import is_urdf_file, urdf_to_sdf
 
 #: The size (x, y in m) of the builtin stand-in for Gazebo's ground_plane model.
 GROUND_PLANE_SIZE = (100.0, 100.0)
+#: A static model whose collisions are all upright boxes at least this wide each way (m) and
+#: whose tops are at most GROUND_TOP_M from z = 0 is the ground the robot stands on, not an
+#: obstacle: gz-sim's sensor example worlds write their ``ground_plane`` as a 20 x 20 x 0.1 m
+#: box centred on z = 0, so that its top is 0.05 m up.
+GROUND_MIN_SIDE_M = 5.0
+#: See GROUND_MIN_SIDE_M (m).
+GROUND_TOP_M = 0.1
 
 
 def load_model(folder_or_file: str | os.PathLike, lidar: str | None = None,
@@ -114,6 +121,24 @@ def parse_world(text: str, path: Path) -> SdfWorld:
     return _Reader(path, path.parent).world(root.find('world'))
 
 
+def ground_of(placed: PlacedModel) -> Plane | None:
+    """
+    Return the floor a world's model is, at its top, or None for a model that is not ground.
+
+    The ground is a static model whose collisions are all upright boxes at least
+    :data:`GROUND_MIN_SIDE_M` wide each way, their tops within :data:`GROUND_TOP_M` of z = 0: a
+    ground plane written as a slab. Its size is its widest box's (x, y in m).
+    """
+    if not placed.static or not placed.model.shapes or placed.model.lidar is not None:
+        return None
+    boxes = [place(shape, placed.pose) for shape in placed.model.shapes]
+    if not all(box.kind == 'box' and box.upright and min(box.size[:2]) >= GROUND_MIN_SIDE_M
+               and abs(box.z_range()[1]) <= GROUND_TOP_M for box in boxes):
+        return None
+    widest = max(boxes, key=lambda box: box.size[0] * box.size[1])
+    return Plane(max(box.z_range()[1] for box in boxes), widest.size[:2])
+
+
 def is_sdf_text(text: str) -> bool:
     """Return True when ``text`` looks like XML (an SDF file) rather than YAML."""
     return text.lstrip().startswith('<')
@@ -164,16 +189,21 @@ class _Reader(DriveReading, GeometryReading, LidarReading):
                 found.ignored.append(('plugin', child.get('filename') or child.get('name')))
             elif child.tag in ('light', 'actor', 'population', 'road', 'gui'):
                 found.ignored.append((child.tag, ''))
-        planes = []
+        planes, kept = [], []
         for placed in models:
             found.sources += placed.model.sources
+            ground = ground_of(placed)
+            if ground is not None:
+                planes.append(ground)
+                continue
             for plane in placed.model.planes:
                 planes.append(Plane(plane.z + placed.pose[2], plane.size))
-            if not placed.model.shapes and placed.model.lidar is None:  # a sun, a ground plane
+            if placed.model.shapes or placed.model.lidar:
+                kept.append(placed)
+            else:  # a sun, a ground plane
                 found.ignored += placed.model.not_simulated
-        models = [placed for placed in models if placed.model.shapes or placed.model.lidar]
         return SdfWorld(name=element.get('name') or self.path.stem, path=self.path,
-                        models=tuple(models), planes=tuple(planes), physics_step_s=step,
+                        models=tuple(kept), planes=tuple(planes), physics_step_s=step,
                         ignored=tuple(found.ignored),
                         sources=tuple(dict.fromkeys(found.sources)))
 
@@ -195,7 +225,7 @@ class _Reader(DriveReading, GeometryReading, LidarReading):
                          planes=(Plane(0.0, GROUND_PLANE_SIZE),))
         if builtin == 'sun':
             return Model('sun', self.path, (), static=True, ignored=(('light', ''),))
-        folder = self.model_folder(uri, f'{where}/<uri>')
+        folder = self.model_folder(uri, f'{where}/<uri>', include=True)
         try:
             return load_model(folder, world_folder=self.world_folder)
         except FileNotFoundError as error:

@@ -24,6 +24,13 @@ CLASSIC_WHEEL_SEPARATION = 0.34
 SIM_ODOMETRY_RATE = 50.0
 #: Gazebo Classic gazebo_ros_diff_drive's update rate (Hz) when <update_rate> is not given.
 CLASSIC_UPDATE_RATE = 100.0
+#: The ROS 1 gazebo_ros_diff_drive's names (ROBOTIS's ROS 1 TurtleBot3 uses them) of the ROS 2
+#: plugin's elements: the same values, in the same units.
+ROS1_CLASSIC_NAMES = {'wheel_separation': 'wheelSeparation', 'wheel_diameter': 'wheelDiameter',
+                      'max_wheel_acceleration': 'wheelAcceleration', 'update_rate': 'updateRate',
+                      'command_topic': 'commandTopic', 'odometry_topic': 'odometryTopic',
+                      'odometry_frame': 'odometryFrame', 'robot_base_frame': 'robotBaseFrame',
+                      'publish_odom_tf': 'publishOdomTF'}
 
 
 def plugin_kind(plugin: ElementTree.Element) -> str | None:
@@ -103,18 +110,23 @@ class DriveReading:
                       ) -> Callable[[str, str], DiffDriveConfig]:
         # gazebo_ros_diff_drive: <max_wheel_acceleration> (m/s² at the wheel's rim, 0 = none)
         # bounds each wheel; the body's linear acceleration is that, its angular one twice that
-        # over the wheel separation. It has no velocity limit.
-        separation = self.optional_positive(plugin, 'wheel_separation', where)
-        diameter = self.optional_positive(plugin, 'wheel_diameter', where)
-        wheel_accel = self.optional(plugin, 'max_wheel_acceleration', where) or 0.0
+        # over the wheel separation. It has no velocity limit. ROS 1's plugin names its
+        # elements in camelCase (ROS1_CLASSIC_NAMES).
+        def named(tag: str) -> str:
+            return tag if plugin.find(tag) is not None else ROS1_CLASSIC_NAMES.get(tag, tag)
+
+        separation = self.optional_positive(plugin, named('wheel_separation'), where)
+        diameter = self.optional_positive(plugin, named('wheel_diameter'), where)
+        wheel_accel = self.optional(plugin, named('max_wheel_acceleration'), where) or 0.0
         if wheel_accel < 0.0:
-            raise self.error(f'{where}/<max_wheel_acceleration>', 'must not be negative')
+            raise self.error(f"{where}/<{named('max_wheel_acceleration')}>",
+                             'must not be negative')
         linear = wheel_accel if wheel_accel > 0.0 else math.inf
         angular = 2.0 * linear / (separation or CLASSIC_WHEEL_SEPARATION)
         limits = self.drive_limits(where, max_linear_speed=NO_SPEED_LIMIT,
                                    max_angular_speed=NO_SPEED_LIMIT, max_linear_accel=linear,
                                    max_angular_accel=angular)
-        rate = self.optional(plugin, 'update_rate', where)
+        rate = self.optional(plugin, named('update_rate'), where)
         namespace = (plugin.findtext('ros/namespace') or '').strip()
         remaps = {}
         for remapping in plugin.findall('ros/remapping'):
@@ -125,7 +137,7 @@ class DriveReading:
             # The ROS 2 plugin subscribes to 'cmd_vel' and publishes 'odom' under its node's
             # namespace, renamed by <ros><remapping>; <command_topic>/<odometry_topic> are
             # the ROS 1 plugin's names, honoured when no remapping is given.
-            chosen = remaps.get(name) or (plugin.findtext(legacy) or '').strip() or name
+            chosen = remaps.get(name) or (plugin.findtext(named(legacy)) or '').strip() or name
             if namespace and not chosen.startswith('/'):
                 chosen = f"{namespace.rstrip('/')}/{chosen}"
             return chosen
@@ -135,11 +147,12 @@ class DriveReading:
             wheel_radius=0.5 * diameter if diameter is not None else None, limits=limits,
             command_topic=topic('cmd_vel', 'command_topic'),
             odometry_topic=topic('odom', 'odometry_topic'),
-            odometry_frame=(plugin.findtext('odometry_frame') or '').strip() or 'odom',
-            base_frame=(plugin.findtext('robot_base_frame') or '').strip() or 'base_footprint',
+            odometry_frame=(plugin.findtext(named('odometry_frame')) or '').strip() or 'odom',
+            base_frame=(plugin.findtext(named('robot_base_frame')) or '').strip()
+            or 'base_footprint',
             odometry_rate=rate if rate and rate > 0.0 else CLASSIC_UPDATE_RATE,
-            publish_tf=self.boolean(plugin.find('publish_odom_tf'),
-                                    f'{where}/<publish_odom_tf>', default=False))
+            publish_tf=self.boolean(plugin.find(named('publish_odom_tf')),
+                                    f"{where}/<{named('publish_odom_tf')}>", default=False))
         return lambda _model, _link: config
 
     def drive_limits(self, where: str, **values: float) -> DriveLimits:

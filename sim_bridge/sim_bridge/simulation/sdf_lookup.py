@@ -3,8 +3,10 @@ Finding model files: a model folder's SDF file and the files ``model://``, Fuel 
 
 A folder's ``model.config`` names its SDF file (Gazebo's rule); ``model://NAME/...`` is looked
 up on :func:`~sim_bridge.common.paths.model_search_path`; a Fuel URL in Gazebo's download
-cache; a path relative to the SDF file that names it. Gazebo's ``ground_plane`` and ``sun``
-have builtin stand-ins, so worlds that include them work offline.
+cache; a mesh's relative path or ``file://`` URI relative to the SDF file that names it (gz-sim's
+``asFullPath``); an ``<include>``'s where sdformat's ``sdf::findFile`` finds it
+(:func:`include_folders`). Gazebo's ``ground_plane`` and ``sun`` have builtin stand-ins, so
+worlds that include them work offline.
 """
 
 import os
@@ -18,6 +20,29 @@ from sim_bridge.simulation.sdf_values import parse_sdf_xml, SdfError, SdfValues
 MODEL_FILE_SUFFIXES = ('.sdf', '.urdf', '.xacro')
 #: The Fuel models with builtin stand-ins (see :meth:`ModelLookup.builtin`), by name.
 FUEL_BUILTINS = {'ground plane': 'ground_plane', 'sun': 'sun'}
+#: sdformat's own list of folders searched for an ``<include>``'s file (gz-sim appends its
+#: resource path to it).
+SDF_PATH_VARIABLE = 'SDF_PATH'
+
+
+def include_folders(including_file: Path, world_folder: Path | None) -> list[Path]:
+    """
+    Return the folders an ``<include>``'s relative ``file://`` URI or path is looked up in.
+
+    sdformat's ``sdf::findFile(uri, searchLocalPath=true)`` (``<include>`` in its parser.cc)
+    strips the scheme, then tries the current working directory (where Gazebo was started),
+    the path as given, and each ``SDF_PATH`` folder, to which gz-sim's ``addResourcePaths``
+    appends ``GZ_SIM_RESOURCE_PATH``. The kit tries the rest of its model path after those
+    (``IGN_GAZEBO_RESOURCE_PATH``, ``GAZEBO_MODEL_PATH``), then the including file's folder and
+    the world's, as kit worlds may, then the users' and the kit's model folders.
+    """
+    variables = (SDF_PATH_VARIABLE, *paths.MODEL_PATH_VARIABLES)
+    folders = [Path.cwd()]
+    folders += [Path(entry) for variable in variables
+                for entry in os.environ.get(variable, '').split(os.pathsep) if entry]
+    folders.append(including_file.parent)
+    folders += paths.model_search_path(world_folder)
+    return list(dict.fromkeys(folders))
 
 
 def model_file(path: Path) -> Path:
@@ -105,8 +130,13 @@ class ModelLookup(SdfValues):
             return False
         return True
 
-    def model_folder(self, uri: str, where: str) -> Path:
-        """Return the model folder (or SDF file) a ``model://``, Fuel, file or path URI names."""
+    def model_folder(self, uri: str, where: str, include: bool = False) -> Path:
+        """
+        Return the model folder (or SDF file) a ``model://``, Fuel, file or path URI names.
+
+        ``include``: the URI is an ``<include>``'s, whose file or path is found as sdformat
+        finds it (:func:`include_folders`), not relative to this file as a mesh's is.
+        """
         parsed = urlparse(uri)
         if parsed.scheme == 'model':
             # model:///NAME/... (three slashes) names the same file as model://NAME/...
@@ -124,16 +154,33 @@ class ModelLookup(SdfValues):
             raise self.error(where, f'{uri} is a Gazebo Fuel model, not available offline: '
                              f"download it (gz fuel download -u '{uri}') and put its model "
                              'folder on GZ_SIM_RESOURCE_PATH')
-        return self.local_file(uri, where)
+        return self.included_file(uri, where) if include else self.local_file(uri, where)
 
-    def local_file(self, uri: str, where: str) -> Path:
-        """Return the file a ``file://`` URI or a path names, relative to this file's folder."""
+    def included_file(self, uri: str, where: str) -> Path:
+        """Return the model folder or file an ``<include>``'s file URI or path names."""
+        path = self.uri_path(uri, where)
+        if path.is_absolute():
+            return path
+        folders = include_folders(self.path, self.world_folder)
+        found = next((folder / path for folder in folders if (folder / path).exists()), None)
+        if found is None:
+            others = ', '.join(str(folder) for folder in folders[1:])
+            raise self.error(where, f'{uri} not found in the working directory ({Path.cwd()}), '
+                             f'as Gazebo looks first, nor in {others}: start from the folder '
+                             'it is relative to, or put that folder on GZ_SIM_RESOURCE_PATH')
+        return found
+
+    def uri_path(self, uri: str, where: str) -> Path:
+        """Return the path a ``file://`` URI or a plain path names, as written."""
         parsed = urlparse(uri)
         if parsed.scheme not in ('', 'file'):
             raise self.error(where, f'unsupported URI {uri!r}; use model://NAME/..., a '
                              'file:// URI or a path relative to the SDF file')
-        text = unquote(parsed.netloc + parsed.path) if parsed.scheme else uri
-        path = Path(text)
+        return Path(unquote(parsed.netloc + parsed.path) if parsed.scheme else uri)
+
+    def local_file(self, uri: str, where: str) -> Path:
+        """Return the file a ``file://`` URI or a path names, relative to this file's folder."""
+        path = self.uri_path(uri, where)
         if path.is_absolute():
             return path
         candidates = [self.path.parent / path]

@@ -15,18 +15,21 @@ that Gazebo converts to SDF. :func:`urdf_to_sdf` does the same, and
    ``libgazebo_ros_ray_sensor.so`` or Sim ``gpu_lidar``) and the diff drive (Classic
    ``libgazebo_ros_diff_drive.so`` or Sim ``gz-sim-diff-drive-system``) are read as in SDF.
 
-Mesh ``filename`` s: ``package://PKG/path`` is found in ``share/PKG`` under each
-``AMENT_PREFIX_PATH`` prefix, in a ``PKG`` folder on ``ROS_PACKAGE_PATH`` (the folder itself or
-below it) or on the model path; ``model://`` on the model path; ``file://`` and paths relative
-to the URDF's folder as they are. Units: m, rad.
+xacro's ``$(find PKG)`` and mesh ``filename`` s ``package://PKG/path`` name the package folder
+:func:`~.ros_packages.find_package` finds as ROS tools do (``AMENT_PREFIX_PATH``,
+``ROS_PACKAGE_PATH``, the file's own package tree, the model path), so a ROS 1 description
+(``$(find turtlebot3_description)``) expands where no ROS 2 workspace is sourced; xacro's own
+``$(find)`` is kept and only its package lookup answered. ``model://`` is found on the model
+path; ``file://`` and paths relative to the URDF's folder as they are. Units: m, rad.
 """
 
-import os
+from contextlib import contextmanager
 from pathlib import Path
 from urllib.parse import unquote, urlparse
 import xml.etree.ElementTree as ElementTree
 
 from sim_bridge.common import paths
+from sim_bridge.simulation.ros_packages import find_package, PackageNotFoundError
 from sim_bridge.simulation.sdf_frames import compose
 from sim_bridge.simulation.sdf_values import SdfError
 
@@ -80,9 +83,13 @@ def _read(path: Path):
     from urdf_parser_py import urdf
     from urdf_parser_py.xml_reflection import core
     try:
-        text = xacro.process_file(str(path)).toxml()
+        with _packages_found_from(path):
+            text = xacro.process_file(str(path)).toxml()
     except Exception as error:  # xacro raises its own errors, OSError and XML errors
-        raise SdfError(f'{path}: xacro cannot expand it: {error}') from None
+        # xacro wraps what $(find) raised in "<class ...>: message message": the message once
+        cause = getattr(error, 'exc', None)
+        why = cause if isinstance(cause, PackageNotFoundError) else error
+        raise SdfError(f'{path}: xacro cannot expand it: {why}') from None
     complaints = []
     core.on_error = complaints.append  # urdf_parser_py's hook; its default prints to stderr
     try:
@@ -94,6 +101,24 @@ def _read(path: Path):
     if not robot.links:
         raise SdfError(f'{path}: <robot name="{robot.name}">: has no <link>')
     return robot, text
+
+
+@contextmanager
+def _packages_found_from(path: Path):
+    """
+    Let xacro's ``$(find PKG)`` answer with :func:`~.ros_packages.find_package` for ``path``.
+
+    xacro resolves ``$(find)`` itself and asks ``substitution_args._eval_find`` for the folder
+    (ament's share directory, which needs a sourced ROS 2 workspace): that hook is answered
+    while the file is expanded, and restored after.
+    """
+    from xacro import substitution_args
+    ament_find = substitution_args._eval_find
+    substitution_args._eval_find = lambda package: str(find_package(package, path))
+    try:
+        yield
+    finally:
+        substitution_args._eval_find = ament_find
 
 
 def _gazebo_extensions(root: ElementTree.Element) -> dict[str | None, list]:
@@ -175,11 +200,11 @@ def mesh_file(uri: str, urdf_path: Path) -> Path:
     parsed = urlparse(uri)
     if parsed.scheme in ('package', 'model'):
         relative = unquote(parsed.path.lstrip('/'))
-        roots = _package_roots(parsed.netloc)
+        roots = _package_roots(parsed.netloc, urdf_path)
         for root in roots:
             if (root / relative).is_file():
                 return root / relative
-        looked = ', '.join(str(root) for root in roots)
+        looked = ', '.join(str(root) for root in roots) or 'no folder of that package found'
         raise SdfError(f'{urdf_path}: mesh {uri}: not found (looked in {looked}); put the '
                        f'package {parsed.netloc!r} on AMENT_PREFIX_PATH (its share/'
                        f'{parsed.netloc}), ROS_PACKAGE_PATH or GZ_SIM_RESOURCE_PATH')
@@ -191,13 +216,11 @@ def mesh_file(uri: str, urdf_path: Path) -> Path:
     return urdf_path.parent / uri
 
 
-def _package_roots(package: str) -> list[Path]:
+def _package_roots(package: str, urdf_path: Path) -> list[Path]:
     """Return the folders a ROS package or model named ``package`` may be, first first."""
-    roots = [Path(prefix) / 'share' / package
-             for prefix in os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep) if prefix]
-    for entry in os.environ.get('ROS_PACKAGE_PATH', '').split(os.pathsep):
-        if entry:
-            folder = Path(entry)
-            roots += [folder] if folder.name == package else [folder / package]
+    try:
+        roots = [find_package(package, urdf_path)]
+    except FileNotFoundError:
+        roots = []
     roots += [folder / package for folder in paths.model_search_path()]
     return list(dict.fromkeys(roots))

@@ -67,10 +67,12 @@ the field, e.g.
 [1, -1, 1]``.
 
 Gazebo's SDF worlds (``.world``, ``.sdf``, or any file holding ``<sdf><world>``) load too:
-their models and ``<include>``s (see :mod:`.sdf`), the ground plane as the floor, and
-``<physics><max_step_size>``. The robot is the world's model with a diff-drive plugin and a
-lidar, or the model passed to :meth:`World.load` / :meth:`World.with_robot`. Other models are
-obstacles, held fixed; what is not simulated is summed up in :attr:`World.ignored`.
+their models and ``<include>``s (see :mod:`.sdf`), the ground plane as the floor (a
+``<plane>``, or a ground slab, :func:`~.sdf.ground_of`: never an obstacle; the world is read
+with its top at z = 0, where the robot stands), and ``<physics><max_step_size>``. The robot is
+the world's model with a diff-drive plugin and a lidar, or the model passed to
+:meth:`World.load` / :meth:`World.with_robot`. Other models are obstacles, held fixed; what
+is not simulated is summed up in :attr:`World.ignored`.
 
 What the simulator sees: every obstacle is one or more :class:`~.geometry.Shape`
 primitives (walls and cubes are boxes); the lidar sees their 3-D shapes, and the robot
@@ -95,10 +97,10 @@ from sim_bridge.common.yaml_loader import load_yaml, read_text
 from sim_bridge.simulation import world_file
 from sim_bridge.simulation.floor_slice import FloorSlice
 from sim_bridge.simulation.geometry import Footprint, Shape, triangulate, wrap_angle
-from sim_bridge.simulation.sdf import is_sdf_text, load_model, parse_world
+from sim_bridge.simulation.sdf import GROUND_TOP_M, is_sdf_text, load_model, parse_world
 from sim_bridge.simulation.sdf_frames import place
 from sim_bridge.simulation.sdf_lookup import MODEL_FILE_SUFFIXES
-from sim_bridge.simulation.sdf_model import describe_ignored, Ignored, Model
+from sim_bridge.simulation.sdf_model import describe_ignored, Ignored, Model, Plane
 from sim_bridge.simulation.sdf_values import SdfError
 from sim_bridge.simulation.world_file import (  # noqa: F401 - the world file's names
     DEFAULT_ROBOT_MODEL, MAX_COORDINATE_M, MAX_SIZE_M, OBSTACLE_TYPES, validate_world_file,
@@ -541,19 +543,20 @@ def _sdf_world(path: Path, text: str, label: str, robot_given: bool,
                          'a lidar): pass one with --robot MODEL, e.g. --robot turtlebot3_burger')
     obstacles = []
     ignored = list(sdf.ignored)
+    floor_z, floor = _floor(sdf.planes)
     for placed in sdf.models:
         if robot is not None and placed.name == robot.name:
             continue
         ignored += placed.model.not_simulated
-        shapes = tuple(place(shape, placed.pose) for shape in placed.model.shapes)
+        x, y, z, roll, pitch, yaw = placed.pose
+        shapes = tuple(place(shape, (x, y, z - floor_z, roll, pitch, yaw))
+                       for shape in placed.model.shapes)
         if not shapes:
             continue
-        x, y, _, _, _, yaw = placed.pose
         obstacles.append(Obstacle(placed.name, 'model', shapes, (x, y, yaw),
                                   model=placed.model.name))
         if not placed.static:
             ignored.append(('model held fixed', placed.name))
-    floor = next((plane.size for plane in sdf.planes), None)
     start, radius = ((0.0, 0.0, 0.0), 0.0) if robot is None else (  # None: with_robot's
         (robot.pose[0], robot.pose[1], wrap_angle(robot.pose[5])), robot.model.radius)
     name = sdf.name if sdf.name != 'default' else path.stem
@@ -568,6 +571,21 @@ def _sdf_world(path: Path, text: str, label: str, robot_given: bool,
     if robot is not None:
         _check_robot_clear(label, start, world.floor_slice, robot.name)
     return world
+
+
+def _floor(planes: Sequence[Plane]) -> tuple[float, tuple[float, float] | None]:
+    """
+    Return the height (m) of the floor the robot stands on and its size (x, y m; None: endless).
+
+    The floor is the highest ground within :data:`~.sdf.GROUND_TOP_M` of z = 0 (a ground slab's
+    top is 0.05 m up in gz-sim's examples); the world is read with it at z = 0, as the robot
+    standing on it sees the world in Gazebo.
+    """
+    grounds = [plane for plane in planes if abs(plane.z) <= GROUND_TOP_M]
+    if not grounds:
+        return 0.0, next((plane.size for plane in planes), None)
+    floor = max(grounds, key=lambda plane: plane.z)
+    return floor.z, floor.size
 
 
 def _without_file(message: str, path: Path) -> str:
