@@ -3,10 +3,13 @@ A run's video: an H.264 MP4 that decodes, at simulated time, with the terminal a
 
 The runs are real (scan_ahead in the obstacles world, a few simulated seconds); the videos are
 decoded with the FFmpeg imageio-ffmpeg ships, and their frames compared with frames drawn
-without the part under test (the names, a console line).
+without the part under test (the names, a console line). The robot is drawn where it was: the
+bag's odometry mapped by the start pose the test computes itself (issue 32: counterclockwise
+runs, the world's start turned round, were drawn rotated 180 degrees about their start).
 """
 
 import json
+import math
 import os
 from pathlib import Path
 import subprocess
@@ -23,9 +26,10 @@ from sim_bridge.live.lab_tasks import video_name
 from sim_bridge.media import terminal_text, video
 from sim_bridge.media.terminal_text import LogLine, terminal_rows
 from sim_bridge.media.video import (
-    BANNER_HEIGHT, FRAME_HEIGHT, FRAME_WIDTH, FrameRenderer, load_footage, render_video,
-    VideoError, WORLD_WIDTH)
+    BANNER_HEIGHT, FRAME_HEIGHT, FRAME_WIDTH, FrameRenderer, load_footage, read_recording,
+    render_video, VideoError, WORLD_WIDTH)
 from sim_bridge.runner.run import run_simulation
+from sim_bridge.simulation.world import World
 
 FIXTURES = Path(__file__).parent / 'fixtures'
 DURATION_S = 3.0
@@ -389,3 +393,77 @@ def test_a_long_run_is_sped_up_to_a_video_of_two_minutes_unless_told():
     assert lab_video.video_speed(76.2, None) == 1.0
     assert lab_video.video_speed(180.0, None) == 1.5
     assert lab_video.video_speed(180.0, 4.0) == 4.0
+
+
+PATH_DURATION_S = 6.0
+PATH_WORLD = 'wall_follow_box'
+#: The world's own start (x m, y m, yaw rad), turned round: the counterclockwise start.
+PATH_WORLD_START = World.load(PATH_WORLD).robot_start
+MIRRORED = (PATH_WORLD_START[0], PATH_WORLD_START[1], PATH_WORLD_START[2] + math.pi)
+
+
+def odometry_in_world(out_dir: Path, start: tuple[float, float, float]) -> np.ndarray:
+    """Return the bag's /odom (N, 2: x m, y m) mapped into the world by ``start``."""
+    (_, odometry), _, _ = read_recording(out_dir / 'run')
+    x0, y0, yaw0 = start
+    cos_yaw, sin_yaw = math.cos(yaw0), math.sin(yaw0)
+    return np.column_stack((x0 + cos_yaw * odometry[:, 0] - sin_yaw * odometry[:, 1],
+                            y0 + sin_yaw * odometry[:, 0] + cos_yaw * odometry[:, 1]))
+
+
+def drawn_robot_centre(frame: np.ndarray, tolerance: int = 2) -> np.ndarray:
+    """
+    Return the centre (column, row px of the world pane) of the robot drawn in a frame.
+
+    ``tolerance``: how far (0-255 a channel) a pixel's colour may be from ROBOT_COLOUR (a
+    decoded video's colours are the encoder's approximation).
+    """
+    pane = frame[BANNER_HEIGHT:, :WORLD_WIDTH].astype(int)
+    robot = np.all(np.abs(pane - video.ROBOT_COLOUR) <= tolerance, axis=2)
+    rows, columns = np.nonzero(robot)
+    assert len(rows) > 20, 'no robot drawn'
+    return np.array([columns.mean(), rows.mean()])
+
+
+def assert_drawn_where_it_was(out_dir: Path, footage: video.Footage,
+                              start: tuple[float, float, float]) -> None:
+    """Check the path and the robot drawn against the odometry mapped by ``start``."""
+    expected = odometry_in_world(out_dir, start)
+    assert np.hypot(*(expected[-1] - expected[0])) > 1.0  # the robot went somewhere
+    np.testing.assert_allclose(footage.poses[:, :2], expected, atol=1e-6)
+    renderer = FrameRenderer(footage, 'Ada Lovelace 100001')
+    for t in (1.0, PATH_DURATION_S / 2, PATH_DURATION_S):
+        index = max(int(np.searchsorted(footage.pose_t, t, side='right')) - 1, 0)
+        (column, row), = renderer.world.pixels(expected[index:index + 1])
+        centre = drawn_robot_centre(renderer.frame(t))
+        # Within a few pixels (the white nose line covers part of the outline's fill).
+        assert np.hypot(centre[0] - column, centre[1] - row) < 4.0, (t, centre, column, row)
+
+
+@pytest.mark.parametrize('start, pose', [('mirrored', MIRRORED),
+                                         ((0.0, 1.1, 2.5), (0.0, 1.1, 2.5))],
+                         ids=['counterclockwise', 'any_yaw'])
+def test_a_runs_video_draws_the_robot_where_its_odometry_says_it_was(tmp_path, start, pose):
+    out = tmp_path / 'run'
+    run_simulation(PATH_WORLD, ['wall_follow'], duration_s=PATH_DURATION_S, seed=1, out_dir=out,
+                   quiet=True, plot=False, start=start,
+                   params={'wall_follow': {'side': 'left', 'speed': 0.3}})
+    assert_drawn_where_it_was(out, load_footage(out), pose)
+
+
+def test_the_graders_video_of_a_counterclockwise_scenario_draws_the_robot_where_it_was(
+        tmp_path):
+    scenario = tmp_path / 'ccw.yaml'
+    scenario.write_text(
+        f'world: {PATH_WORLD}\nnodes: [wall_follow]\nparams:\n  wall_follow: {{side: left}}\n'
+        f'start: mirrored\nduration: {PATH_DURATION_S}\ncriteria: [len(node_errors) == 0]\n')
+    out = tmp_path / 'grade'
+    grade.main([str(scenario), '--out', str(out), '--quiet', '--video', '--names', 'A B'])
+    run_dir = out / 'ccw' / 'seed_0'
+    _, frames = decode(run_dir / video.VIDEO_NAME)
+    expected = odometry_in_world(run_dir, MIRRORED)
+    footage = load_footage(run_dir)
+    # The last frame (the run's end) as the grader's video drew it, decoded.
+    (column, row), = FrameRenderer(footage, '').world.pixels(expected[-1:])
+    centre = drawn_robot_centre(frames[-1], tolerance=40)
+    assert np.hypot(centre[0] - column, centre[1] - row) < 6.0, (centre, column, row)

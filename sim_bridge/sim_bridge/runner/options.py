@@ -229,6 +229,12 @@ def start_pose(world: World, start: Sequence[float] | str | None) -> list[float]
     return [float(value) for value in start]
 
 
+def started_world(world: World, start: Sequence[float] | str | None) -> World:
+    """Return ``world`` with the robot where a run with ``start`` (see start_pose) starts it."""
+    pose = start_pose(world, start)
+    return world if pose is None else world.with_robot_start(*pose)
+
+
 def node_parameters(world: World, params: Params | None, *, seed: int, gui: bool,
                     start: Sequence[float] | str | None, robot: str | None = None) -> Params:
     """
