@@ -191,6 +191,25 @@ def test_a_video_that_cannot_be_written_is_one_line_naming_it(run_dir, tmp_path,
     assert err.startswith(f'error: cannot write {taken}') and err.count('\n') == 1, err
 
 
+@pytest.mark.parametrize('ffmpeg, reason', [
+    ('#!/bin/sh\necho "Unknown encoder \'libx264\'" >&2\nexit 1\n', "Unknown encoder 'libx264'"),
+    ('#!/bin/sh\nexit 1\n', 'exit status 1'),
+    (None, 'cannot start: No such file or directory')], ids=['says', 'silent', 'missing'])
+def test_an_encoder_that_fails_is_one_line_saying_why(run_dir, tmp_path, monkeypatch, capfd,
+                                                      ffmpeg, reason):
+    executable = tmp_path / 'ffmpeg'
+    if ffmpeg is not None:
+        executable.write_text(ffmpeg)
+        executable.chmod(0o755)
+    monkeypatch.setenv('IMAGEIO_FFMPEG_EXE', str(executable))
+    target = tmp_path / 'run.mp4'
+    assert video_command.main([str(run_dir), '-o', str(target)]) == 2
+    err = capfd.readouterr().err
+    assert err.startswith('error: the video encoder') and err.count('\n') == 1, err
+    assert reason in err and not target.exists()
+    assert not list(tmp_path.glob('.*.partial.mp4'))
+
+
 def test_the_runner_writes_the_video_it_is_asked_for(tmp_path, capfd):
     target = tmp_path / 'labscan_task1.mp4'
     status = run_main(['--world', 'obstacles', '--node', 'scan_ahead', '--duration', '2',
@@ -286,16 +305,31 @@ def test_a_lab_task_is_named_or_numbered_as_the_handout_numbers_it(text, task):
     assert video_name(task) == f'labscan_task{HANDOUT[task]}.mp4'
 
 
-def test_lab_video_writes_the_handouts_video_of_a_task(tmp_path, monkeypatch, capfd):
+def test_lab_video_of_the_kits_node_says_so_in_the_picture_and_carries_no_names(
+        tmp_path, monkeypatch, capfd):
     monkeypatch.chdir(tmp_path)
-    assert lab_video.main(['1', '--names', NAMES, '--speed', '2']) == 0
+    assert lab_video.main(['1', '--speed', '2']) == 0
     meta, frames = decode(tmp_path / 'labscan_task1.mp4')
-    metrics = json.loads((tmp_path / 'out' / 'video' / 'scan_ahead' / 'metrics.json').read_text())
+    out = tmp_path / 'out' / 'video' / 'scan_ahead'
+    metrics = json.loads((out / 'metrics.json').read_text())
     assert len(frames) == round(metrics['sim_time_s'] / 2 * video.DEFAULT_FPS)
     assert 'labscan_task1.mp4' in capfd.readouterr().out
-    with pytest.raises(SystemExit):
-        lab_video.main(['9', '--names', NAMES])
-    assert "'9': a lab task is one of" in capfd.readouterr().err
+    # Every frame's banner says whose node it is: the kit's label, not a student's names.
+    renderer = FrameRenderer(load_footage(out, teleop=True), lab_video.KIT_BANNER, speed=2.0)
+    banner = np.s_[:BANNER_HEIGHT, :WORLD_WIDTH]
+    times = video.frame_times(metrics['sim_time_s'], 2.0, video.DEFAULT_FPS)
+    for index in (0, len(frames) - 1):
+        labelled = renderer.frame(times[index])[banner]
+        unlabelled = renderer.frame(times[index], names=False)[banner]
+        assert difference(frames[index][banner], labelled) < difference(
+            frames[index][banner], unlabelled) / 4
+    # Students' names on a video of the kit's node are refused, in one line, before any run.
+    with pytest.raises(SystemExit) as exited:
+        lab_video.main(['1', '--names', NAMES, '--out', str(tmp_path / 'refused')])
+    err = capfd.readouterr().err
+    assert exited.value.code == 2 and err.count('\n') == 1
+    assert err.startswith("error: --names without --node: a video of the kit's reference node")
+    assert not (tmp_path / 'refused').exists()
 
 
 def test_names_too_long_for_one_line_are_made_smaller_or_wrapped_never_cut():

@@ -209,7 +209,8 @@ def load_world(world: str, robot: str | None = None,
     spawned in it instead of the world's own robot, at ``start`` when that is a pose (x m, y m,
     yaw rad), else at the world's robot start; as the bridge's ``robot`` parameter does.
     """
-    pose = None if start is None or isinstance(start, str) else start
+    # Without a robot the start is checked and set by start_pose, whose error names it.
+    pose = None if start is None or isinstance(start, str) or robot is None else start
     try:
         return World.load(find_world(world), robot=robot, robot_pose=pose)
     except (FileNotFoundError, WorldError) as error:

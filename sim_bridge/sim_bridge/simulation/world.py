@@ -296,7 +296,9 @@ class World:
         """Return with_robot_start(*pose), WorldError when ``pose`` is not (x m, y m, yaw rad)."""
         try:
             return self.with_robot_start(*pose)
-        except (TypeError, ValueError):
+        except WorldError:
+            raise
+        except (TypeError, ValueError):  # not three numbers
             raise WorldError(self._label(), 'robot', 'pose',
                              f'must be (x, y, yaw), got {pose!r}') from None
 
