@@ -530,3 +530,11 @@ def test_a_node_that_raises_mid_run_ends_the_run_naming_it():
     assert any(line.startswith('[INFO] [sim_bridge-1]: process has finished cleanly')
                for line in lines)
     assert lines[-1].startswith('[ERROR] [live]: raiser-2 ended before the run did')
+
+
+def test_a_live_recording_traces_the_robot_from_the_pose_it_was_spawned_at(tmp_path):
+    """Issue 32: without --robot, --robot-pose was lost, the trace drawn from the world's start."""
+    from sim_bridge.live.live_record import LiveRecorder
+    pose = (0.0, 1.0, 2.5)
+    recorder = LiveRecorder(tmp_path, {}, world='wall_follow_box', robot_pose=pose)
+    assert recorder.world.robot_start == pytest.approx(pose)

@@ -3,10 +3,13 @@ A run's video: an H.264 MP4 that decodes, at simulated time, with the terminal a
 
 The runs are real (scan_ahead in the obstacles world, a few simulated seconds); the videos are
 decoded with the FFmpeg imageio-ffmpeg ships, and their frames compared with frames drawn
-without the part under test (the names, a console line).
+without the part under test (the names, a console line). The robot is drawn where it was: the
+bag's odometry mapped by the start pose the test computes itself (issue 32: counterclockwise
+runs, the world's start turned round, were drawn rotated 180 degrees about their start).
 """
 
 import json
+import math
 import os
 from pathlib import Path
 import subprocess
@@ -23,9 +26,10 @@ from sim_bridge.live.lab_tasks import video_name
 from sim_bridge.media import terminal_text, video
 from sim_bridge.media.terminal_text import LogLine, terminal_rows
 from sim_bridge.media.video import (
-    BANNER_HEIGHT, FRAME_HEIGHT, FRAME_WIDTH, FrameRenderer, load_footage, render_video,
-    VideoError, WORLD_WIDTH)
+    BANNER_HEIGHT, FRAME_HEIGHT, FRAME_WIDTH, FrameRenderer, load_footage, read_recording,
+    render_video, VideoError, WORLD_WIDTH)
 from sim_bridge.runner.run import run_simulation
+from sim_bridge.simulation.world import World
 
 FIXTURES = Path(__file__).parent / 'fixtures'
 DURATION_S = 3.0
@@ -187,6 +191,25 @@ def test_a_video_that_cannot_be_written_is_one_line_naming_it(run_dir, tmp_path,
     assert err.startswith(f'error: cannot write {taken}') and err.count('\n') == 1, err
 
 
+@pytest.mark.parametrize('ffmpeg, reason', [
+    ('#!/bin/sh\necho "Unknown encoder \'libx264\'" >&2\nexit 1\n', "Unknown encoder 'libx264'"),
+    ('#!/bin/sh\nexit 1\n', 'exit status 1'),
+    (None, 'cannot start: No such file or directory')], ids=['says', 'silent', 'missing'])
+def test_an_encoder_that_fails_is_one_line_saying_why(run_dir, tmp_path, monkeypatch, capfd,
+                                                      ffmpeg, reason):
+    executable = tmp_path / 'ffmpeg'
+    if ffmpeg is not None:
+        executable.write_text(ffmpeg)
+        executable.chmod(0o755)
+    monkeypatch.setenv('IMAGEIO_FFMPEG_EXE', str(executable))
+    target = tmp_path / 'run.mp4'
+    assert video_command.main([str(run_dir), '-o', str(target)]) == 2
+    err = capfd.readouterr().err
+    assert err.startswith('error: the video encoder') and err.count('\n') == 1, err
+    assert reason in err and not target.exists()
+    assert not list(tmp_path.glob('.*.partial.mp4'))
+
+
 def test_the_runner_writes_the_video_it_is_asked_for(tmp_path, capfd):
     target = tmp_path / 'labscan_task1.mp4'
     status = run_main(['--world', 'obstacles', '--node', 'scan_ahead', '--duration', '2',
@@ -282,16 +305,31 @@ def test_a_lab_task_is_named_or_numbered_as_the_handout_numbers_it(text, task):
     assert video_name(task) == f'labscan_task{HANDOUT[task]}.mp4'
 
 
-def test_lab_video_writes_the_handouts_video_of_a_task(tmp_path, monkeypatch, capfd):
+def test_lab_video_of_the_kits_node_says_so_in_the_picture_and_carries_no_names(
+        tmp_path, monkeypatch, capfd):
     monkeypatch.chdir(tmp_path)
-    assert lab_video.main(['1', '--names', NAMES, '--speed', '2']) == 0
+    assert lab_video.main(['1', '--speed', '2']) == 0
     meta, frames = decode(tmp_path / 'labscan_task1.mp4')
-    metrics = json.loads((tmp_path / 'out' / 'video' / 'scan_ahead' / 'metrics.json').read_text())
+    out = tmp_path / 'out' / 'video' / 'scan_ahead'
+    metrics = json.loads((out / 'metrics.json').read_text())
     assert len(frames) == round(metrics['sim_time_s'] / 2 * video.DEFAULT_FPS)
     assert 'labscan_task1.mp4' in capfd.readouterr().out
-    with pytest.raises(SystemExit):
-        lab_video.main(['9', '--names', NAMES])
-    assert "'9': a lab task is one of" in capfd.readouterr().err
+    # Every frame's banner says whose node it is: the kit's label, not a student's names.
+    renderer = FrameRenderer(load_footage(out, teleop=True), lab_video.KIT_BANNER, speed=2.0)
+    banner = np.s_[:BANNER_HEIGHT, :WORLD_WIDTH]
+    times = video.frame_times(metrics['sim_time_s'], 2.0, video.DEFAULT_FPS)
+    for index in (0, len(frames) - 1):
+        labelled = renderer.frame(times[index])[banner]
+        unlabelled = renderer.frame(times[index], names=False)[banner]
+        assert difference(frames[index][banner], labelled) < difference(
+            frames[index][banner], unlabelled) / 4
+    # Students' names on a video of the kit's node are refused, in one line, before any run.
+    with pytest.raises(SystemExit) as exited:
+        lab_video.main(['1', '--names', NAMES, '--out', str(tmp_path / 'refused')])
+    err = capfd.readouterr().err
+    assert exited.value.code == 2 and err.count('\n') == 1
+    assert err.startswith("error: --names without --node: a video of the kit's reference node")
+    assert not (tmp_path / 'refused').exists()
 
 
 def test_names_too_long_for_one_line_are_made_smaller_or_wrapped_never_cut():
@@ -389,3 +427,77 @@ def test_a_long_run_is_sped_up_to_a_video_of_two_minutes_unless_told():
     assert lab_video.video_speed(76.2, None) == 1.0
     assert lab_video.video_speed(180.0, None) == 1.5
     assert lab_video.video_speed(180.0, 4.0) == 4.0
+
+
+PATH_DURATION_S = 6.0
+PATH_WORLD = 'wall_follow_box'
+#: The world's own start (x m, y m, yaw rad), turned round: the counterclockwise start.
+PATH_WORLD_START = World.load(PATH_WORLD).robot_start
+MIRRORED = (PATH_WORLD_START[0], PATH_WORLD_START[1], PATH_WORLD_START[2] + math.pi)
+
+
+def odometry_in_world(out_dir: Path, start: tuple[float, float, float]) -> np.ndarray:
+    """Return the bag's /odom (N, 2: x m, y m) mapped into the world by ``start``."""
+    (_, odometry), _, _ = read_recording(out_dir / 'run')
+    x0, y0, yaw0 = start
+    cos_yaw, sin_yaw = math.cos(yaw0), math.sin(yaw0)
+    return np.column_stack((x0 + cos_yaw * odometry[:, 0] - sin_yaw * odometry[:, 1],
+                            y0 + sin_yaw * odometry[:, 0] + cos_yaw * odometry[:, 1]))
+
+
+def drawn_robot_centre(frame: np.ndarray, tolerance: int = 2) -> np.ndarray:
+    """
+    Return the centre (column, row px of the world pane) of the robot drawn in a frame.
+
+    ``tolerance``: how far (0-255 a channel) a pixel's colour may be from ROBOT_COLOUR (a
+    decoded video's colours are the encoder's approximation).
+    """
+    pane = frame[BANNER_HEIGHT:, :WORLD_WIDTH].astype(int)
+    robot = np.all(np.abs(pane - video.ROBOT_COLOUR) <= tolerance, axis=2)
+    rows, columns = np.nonzero(robot)
+    assert len(rows) > 20, 'no robot drawn'
+    return np.array([columns.mean(), rows.mean()])
+
+
+def assert_drawn_where_it_was(out_dir: Path, footage: video.Footage,
+                              start: tuple[float, float, float]) -> None:
+    """Check the path and the robot drawn against the odometry mapped by ``start``."""
+    expected = odometry_in_world(out_dir, start)
+    assert np.hypot(*(expected[-1] - expected[0])) > 1.0  # the robot went somewhere
+    np.testing.assert_allclose(footage.poses[:, :2], expected, atol=1e-6)
+    renderer = FrameRenderer(footage, 'Ada Lovelace 100001')
+    for t in (1.0, PATH_DURATION_S / 2, PATH_DURATION_S):
+        index = max(int(np.searchsorted(footage.pose_t, t, side='right')) - 1, 0)
+        (column, row), = renderer.world.pixels(expected[index:index + 1])
+        centre = drawn_robot_centre(renderer.frame(t))
+        # Within a few pixels (the white nose line covers part of the outline's fill).
+        assert np.hypot(centre[0] - column, centre[1] - row) < 4.0, (t, centre, column, row)
+
+
+@pytest.mark.parametrize('start, pose', [('mirrored', MIRRORED),
+                                         ((0.0, 1.1, 2.5), (0.0, 1.1, 2.5))],
+                         ids=['counterclockwise', 'any_yaw'])
+def test_a_runs_video_draws_the_robot_where_its_odometry_says_it_was(tmp_path, start, pose):
+    out = tmp_path / 'run'
+    run_simulation(PATH_WORLD, ['wall_follow'], duration_s=PATH_DURATION_S, seed=1, out_dir=out,
+                   quiet=True, plot=False, start=start,
+                   params={'wall_follow': {'side': 'left', 'speed': 0.3}})
+    assert_drawn_where_it_was(out, load_footage(out), pose)
+
+
+def test_the_graders_video_of_a_counterclockwise_scenario_draws_the_robot_where_it_was(
+        tmp_path):
+    scenario = tmp_path / 'ccw.yaml'
+    scenario.write_text(
+        f'world: {PATH_WORLD}\nnodes: [wall_follow]\nparams:\n  wall_follow: {{side: left}}\n'
+        f'start: mirrored\nduration: {PATH_DURATION_S}\ncriteria: [len(node_errors) == 0]\n')
+    out = tmp_path / 'grade'
+    grade.main([str(scenario), '--out', str(out), '--quiet', '--video', '--names', 'A B'])
+    run_dir = out / 'ccw' / 'seed_0'
+    _, frames = decode(run_dir / video.VIDEO_NAME)
+    expected = odometry_in_world(run_dir, MIRRORED)
+    footage = load_footage(run_dir)
+    # The last frame (the run's end) as the grader's video drew it, decoded.
+    (column, row), = FrameRenderer(footage, '').world.pixels(expected[-1:])
+    centre = drawn_robot_centre(frames[-1], tolerance=40)
+    assert np.hypot(centre[0] - column, centre[1] - row) < 6.0, (centre, column, row)

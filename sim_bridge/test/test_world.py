@@ -137,6 +137,15 @@ def test_with_robot_start_moves_the_robot_but_refuses_an_overlap():
     assert world.with_robot_start(-1000.0, 1000.0, 0.0).robot_start[:2] == (-1000.0, 1000.0)
 
 
+def test_a_robot_pose_without_a_robot_moves_the_worlds_own_robot():
+    """As the bridge's ``robot_pose`` parameter does (a video read the world this way)."""
+    world = World.load('wall_follow_box', robot_pose=(0.0, 1.0, 2.5))
+    assert world.robot_start == pytest.approx((0.0, 1.0, 2.5))
+    assert world.robot_model == World.load('wall_follow_box').robot_model
+    with pytest.raises(WorldError, match=r'must be \(x, y, yaw\)'):
+        World.load('wall_follow_box', robot_pose=(0.0, 1.0))
+
+
 def test_walls_from_segments_and_the_room_helper():
     world = World.from_dict({
         'walls': [{'start': [1, 0], 'end': [1, 4], 'thickness': 0.2, 'height': 0.5},

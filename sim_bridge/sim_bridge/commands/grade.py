@@ -27,6 +27,7 @@ import sysconfig
 import tempfile
 from typing import Any, IO, Sequence
 
+from sim_bridge.common.errors import RunError
 from sim_bridge.common.paths import output_folder, repo_root
 from sim_bridge.common.text import PathNames, printable
 from sim_bridge.grading import class_batch as grade_class, gradescope, html_report, marks
@@ -40,6 +41,7 @@ from sim_bridge.grading.scenario import load_scenarios, Scenario, with_node_over
 from sim_bridge.media.video import render_video, VIDEO_NAME, VideoError
 from sim_bridge.runner.node_sandbox import (
     isolation_line, isolation_warning, node_limits, say_isolation)
+from sim_bridge.runner.options import started_world
 from sim_bridge.simulation.world import World, WorldError
 
 
@@ -279,25 +281,27 @@ def write_videos(jobs: list[GradeJob], reports: list[RunReport], names: str | No
     Write the video of each run that left its outputs (``video.mp4`` in its folder).
 
     Rendered here, after the runs, not in their children: it is the grader's code, bounded by
-    nothing a student's run is. The world is the scenario's and the length what the run's
-    report (``reports``, one per job) says it simulated, at most the scenario's duration:
-    nothing a run could have written in its folder decides what the grader loads or how many
-    frames it draws. A video already newer than its run's metrics is kept; one that cannot be
-    made is a note, not a failed run. ``names``: the banner's text (default: the student's
-    name, the first part of a class batch's job label).
+    nothing a student's run is. The world is the scenario's, its robot at the scenario's start
+    (a 'mirrored' start turned round), and the length what the run's report (``reports``, one
+    per job) says it simulated, at most the scenario's duration: nothing a run could have
+    written in its folder decides what the grader loads or how many frames it draws. A video
+    already newer than its run's metrics is kept; one that cannot be made is a note, not a
+    failed run. ``names``: the banner's text (default: the student's name, the first part of a
+    class batch's job label).
     """
-    worlds: dict[tuple[str, str | None], World | WorldError | OSError] = {}
+    worlds: dict[tuple[str, str | None, str], World | Exception] = {}
     for job, report in zip(jobs, reports):
         metrics, video = job.out_dir / 'metrics.json', job.out_dir / VIDEO_NAME
         if not metrics.is_file() or (video.is_file()
                                      and video.stat().st_mtime >= metrics.stat().st_mtime):
             continue
         scenario = job.run.scenario
-        key = (scenario.world, scenario.robot)
+        key = (scenario.world, scenario.robot, repr(scenario.start))
         if key not in worlds:
-            try:
-                worlds[key] = World.load(scenario.world, robot=scenario.robot)
-            except (WorldError, OSError) as error:
+            try:  # the robot where the run started it: a 'mirrored' start is turned round
+                worlds[key] = started_world(World.load(scenario.world, robot=scenario.robot),
+                                            scenario.start)
+            except (WorldError, OSError, RunError) as error:
                 worlds[key] = error
         banner = names if names is not None else job.label.partition('/')[0] if job.label else ''
         try:

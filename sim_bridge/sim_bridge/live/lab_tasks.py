@@ -33,6 +33,12 @@ TASK_SCENARIOS = {
     'wanderbot': 'wanderbot.yaml',
     'wall_follow': 'wall_follow_box_cw.yaml',
 }
+#: A task whose node loops one way or the other (the handout lets the student choose): the
+#: shipped scenario of each direction, the first the kit's own (TASK_SCENARIOS).
+LOOP_SCENARIOS = {
+    'wall_follow': {'clockwise': 'wall_follow_box_cw.yaml',
+                    'counterclockwise': 'wall_follow_box_ccw.yaml'},
+}
 
 
 def video_name(task: str) -> str:

@@ -23,7 +23,7 @@ from sim_bridge.common.errors import UserInterrupt
 from sim_bridge.common.message_types import message_type_name
 from sim_bridge.common.run_environment import environment_set
 from sim_bridge.runner.node_output import NodeLog, ROSOUT_TOPIC, ROSOUT_TYPE
-from sim_bridge.runner.options import load_world, write_params_file
+from sim_bridge.runner.options import load_world, started_world, write_params_file
 from sim_bridge.runner.outputs import open_outputs, write_outputs
 from sim_bridge.scoring.run_trace import CollisionEvent, Trace
 from sim_bridge.simulation.robot import pose_in_world
@@ -58,7 +58,8 @@ class LiveRecorder:
                  commands: Sequence[str] = (), params: Mapping[str, Mapping] | None = None,
                  real_time_factor: float = 1.0):
         self.out_dir = Path(out_dir)
-        self.world = load_world(world, robot, robot_pose)
+        # The robot where the bridge spawns it: the session's trace is /odom from there.
+        self.world = started_world(load_world(world, robot, robot_pose), robot_pose)
         self.commands = list(commands)
         self.trace = Trace(robot_radius=self.world.robot.radius)
         self.clock_ns = 0

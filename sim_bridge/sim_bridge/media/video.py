@@ -25,16 +25,20 @@ imageio-ffmpeg ships on PyPI. Pure: no rclpy.
 """
 
 from dataclasses import dataclass, field
+from fractions import Fraction
 import json
 import math
 import os
 from pathlib import Path
+import subprocess
+import tempfile
 from typing import Iterator
 
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 import numpy as np
 from PIL import Image, ImageDraw
+from sim_bridge.common.text import first_line
 from sim_bridge.media.plot import _draw_world
 from sim_bridge.media.terminal_text import (
     font, live_stamped, LogLine, teleop_lines, TerminalPane)
@@ -493,26 +497,48 @@ def encode(frames: Iterator[np.ndarray], path: Path, fps: float) -> int:
     """
     Write RGB frames as an H.264 MP4 (yuv420p, faststart); return how many were written.
 
-    Written to a temporary file beside ``path`` and moved there when complete: a video cut off
-    (Ctrl-C, a full disk) never replaces a good one.
+    Encoded by the FFmpeg imageio-ffmpeg ships, to a temporary file beside ``path`` moved there
+    when complete: a video cut off (Ctrl-C, a full disk) never replaces a good one. VideoError
+    with the first line FFmpeg printed (its own reason: a full disk, a missing encoder) when it
+    fails.
     """
     import imageio_ffmpeg
-    partial = path.with_name(f'.{path.name}.partial.mp4')
-    writer = imageio_ffmpeg.write_frames(
-        str(partial), (FRAME_WIDTH, FRAME_HEIGHT), fps=fps, codec='libx264',
-        pix_fmt_out='yuv420p', quality=None, macro_block_size=16, ffmpeg_log_level='error',
-        output_params=['-crf', '23', '-preset', 'veryfast', '-movflags', '+faststart'])
-    count = 0
     try:
-        writer.send(None)
-        for frame in frames:
-            writer.send(np.ascontiguousarray(frame))
-            count += 1
-        writer.close()
-    except BaseException:
-        writer.close()
-        partial.unlink(missing_ok=True)
-        raise
+        ffmpeg = imageio_ffmpeg.get_ffmpeg_exe()
+    except RuntimeError as error:  # neither its wheel's binary nor IMAGEIO_FFMPEG_EXE
+        raise VideoError(f'no video encoder: {first_line(str(error))}') from None
+    partial = path.with_name(f'.{path.name}.partial.mp4')
+    rate = Fraction(fps).limit_denominator(1001)
+    command = [ffmpeg, '-y', '-v', 'error', '-f', 'rawvideo',
+               '-pix_fmt', 'rgb24', '-s', f'{FRAME_WIDTH}x{FRAME_HEIGHT}', '-r', str(rate),
+               '-i', '-', '-an', '-c:v', 'libx264', '-pix_fmt', 'yuv420p', '-crf', '23',
+               '-preset', 'veryfast', '-movflags', '+faststart', str(partial)]
+    count = 0
+    with tempfile.TemporaryFile() as said:
+        try:
+            encoder = subprocess.Popen(command, stdin=subprocess.PIPE,
+                                       stdout=subprocess.DEVNULL, stderr=said)
+        except OSError as error:
+            raise VideoError(f'the video encoder {command[0]} cannot start: '
+                             f'{error.strerror or error}') from None
+        try:
+            for frame in frames:
+                encoder.stdin.write(np.ascontiguousarray(frame, dtype=np.uint8).tobytes())
+                count += 1
+            encoder.stdin.close()
+            status = encoder.wait()
+        except BrokenPipeError:  # it stopped reading: it failed, and says why below
+            status = encoder.wait()
+        except BaseException:
+            encoder.kill()
+            encoder.wait()
+            partial.unlink(missing_ok=True)
+            raise
+        if status != 0:
+            partial.unlink(missing_ok=True)
+            said.seek(0)
+            why = first_line(said.read().decode('utf-8', 'replace')) or f'exit status {status}'
+            raise VideoError(f'the video encoder (FFmpeg) failed: {why}')
     os.replace(partial, path)
     return count
 

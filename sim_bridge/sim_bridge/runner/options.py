@@ -212,7 +212,8 @@ def load_world(world: str, robot: str | None = None,
     spawned in it instead of the world's own robot, at ``start`` when that is a pose (x m, y m,
     yaw rad), else at the world's robot start; as the bridge's ``robot`` parameter does.
     """
-    pose = None if start is None or isinstance(start, str) else start
+    # Without a robot the start is checked and set by start_pose, whose error names it.
+    pose = None if start is None or isinstance(start, str) or robot is None else start
     try:
         return World.load(find_world(world), robot=robot, robot_pose=pose)
     except (FileNotFoundError, WorldError) as error:
@@ -230,6 +231,12 @@ def start_pose(world: World, start: Sequence[float] | str | None) -> list[float]
     except (TypeError, ValueError, WorldError) as error:
         raise RunError(f'start pose {start!r}: {error}') from None
     return [float(value) for value in start]
+
+
+def started_world(world: World, start: Sequence[float] | str | None) -> World:
+    """Return ``world`` with the robot where a run with ``start`` (see start_pose) starts it."""
+    pose = start_pose(world, start)
+    return world if pose is None else world.with_robot_start(*pose)
 
 
 def node_parameters(world: World, params: Params | None, *, seed: int, gui: bool,

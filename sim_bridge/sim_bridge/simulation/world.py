@@ -177,7 +177,8 @@ class World:
 
         ``robot`` (a model name or folder) replaces the world's robot, spawned at
         ``robot_pose`` (x m, y m, yaw rad; default: where the world puts its robot, else the
-        origin) as ``ros_gz_sim create`` does; ``lidar`` names the
+        origin) as ``ros_gz_sim create`` does; without ``robot``, ``robot_pose`` moves the
+        world's own robot there (as the bridge's parameter does); ``lidar`` names the
         robot's lidar sensor to use when it has several (default: its first). Raises
         FileNotFoundError for an unknown world and :class:`WorldError` for a bad file.
         """
@@ -201,11 +202,11 @@ class World:
         else:
             world = cls._load_yaml(path, text, label)
             if lidar is not None and robot is None:  # the YAML world's robot, re-read
-                robot, robot_pose = world.robot.path, world.robot_start
+                robot = world.robot.path
+        pose = world.robot_start if robot_pose is None else tuple(robot_pose)
         if robot is not None:
-            pose = world.robot_start if robot_pose is None else tuple(robot_pose)
-            world = world.with_robot(robot, pose, lidar)
-        return world
+            return world.with_robot(robot, pose, lidar)
+        return world if robot_pose is None else world.with_robot_at(pose)
 
     @classmethod
     def _load_yaml(cls, path: Path, text: str, label: str) -> 'World':
@@ -291,11 +292,17 @@ class World:
         world = replace(self, robot=robot, robot_model=robot.name,
                         sources=tuple(dict.fromkeys(self.sources + robot.sources)),
                         ignored=_ignored_line(self.world_ignored + robot.not_simulated))
+        return world.with_robot_at(pose)
+
+    def with_robot_at(self, pose: Sequence[float]) -> 'World':
+        """Return with_robot_start(*pose), WorldError when ``pose`` is not (x m, y m, yaw rad)."""
         try:
-            return world.with_robot_start(*pose)
-        except TypeError:
-            raise WorldError(label, 'robot', 'pose', f'must be (x, y, yaw), got {pose!r}') \
-                from None
+            return self.with_robot_start(*pose)
+        except WorldError:
+            raise
+        except (TypeError, ValueError):  # not three numbers
+            raise WorldError(self._label(), 'robot', 'pose',
+                             f'must be (x, y, yaw), got {pose!r}') from None
 
     def mirrored_start(self) -> 'World':
         """
