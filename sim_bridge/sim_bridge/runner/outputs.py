@@ -35,7 +35,7 @@ from sim_bridge.simulation.world import World
 
 #: Messages the recorder holds at most before it writes them to the bag.
 HELD_MESSAGES = 100
-#: Bytes of messages a run's recording holds at most (an honest 76 s run: about 12 MiB).
+#: Bytes of messages a run's recording holds at most (an honest 76 s run: about 3 MiB).
 BAG_CAP_BYTES = 64 * 2 ** 20
 #: Bytes of ``log.jsonl`` at most.
 LOG_CAP_BYTES = 32 * 2 ** 20
