@@ -7,6 +7,7 @@ with one line naming the node (or topic) and the cap; the trusted process goes o
 """
 
 from pathlib import Path
+import re
 
 import pytest
 from sim_bridge.runner import boundary_checks
@@ -44,6 +45,15 @@ def test_laserscan_bytes_declared_on_cmd_vel_are_the_nodes_error(tmp_path):
     [error] = metrics['node_errors']
     assert 'uses /cmd_vel as sensor_msgs/msg/LaserScan' in error['error']
     assert '\n' not in error['error']
+
+
+def test_messages_on_topics_never_declared_stop_at_the_cap_of_topics(tmp_path):
+    metrics = run(tmp_path, HOSTILE / 'many_topics.py', record=False)
+    [error] = metrics['node_errors']
+    # /clock, which it hears, is one of its topics too
+    assert re.fullmatch(r'many_topics: at 0 s of sim time, the node process uses /topic_\d+ '
+                        f'beyond the cap of {boundary_checks.MAX_TOPICS} topics per process',
+                        error['error'])
 
 
 def test_a_command_of_megabytes_is_refused_and_never_recorded(tmp_path):
