@@ -7,6 +7,7 @@ is a real child process on real rclpy, with a short stall limit so the batch sta
 """
 
 from dataclasses import replace
+import io
 import os
 from pathlib import Path
 import re
@@ -151,6 +152,25 @@ def test_the_wall_clock_budget_stops_a_run_that_sleeps(tmp_path):
     [error] = report.metrics['node_errors']
     assert error['error'].startswith("wall-clock budget of 4 s used up: node 'misbehaver' did "
                                      'not return from its /scan callback')
+
+
+def test_a_run_out_of_budget_with_little_cpu_is_run_again_never_reused(tmp_path):
+    # Its node waits in the kernel (as a run starved by busy neighbours waits for a CPU): the
+    # budget is not its own doing, and a resumed batch runs it again.
+    jobs = jobs_of(tmp_path, [scenario('starved', str(MISBEHAVING), how='block'),
+                              scenario('passing', 'scan_ahead')])
+    grading = {'limits': Limits(timeout_s=20.0, stall_s=60.0), 'quiet': True, 'record': False,
+               'plot': False}
+    starved, passing = grade_runs(jobs, **grading)
+    [error] = starved.metrics['node_errors']
+    assert error['error'].startswith('wall-clock budget of 20 s used up')
+    assert re.fullmatch(r'it had \d+\.\d s of CPU in its wall-clock budget of 20 s: the '
+                        r'machine was busy, so its result is not kept', starved.rerun)
+    assert passing.passed and passing.rerun is None
+    notes = io.StringIO()
+    again = grade_runs(jobs, progress=BatchProgress(2, stream=notes, enabled=False), **grading)
+    assert [report.reused for report in again] == [False, True]
+    assert again[0].rerun and 'running starved/seed_1 again: it had ' in notes.getvalue()
 
 
 def test_a_node_that_hangs_while_starting_is_stopped_naming_its_constructor(tmp_path):

@@ -17,6 +17,7 @@ import socket
 import subprocess
 import sys
 import tempfile
+import time
 
 import pytest
 
@@ -442,3 +443,32 @@ def test_a_sigkilled_run_reports_its_signal():
         assert process.stdout.readline() == b'up\n'
         box.kill()
         assert process.wait(30) == -signal.SIGKILL
+
+
+def cpu_group(pid: int) -> str | None:
+    """Return the cpu control group of process ``pid`` (v1's cpu line, else v2's), or None."""
+    try:
+        lines = Path(f'/proc/{pid}/cgroup').read_text().splitlines()
+    except OSError:
+        return None
+    groups = {names: path for _, names, path in (line.split(':', 2) for line in lines)}
+    return next((path for names, path in groups.items() if 'cpu' in names.split(',')),
+                groups.get(''))
+
+
+@needs_root
+def test_busy_loops_in_a_new_session_share_one_cpu_group_of_their_run(tmp_path):
+    # Twelve busy loops weigh as one run: the kernel shares the CPUs between runs' groups.
+    with Sandbox(hostile('busy_crowd'), SandboxLimits(cpu_s=60)) as box:
+        if box.cgroup is None or not box.cgroup.cpu:
+            pytest.skip(f'no cgroup cpu controller here: {box.isolation}')
+        with (tmp_path / 'output').open('w+') as output:
+            box.popen([sys.executable, 'busy_crowd.py'], clean_environment(box.scratch),
+                      stdout=output, stderr=subprocess.STDOUT)
+            while 'started' not in Path(output.name).read_text():
+                assert box.alive(), Path(output.name).read_text()
+                time.sleep(0.01)  # a condition waited for, not a pace
+            groups = {pid: cpu_group(pid) for pid in box.alive()}
+    assert len(groups) >= 13 and len(set(groups.values()) - {None}) == 1
+    [group] = set(groups.values()) - {None}
+    assert group != cpu_group(os.getpid()) and 'a fair share of the CPU' in box.isolation

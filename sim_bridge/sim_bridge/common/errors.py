@@ -26,6 +26,14 @@ class RunStopped(BaseException):
     """
 
 
+class OutputsFull(RunStopped):
+    """
+    A run stopped by its own outputs: the disk is full, or its recording reached its cap.
+
+    The text says which, in one line; the run fails with it, and no other run.
+    """
+
+
 class UserInterrupt:
     """
     While the block runs, Ctrl-C (SIGINT) is noted in ``pressed`` and raises KeyboardInterrupt.

@@ -196,10 +196,12 @@ def finished_report(job: GradeJob, digest: str, signer: ResultSigner,
     """
     Return the report of ``job`` from an earlier invocation, if it ran with ``digest``.
 
-    Only a result signed by ``signer`` (the grader's key) is reused. One that is there but is
-    not a result the grader writes is named with ``note`` and its run is run again; one whose
-    signature does not match (edited, or copied from another run's folder) is named too, and
-    raises ResultRefused: it is run again and the batch's report says so.
+    Only a result signed by ``signer`` (the grader's key) is reused, and never one that says
+    it must be run again (:attr:`RunReport.rerun`: a budget it did not use up itself). One
+    that is there but is not a result the grader writes is named with ``note`` and its run is
+    run again; one whose signature does not match (edited, or copied from another run's
+    folder) is named too, and raises ResultRefused: it is run again and the batch's report
+    says so.
     """
     path = job.out_dir / RESULT_NAME
     try:
@@ -225,6 +227,9 @@ def finished_report(job: GradeJob, digest: str, signer: ResultSigner,
         note(f'running {job.name} again: {printable(str(path))} was changed since the grader '
              'wrote it (its signature does not match)')
         raise ResultRefused
+    if report.rerun:
+        note(f'running {job.name} again: {report.rerun}')
+        return None
     report.reused = True
     return report
 

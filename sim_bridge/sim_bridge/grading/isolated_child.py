@@ -37,6 +37,9 @@ PR_SET_PDEATHSIG = 1
 PR_SET_CHILD_SUBREAPER = 36
 #: Rounds of killing what is left below a supervisor: each round kills one more generation.
 CLEANUP_ROUNDS = 100
+#: The share of its wall-clock budget a run's processes must have had in CPU time for its
+#: failure at the budget to be its own (see :func:`not_its_own_budget`).
+OWN_BUDGET_SHARE = 0.5
 
 
 def process_exists(pid: int) -> bool:
@@ -225,11 +228,13 @@ def run_job(job: Job, status: multiprocessing.connection.Connection, scratch: Pa
     # The supervisor ignores SIGABRT; after its dump, faulthandler ends the run with it.
     signal.signal(signal.SIGABRT, signal.SIG_DFL)
     faulthandler.enable()
-    started = False
+    started = out_of_budget = False
 
     def stop(signum: int, frame: Any) -> None:
+        nonlocal out_of_budget
         if signum == signal.SIGUSR1:
             raise RunStopped(f'no reply for {job.limits.stall_limit_s(started):g} s')
+        out_of_budget = True
         raise RunStopped(f'wall-clock budget of {budget_s:g} s used up')
 
     def progress(sim_s: float, duration_s: float) -> None:
@@ -248,7 +253,30 @@ def run_job(job: Job, status: multiprocessing.connection.Connection, scratch: Pa
     signal.signal(signal.SIGUSR1, signal.SIG_IGN)
     signal.signal(signal.SIGUSR2, signal.SIG_IGN)
     report.error = with_memory_limit(report.error)
+    if out_of_budget:
+        report.rerun = not_its_own_budget(tree_cpu_s(), budget_s)
     status.send(('result', report.as_dict()))
+
+
+def tree_cpu_s() -> float:
+    """Return the CPU time (s) of this process and of its descendants that have ended."""
+    return sum(usage.ru_utime + usage.ru_stime for usage in (
+        resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)))
+
+
+def not_its_own_budget(cpu_s: float, budget_s: float) -> str | None:
+    """
+    Say why a run stopped at its wall-clock budget is run again next time, or None.
+
+    A run whose processes had less than OWN_BUDGET_SHARE of its budget in CPU time (``cpu_s``,
+    s) waited for the CPU, not for its own work (lockstep keeps one of its processes busy):
+    the machine was busy (its neighbours' runs, another program), and the failure is not
+    its own. (Where each run has a cpu control group, its neighbours cannot starve it.)
+    """
+    if cpu_s >= OWN_BUDGET_SHARE * budget_s:
+        return None
+    return (f'it had {cpu_s:.1f} s of CPU in its wall-clock budget of {budget_s:g} s: the '
+            'machine was busy, so its result is not kept')
 
 
 def with_memory_limit(error: str | None) -> str | None:

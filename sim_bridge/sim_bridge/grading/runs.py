@@ -54,6 +54,9 @@ class RunReport:
     reused: bool = False
     #: True when an earlier invocation's result was there but changed since (run again).
     refused_saved: bool = False
+    #: Why this result is never reused, but run again: it failed on a wall-clock budget it
+    #: did not use up itself (the machine was busy), or None.
+    rerun: str | None = None
 
     @property
     def passed(self) -> bool:
@@ -101,8 +104,10 @@ class RunReport:
         if problem is not None:
             raise ValueError(problem)
         entry = json_safe(entry)
+        rerun = entry.get('rerun')
         return cls(run, out_dir, [CriterionResult(**result) for result in entry['criteria']],
-                   entry['metrics'], entry['error'], entry['wall_time_s'], entry['traceback'])
+                   entry['metrics'], entry['error'], entry['wall_time_s'], entry['traceback'],
+                   rerun=rerun if isinstance(rerun, str) else None)
 
     def as_dict(self, names: PathNames | None = None) -> dict[str, Any]:
         """
@@ -131,7 +136,7 @@ class RunReport:
             'points': [point.as_dict() for point in self.points],
             'out_dir': names.path(self.out_dir), 'wall_time_s': self.wall_time_s,
             'metrics': self.metrics, 'log': names.path(log) if log.is_file() else None,
-            'reused': self.reused,
+            'reused': self.reused, 'rerun': self.rerun,
         }
         entry['outcome'] = outcome(entry)
         return json_safe(entry, lambda text: cap_text(names(text)))

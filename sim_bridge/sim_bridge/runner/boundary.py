@@ -9,7 +9,8 @@ Nothing of the node's process runs here and nothing it sends is code: frames
 at, and what its nodes are (names, topics, parameter names); and its printed text, read from
 its stdout and stderr. Each message is checked before it is published here: its topic's name,
 its type one of the installed message packages of INTERFACE_PACKAGES, its bytes deserialized as
-that type. Anything else fails that run, with a one-line reason, and nothing else.
+that type, its size within the caps of sim_bridge.runner.boundary_checks (as the graph's).
+Anything else fails that run, with a one-line reason, and nothing else.
 
 Lockstep: the simulator steps physics; after a step that published something a node process
 subscribes to, or reached the ROS time it wakes at, the run sends it ``advance`` (the sim time
@@ -17,7 +18,6 @@ and those messages) and waits for ``idle`` (its messages, its next wake). On the
 nothing crosses. The same seed gives the same messages in the same order.
 """
 
-import math
 import os
 import re
 import selectors
@@ -27,23 +27,18 @@ import sys
 import time
 from typing import Any, Callable, Iterable, Sequence
 
+from sim_bridge.runner.boundary_checks import (
+    allowed_class, checked_graph, MAX_TOPICS, message_refusal, Refused)
 from sim_bridge.runner.frames import (
-    AGENT_KINDS, encode, Frame, FrameDecoder, FrameError, Message, type_name, valid_topic,
-    valid_type)
+    AGENT_KINDS, encode, Frame, FrameDecoder, FrameError, Message, type_name)
 from sim_bridge.runner.hints import topic_type_hint
 from sim_bridge.runner.node_output import StreamLines
 from sim_bridge.runner.node_sandbox import NodeSandbox
 from sim_bridge.runner.sandbox import Sandbox
 from sim_bridge.runner.targets import is_library_frame
 
-#: The message packages whose types may cross the boundary: the ones a lab's nodes use.
-INTERFACE_PACKAGES = frozenset((
-    'std_msgs', 'geometry_msgs', 'sensor_msgs', 'nav_msgs', 'tf2_msgs', 'rosgraph_msgs',
-    'builtin_interfaces', 'visualization_msgs', 'rcl_interfaces', 'diagnostic_msgs'))
 #: ROS's own topics of every node: they stay in the node's process.
 OWN_TOPICS = ('/rosout', '/parameter_events')
-#: Most nodes a process may describe.
-MAX_NODES = 100
 #: Wall seconds a node process may take to start (Python, rclpy, its imports, constructors).
 START_TIMEOUT_S = 60.0
 #: Wall seconds a node process may take to handle one step before the run fails.
@@ -99,37 +94,6 @@ def start_process(sandbox: Sandbox, argv: Sequence[str], env: dict[str, str],
     """Start a node process in ``sandbox``; its stdout and stderr are pipes, its stdin nothing."""
     return sandbox.popen(argv, env, pass_fds=pass_fds, stdin=subprocess.DEVNULL,
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
-
-
-def allowed_class(type_name: str) -> type | None:
-    """Return the message class of ``type_name`` when its package may cross, else None."""
-    from importlib import import_module
-    package, _, kind = type_name.partition('/msg/')
-    if package not in INTERFACE_PACKAGES:
-        return None
-    try:
-        found = getattr(import_module(f'{package}.msg'), kind, None)
-    except ImportError:
-        return None
-    return found if isinstance(found, type) and hasattr(found, 'get_fields_and_field_types') \
-        else None
-
-
-def checked_node(entry: dict) -> dict:
-    """
-    Return one node of a process's graph, each field checked and bounded.
-
-    TypeError, KeyError, ValueError or AttributeError when it is not a node's description.
-    """
-    values = dict(entry.get('values', {}))
-    return {
-        'name': str(entry['name'])[:256], 'namespace': str(entry['namespace'])[:256],
-        'publishes': [(t, n) for t, n in entry['publishes'] if valid_topic(t) and valid_type(n)],
-        'subscribes': [(t, n) for t, n in entry['subscribes']
-                       if valid_topic(t) and valid_type(n)],
-        'parameters': [str(name)[:256] for name in entry['parameters']],
-        'values': {str(name)[:256]: float(value) for name, value in values.items()
-                   if type(value) in (int, float) and math.isfinite(value)}}
 
 
 class Agent:
@@ -366,7 +330,9 @@ class Agent:
     def checked_graph(self, graph: Any) -> list[dict]:
         """Return the process's graph (what its nodes are) if well formed; else fail the run."""
         try:
-            return [checked_node(entry) for entry in graph[:MAX_NODES]]
+            return checked_graph(graph)
+        except Refused as refused:
+            raise self.failure(str(refused)) from None
         except (TypeError, KeyError, ValueError, AttributeError):
             raise self.failure('sent a malformed graph') from None
 
@@ -385,8 +351,9 @@ class Agent:
                 qos = (QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL)
                        if latched else
                        QoSProfile(depth=1000, reliability=ReliabilityPolicy.BEST_EFFORT))
-                self.taps[topic] = self.node.create_subscription(
-                    msg_type, topic, lambda _: None, qos, raw=True)
+                self.taps[topic] = self.created(
+                    topic, name, lambda: self.node.create_subscription(
+                        msg_type, topic, lambda _: None, qos, raw=True))
 
     def update_publishers(self) -> None:
         """
@@ -400,12 +367,24 @@ class Agent:
                 msg_type = allowed_class(name)
                 if topic in self.publishers or topic in OWN_TOPICS or msg_type is None:
                     continue
-                try:
-                    publisher = self.node.create_publisher(msg_type, topic, 1000)
-                except Exception as error:  # noqa: B902 rclpy's RCLError: a second type
-                    raise self.failure(f'publishes {topic} as {name} '
-                                       f'({topic_type_hint(error) or error})') from None
-                self.publishers[topic] = (publisher, msg_type)
+                self.publishers[topic] = (self.created(
+                    topic, name, lambda: self.node.create_publisher(msg_type, topic, 1000)),
+                    msg_type)
+
+    def created(self, topic: str, name: str, create: Callable[[], Any]) -> Any:
+        """
+        Return what ``create()`` makes for ``topic`` (of type ``name``): a tap or a publisher.
+
+        Its failure when the process has MAX_TOPICS already, or when rcl refuses it (a second
+        type on a topic of the run): a node's error, never the trusted side's.
+        """
+        if len(self.taps) + len(self.publishers) >= MAX_TOPICS:
+            raise self.failure(f'uses {topic} beyond the cap of {MAX_TOPICS} topics per process')
+        try:
+            return create()
+        except Exception as error:  # noqa: B902 rclpy's RCLError: a second type
+            raise self.failure(f'uses {topic} as {name} '
+                               f'({topic_type_hint(error) or error})') from None
 
     def taken(self, topics: Iterable[str] | None = None) -> list[Message]:
         """Take the messages published here for the process since the last exchange."""
@@ -437,17 +416,24 @@ class Agent:
                 msg_type = allowed_class(message.type_name)
                 if msg_type is None:
                     continue  # a type of no package the run knows: it stays in its process
-                known = self.publishers[message.topic] = (
-                    self.node.create_publisher(msg_type, message.topic, 1000), msg_type)
+                known = self.publishers[message.topic] = (self.created(
+                    message.topic, message.type_name,
+                    lambda: self.node.create_publisher(msg_type, message.topic, 1000)),
+                    msg_type)
             publisher, msg_type = known
             if type_name(msg_type) != message.type_name:
                 raise self.failure(f'sent {message.topic} as {message.type_name}, a type it '
                                    'did not publish it as')
+            refusal = message_refusal(message.topic, message.type_name, message.data)
             try:
-                msg = deserialize_message(message.data, msg_type)
+                msg = None if refusal else deserialize_message(message.data, msg_type)
             except Exception as error:  # noqa: B902 whatever rclpy raises on bad bytes
                 raise self.failure(f'sent bytes that are not a {message.type_name} on '
                                    f'{message.topic} ({type(error).__name__})') from None
+            refusal = refusal or message_refusal(message.topic, message.type_name,
+                                                 message.data, msg)
+            if refusal:
+                raise self.failure(refusal)
             publisher.publish(msg)
         self.taken({m.topic for m in messages})  # not back to where they came from
 

@@ -216,11 +216,22 @@ def _wall_ns(fields: dict[str, str | None]) -> int | None:
     return None
 
 
-def write_log(path: Path, entries: Iterable[dict]) -> None:
-    """Write ``entries`` to ``path``, one JSON object a line (UTF-8)."""
+def write_log(path: Path, entries: Iterable[dict], max_bytes: int | None = None) -> int:
+    """
+    Write ``entries`` to ``path``, one JSON object a line (UTF-8), ``max_bytes`` at most.
+
+    Return how many entries were left out: those after the first that would pass the cap.
+    """
+    written, left = 0, 0
     with open(path, 'w', encoding='utf-8') as file:
         for entry in entries:
-            file.write(json.dumps(entry, ensure_ascii=False) + '\n')
+            line = json.dumps(entry, ensure_ascii=False) + '\n'
+            written += len(line.encode('utf-8')) if not left else 0
+            if left or (max_bytes is not None and written > max_bytes):
+                left += 1
+                continue
+            file.write(line)
+    return left
 
 
 def write_all(fd: int, data: bytes) -> None:

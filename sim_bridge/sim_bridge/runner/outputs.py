@@ -3,6 +3,12 @@ A run's outputs: what it observed, its recording, and the files it writes when i
 
 ``metrics.json``, ``trajectory.png``, the node log and the rosbag2 recording ``run/`` (MCAP)
 in the run's output folder, opened and closed alike by every run (and a live recording).
+
+Each is bounded: the recording's messages at BAG_CAP_BYTES, the nodes' output at
+sim_bridge.runner.boundary.OUTPUT_CAP_BYTES (and node_output.MAX_LINES lines), kept on /rosout in
+the bag and in ``log.jsonl``, itself LOG_CAP_BYTES at most (a line is kept printable and
+twice: escapes make it longer). A run whose recording reaches its cap, or whose disk is full, ends
+with one line (OutputsFull, RunError), and no other run with it.
 """
 
 import functools
@@ -14,13 +20,13 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 from rclpy.event_handler import SubscriptionEventCallbacks
-from sim_bridge.common.errors import RunError, RunStopped, UserInterrupt
+from sim_bridge.common.errors import OutputsFull, RunError, RunStopped, UserInterrupt
 from sim_bridge.common.message_types import message_type_name
 from sim_bridge.media.plot import plot_trajectory
 from sim_bridge.runner.node_output import (
     LOG_FILE, NodeLog, ROSOUT_TOPIC, ROSOUT_TYPE, to_terminal, write_log)
 from sim_bridge.runner.options import BRIDGE_NODE, RunResult
-from sim_bridge.runner.record import BagRecorder, DEFAULT_TOPICS
+from sim_bridge.runner.record import BagFull, BagRecorder, DEFAULT_TOPICS
 from sim_bridge.runner.ros_graph import RunGraph, Teleop, TELEOP_NODE
 from sim_bridge.scoring.metrics import compute_metrics
 from sim_bridge.scoring.run_trace import CollisionEvent, ScanSnapshot, Trace
@@ -29,11 +35,19 @@ from sim_bridge.simulation.world import World
 
 #: Messages the recorder holds at most before it writes them to the bag.
 HELD_MESSAGES = 100
+#: Bytes of messages a run's recording holds at most (an honest 76 s run: about 3 MiB).
+BAG_CAP_BYTES = 64 * 2 ** 20
+#: Bytes of ``log.jsonl`` at most.
+LOG_CAP_BYTES = 32 * 2 ** 20
 
 
 def close_outputs(warnings: list[str], log: NodeLog, teleop: 'Teleop | None',
                   recorder: 'RunRecorder | None', bag: BagRecorder | None) -> None:
-    """Add the log's and the teleop's warnings to ``warnings``; write the lines to ``bag``."""
+    """
+    Add the log's and the teleop's warnings to ``warnings``; write the lines to ``bag``.
+
+    OutputsFull when the bag cannot be written (see :meth:`RunRecorder.flush`).
+    """
     if log.warning():
         warnings.append(log.warning())
     if teleop is not None:
@@ -41,7 +55,10 @@ def close_outputs(warnings: list[str], log: NodeLog, teleop: 'Teleop | None',
     if bag is not None and recorder is not None:
         recorder.write_log()
         recorder.flush()
-        bag.close()
+        try:
+            bag.close()
+        except OSError as error:  # the index found the disk full
+            raise recorder.stop_recording(error) from None
 
 
 class Observer:
@@ -179,11 +196,33 @@ class RunRecorder:
                 self.flush()
 
     def flush(self) -> None:
-        """Write the messages held to the bag, once it is open."""
+        """
+        Write the messages held to the bag, once it is open.
+
+        OutputsFull when the bag reached its cap or the disk is full: the bag is closed as it
+        is, and nothing more is recorded.
+        """
         if self.bag is not None and self.held:
             held, self.held = self.held, []
-            for topic, type_name, data, t_ns in held:
-                self.bag.write(topic, type_name, data() if callable(data) else data, t_ns)
+            try:
+                for topic, type_name, data, t_ns in held:
+                    self.bag.write(topic, type_name, data() if callable(data) else data, t_ns)
+            except (BagFull, OSError) as error:
+                raise self.stop_recording(error) from None
+
+    def stop_recording(self, error: BagFull | OSError) -> OutputsFull:
+        """Close the bag as it is, record nothing more; return the run's end, in one line."""
+        bag, self.bag, self.held = self.bag, None, None
+        try:
+            bag.close()
+        except OSError:  # a full disk: the MCAP's messages are whole (record.recover)
+            pass
+        if isinstance(error, BagFull):
+            return OutputsFull(f'the run ended at {self.run.bridge.now_ns / 1e9:g} s of sim '
+                               f'time: {error} (its nodes published too much)')
+        why = error.strerror or str(error)
+        return OutputsFull(f'the run ended at {self.run.bridge.now_ns / 1e9:g} s of sim time: '
+                           f'its recording could not be written ({why})')
 
     def record(self, bag: BagRecorder | None) -> None:
         """Write the held messages to ``bag`` and everything sent from now on."""
@@ -201,7 +240,8 @@ def open_outputs(out_dir: Path, params_file: Path, record: bool) -> BagRecorder 
     try:
         out_dir.mkdir(parents=True, exist_ok=True)
         shutil.copyfile(params_file, out_dir / 'params.yaml')
-        return BagRecorder(out_dir / 'run', overwrite=True, sim_clock=True) if record else None
+        return (BagRecorder(out_dir / 'run', overwrite=True, sim_clock=True,
+                            max_bytes=BAG_CAP_BYTES) if record else None)
     except OSError as error:
         raise RunError(f'cannot write to {out_dir}: {error}') from None
 
@@ -220,10 +260,14 @@ def write_outputs(out_dir: Path, observer: Observer, world_model: World,
     ``line`` (sim_bridge.runner.node_output), in the order written; ``commands`` (the command line
     that starts each node, :func:`node_commands`) are kept in the metrics for the run's video;
     ``printed`` as in :func:`run_simulation`. A Ctrl-C while they are written waits for them
-    (``interrupt``); one pressed during the run is raised after them.
+    (``interrupt``); one pressed during the run is raised after them. RunError (one line) when
+    they cannot be written (a full disk).
     """
     try:
-        write_log(out_dir / LOG_FILE, log_lines)
+        left = write_log(out_dir / LOG_FILE, log_lines, LOG_CAP_BYTES)
+        if left:
+            warnings = [*warnings, f'{LOG_FILE} holds the lines that fit its cap of '
+                                   f'{LOG_CAP_BYTES} bytes; {left} more were not written']
         metrics = compute_metrics(observer.finish(), world_model, setpoint=setpoint,
                                   wall_time_s=time.perf_counter() - wall_start,
                                   node_errors=node_errors, log_lines=log_lines,
@@ -237,6 +281,8 @@ def write_outputs(out_dir: Path, observer: Observer, world_model: World,
         if plot:
             plot_trajectory(observer.trace, world_model, out_dir / 'trajectory.png',
                             title=title)
+    except OSError as error:  # a full disk: this run fails, in one line
+        raise RunError(f"cannot write the run's outputs ({error.strerror or error})") from None
     finally:
         interrupt.restore()
     if interrupt.pressed:
@@ -291,7 +337,13 @@ class RunOutputs:
         return self
 
     def __exit__(self, kind, error, traceback) -> bool:
-        close_outputs(self.warnings, self.log, self.teleop, self.recorder, self.bag)
+        try:
+            close_outputs(self.warnings, self.log, self.teleop, self.recorder, self.bag)
+        except OutputsFull as full:  # the last messages found the disk full
+            kind, error = (OutputsFull, full) if kind is None else (kind, error)
+        if kind is not None and issubclass(kind, OutputsFull):
+            self.node_errors.append({'node': BRIDGE_NODE, 'error': str(error)})
+            return True
         if kind is not None and issubclass(kind, KeyboardInterrupt):
             return self.interrupt.pressed  # the user's Ctrl-C: the outputs are written
         if kind is not None and issubclass(kind, RunStopped) and self.opened:

@@ -65,6 +65,10 @@ _CLOCK_TYPE = 'rosgraph_msgs/msg/Clock'
 _NANOSECONDS_PER_SECOND = 1_000_000_000
 
 
+class BagFull(Exception):
+    """A message that would take a bag past its cap (``max_bytes``); the text says so."""
+
+
 class Graph(Protocol):
     """What the recorder asks of the ROS graph: an rclpy Node has it."""
 
@@ -155,12 +159,17 @@ class BagRecorder:
     whichever topics the run's nodes listened to (a stepped run sends /clock only when a node
     hears it, see :meth:`sim_bridge.ros.bridge.SimBridge.step`). A /clock message given at a time
     that has one is not written again: the clock messages of a stepped run hold their time.
+
+    With ``max_bytes``, the messages' bytes in the bag stay within it: a message that would
+    pass it is not written and raises BagFull (the bag stays whole, and can be closed).
     """
 
     def __init__(self, path: str | os.PathLike, topics: Iterable[str] = DEFAULT_TOPICS, *,
                  overwrite: bool = False, sim_clock: bool = False,
-                 graph: Graph | None = None) -> None:
+                 graph: Graph | None = None, max_bytes: int | None = None) -> None:
         self.path = Path(path)
+        self.max_bytes = max_bytes
+        self._bytes = 0
         #: The recorded topics, absolute names.
         self.topics = frozenset(_absolute(topic) for topic in topics)
         self._offers: dict[str, list[dict[str, Any]]] = {}
@@ -256,6 +265,11 @@ class BagRecorder:
         self._add(recorded, t_ns, self._zero_padding(type_name, data))
 
     def _add(self, recorded: _Topic, t_ns: int, data: bytes) -> None:
+        if self.max_bytes is not None:
+            if self._bytes + len(data) > self.max_bytes:
+                raise BagFull(f'its recording reached its cap of {self.max_bytes} bytes of '
+                              'messages')
+            self._bytes += len(data)
         self._writer.add_message(recorded.channel_id, log_time=t_ns, data=data,
                                  publish_time=t_ns, sequence=recorded.message_count)
         recorded.message_count += 1
@@ -345,10 +359,12 @@ class BagRecorder:
             self._closed = True
             self._routes.clear()  # so that write finds the bag closed
             self._graph = None  # the run's node is freed with the run, not with the bag
-            self._writer.add_metadata('rosbag2', {
-                'serialized_metadata': _yaml(self._metadata()), 'ROS_DISTRO': ROS_DISTRO})
-            self._writer.finish()
-            self._file.close()
+            try:
+                self._writer.add_metadata('rosbag2', {
+                    'serialized_metadata': _yaml(self._metadata()), 'ROS_DISTRO': ROS_DISTRO})
+                self._writer.finish()
+            finally:  # a full disk: the file is closed all the same
+                self._file.close()
             self._write_metadata()
 
     def __enter__(self) -> 'BagRecorder':

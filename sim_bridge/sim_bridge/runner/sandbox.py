@@ -405,7 +405,8 @@ class Sandbox:
         except OSError as error:
             return f'{per_process} (no cgroup: {error})'
         return (f'{self.cgroup.kind}: memory {self.limits.memory_bytes // 2 ** 20} MiB and '
-                f'{self.limits.pids} processes for the whole run')
+                f'{self.limits.pids} processes for the whole run'
+                + (', a fair share of the CPU' if self.cgroup.cpu else ''))
 
     def describe(self, memory: str) -> str:
         """Return :attr:`isolation`'s line, from the mode and how memory is held."""

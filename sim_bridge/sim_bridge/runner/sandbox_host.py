@@ -4,7 +4,7 @@ What the machine gives each sandbox (sim_bridge.runner.sandbox): an identity, gr
 - :class:`UidLease`: a dedicated uid (and gid) per concurrent run when the grader is root,
   leased machine-wide with a lock file in a root-only folder; :func:`kill_uid` ends every
   process of it.
-- :class:`RunCgroup`: the memory and pids control groups of a run's whole tree (root only).
+- :class:`RunCgroup`: the memory, pids and cpu control groups of a run's whole tree (root only).
 - :func:`unreachable_by_others` and :func:`close_to_runs`: what a run without namespaces (its
   uid alone) can read of the host's files, and the kit's answers made unreadable to it.
 - :func:`grader_folder`: this grader's scratch parent, whose lock file the grader holds while
@@ -37,6 +37,9 @@ SCRATCH_PREFIX = 'lab-sandbox-'
 LOCK_SUFFIX = '.lock'
 #: Where the kernel's control groups are mounted.
 CGROUP_ROOT = Path('/sys/fs/cgroup')
+#: The CPU weight of every run's group (v2's default weight, v1's default shares).
+CPU_WEIGHT = 100
+CPU_SHARES = 1024
 #: The shell script that writes its pid into each file named before ``--``, then executes
 #: what follows (exit status 125 when it cannot).
 JOIN_SCRIPT = ('while [ "$1" != -- ]; do echo $$ > "$1" || exit 125; shift; done; shift; '
@@ -251,14 +254,21 @@ class RunCgroup:
     cgroup v2 where ``/sys/fs/cgroup`` is unified with the memory and pids controllers (a
     ``lab-sandbox`` group at its top, runs below); else v1's memory and pids hierarchies,
     below this grader's own groups. Root only: OSError when neither can be made.
+
+    And its share of the CPU where the kernel has the cpu controller (``cpu``: True): every
+    run's group has the same weight (CPU_WEIGHT, v1's CPU_SHARES), so the kernel shares the
+    CPUs fairly between runs, however many processes each one starts: twelve busy loops
+    weigh as much as a run's one node process.
     """
 
     def __init__(self, name: str, memory_bytes: int, pids: int) -> None:
         self.folders: list[Path] = []
+        self.cpu = False
         try:
-            if {'memory', 'pids'} <= set(read_words(CGROUP_ROOT / 'cgroup.controllers')):
+            controllers = set(read_words(CGROUP_ROOT / 'cgroup.controllers'))
+            if {'memory', 'pids'} <= controllers:
                 self.kind = 'cgroup v2'
-                self.make_v2(name, memory_bytes, pids)
+                self.make_v2(name, memory_bytes, pids, 'cpu' in controllers)
             else:
                 self.kind = 'cgroup v1'
                 self.make_v1(name, memory_bytes, pids)
@@ -266,17 +276,24 @@ class RunCgroup:
             self.remove()
             raise
 
-    def make_v2(self, name: str, memory_bytes: int, pids: int) -> None:
+    def make_v2(self, name: str, memory_bytes: int, pids: int, cpu: bool) -> None:
         """Make the run's v2 group, with the controllers enabled on the way down."""
         parent = CGROUP_ROOT / 'lab-sandbox'
         parent.mkdir(exist_ok=True)
         for folder in (CGROUP_ROOT, parent):
             (folder / 'cgroup.subtree_control').write_text('+memory +pids')
+        try:  # best effort: the kernel refuses it beside a realtime process
+            for folder in (CGROUP_ROOT, parent) if cpu else ():
+                (folder / 'cgroup.subtree_control').write_text('+cpu')
+        except OSError:
+            cpu = False
         self.make(parent / name, {'memory.max': memory_bytes, 'pids.max': pids,
-                                  'memory.swap.max': 0})
+                                  'memory.swap.max': 0, **({'cpu.weight': CPU_WEIGHT}
+                                                           if cpu else {})})
+        self.cpu = cpu
 
     def make_v1(self, name: str, memory_bytes: int, pids: int) -> None:
-        """Make the run's groups in v1's memory and pids hierarchies."""
+        """Make the run's groups in v1's memory and pids hierarchies (and cpu's, if mounted)."""
         memory, pids_folder = v1_folder('memory'), v1_folder('pids')
         if memory is None or pids_folder is None:
             raise OSError(errno.ENOENT, 'no cgroup v2 with memory and pids controllers, nor '
@@ -284,6 +301,13 @@ class RunCgroup:
         self.make(memory / name, {'memory.limit_in_bytes': memory_bytes,
                                   'memory.memsw.limit_in_bytes': memory_bytes})
         self.make(pids_folder / name, {'pids.max': pids})
+        cpu = v1_folder('cpu')
+        try:  # best effort: a cpu hierarchy this grader may not write to
+            if cpu is not None:
+                self.make(cpu / name, {'cpu.shares': CPU_SHARES})
+                self.cpu = True
+        except OSError:
+            pass
 
     def make(self, folder: Path, values: Mapping[str, int]) -> None:
         """

@@ -15,7 +15,7 @@ import resource
 import traceback
 from typing import Any, Callable, Iterable, Iterator, Sequence
 
-from sim_bridge.common.errors import RunError, RunStopped
+from sim_bridge.common.errors import OutputsFull, RunError, RunStopped
 from sim_bridge.runner import boundary
 from sim_bridge.runner.boundary import Agent, AgentFailure, AgentStartError, Lockstep
 from sim_bridge.runner.node_output import NodeLog, StreamLines, to_terminal
@@ -216,7 +216,7 @@ class LockstepRun:
         try:
             self.step_to(end_ns, step_ns, on_step)
         except RunStopped as stop:  # the grader's watchdog: a node's code, if it was its turn
-            if lockstep.current is None:
+            if lockstep.current is None or isinstance(stop, OutputsFull):
                 raise
             raise AgentFailure(f'{stop}: {lockstep.current.where_stuck()}',
                                lockstep.current.running) from None
