@@ -179,7 +179,7 @@ class ClassBatch:
             {student: page for student, page in pages.items() if page.is_file()}, marks)
         unwritten = write_outputs(writers)
         legend = [f'  {name}: {text}' for name, text in OUTCOME_LEGEND.items()]
-        legend += [f'  {task.rule()}' for task in next(iter(marks.values()), [])
+        legend += [f'  {task.rule(own=False)}' for task in next(iter(marks.values()), [])
                    if task.marks is not None]
         lines = [format_rows(rows), *legend, *(f'note: {note}' for note in notes),
                  *(f'note: {printable(student)}: {note}'
