@@ -1,6 +1,7 @@
 """
-A class as a TA reads it (issue 32): the file each student meant, reasons in full, a page a
-1280 px screen shows, each student's own legend, and Gradescope's tests beside the score.
+A class as a TA reads it (issue 32): the file meant, reasons in full, a column per task.
+
+A 1280 px screen shows the class page; each student has their own legend.
 
 The class here is graded up to its runs (:class:`ClassBatch` finds the files and fails the
 missing ones); the runs themselves are given their reports, as a grading would, so the pages

@@ -215,8 +215,10 @@ def reason(entry: dict[str, Any]) -> str:
 
 def error_reason(error: str) -> str:
     """
-    Return a run's error as a reason: its first line, cut to REASON_CHARS unless it is one of
-    the grader's about the submission's files (FILE_ERRORS: one bounded line, kept whole).
+    Return a run's error as a reason: its first line, cut to REASON_CHARS.
+
+    The grader's errors about the submission's files (FILE_ERRORS: one bounded line) are kept
+    whole, so every file they name is named in full.
     """
     return first_line(error, None if error.startswith(FILE_ERRORS) else REASON_CHARS)
 

@@ -171,8 +171,8 @@ def results(reports: list[RunReport], scenarios: list[Scenario],
                             [point.why() or f'shown in every run ({point.runs})'])
                       for point in task.points]
             passed = sum(report.passed for report in runs)
-            lines = [f"{passed} of {len(runs)} runs met every criterion of their scenario "
-                     f"(for information: the marks are the points' tests)", task.rule(), '',
+            lines = [f'{passed} of {len(runs)} runs met every criterion of their scenario '
+                     "(for information: the marks are the points' tests)", task.rule(), '',
                      names(table(runs)), *tracebacks(runs, names)]
             tests.append(_test(f'{task.title}: runs (for information)', 0.0, 0.0, None,
                                lines))

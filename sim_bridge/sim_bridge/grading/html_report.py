@@ -135,9 +135,10 @@ def write_runs_page(path: Path, title: str, runs: list[dict], *, up: Path | None
 
     The page opens with the marks (``marks``, per task and point, with why marks were lost),
     and each task's scenarios (runs passed, the worst reason one failed), then a summary line,
-    ``notes`` (e.g. runs reused from an earlier invocation), the runs' warnings (each once, with the number of runs it was in), the pass/fail table (a row per
-    criterion of each run, the error of a run that did not complete) and a section per run
-    with its plot and outputs. ``up`` is the index page to link back to;
+    ``notes`` (e.g. runs reused from an earlier invocation), the runs' warnings (each once,
+    with the number of runs it was in), the pass/fail table (a row per criterion of each run,
+    the error of a run that did not complete) and a section per run with its plot and
+    outputs. ``up`` is the index page to link back to;
     it is linked even if not written yet. Relative paths in ``runs`` are relative to ``root``.
     """
     root = Path(root) if root is not None else Path()
@@ -164,19 +165,21 @@ def _count_cell(runs: list[dict]) -> dict[str, str] | None:
 
 def _task_cell(task: TaskMarks | None, runs: list[dict]) -> dict[str, Any] | None:
     """
-    Return a class page's cell of one task of a student: its marks and the first point lost
-    (with why, and how many more were lost), and the direction marked; for a task without
-    marks, its runs (:func:`_count_cell`). None when the student has no runs of it.
+    Return a class page's cell of one task of a student, None when it has no runs of it.
+
+    Its marks and the first point lost (with why, and how many more were lost), and the
+    direction marked; for a task without marks, its runs (:func:`_count_cell`).
     """
     if task is None or task.marks is None:
         return _count_cell(runs)
     lost = ([f'{point.point}: {point.why()}' for point in task.points if point.lost]
-            or ([] if task.earned >= task.marks else [f'{task.passed} of {task.runs} runs passed']))
+            or ([] if task.earned >= task.marks
+                else [f'{task.passed} of {task.runs} runs passed']))
     return {'marks': (task.earned, task.marks),
             'lost': lost[0] if lost else '',
             'more': f'and {len(lost) - 1} more points lost' if len(lost) > 1 else '',
-            'direction': (f'marked on the {task.direction} starts' if task.direction and task.earned
-                          else '')}
+            'direction': (f'marked on the {task.direction} starts'
+                          if task.direction and task.earned else '')}
 
 
 def write_class_index(path: Path, title: str, students: dict[str, list[dict]],

@@ -67,15 +67,15 @@ class Limits:
 
 def check_memory_limit(memory_bytes: int, shown: str) -> None:
     """
-    Raise ValueError, in one line naming ``shown`` (the option as given), for a memory limit
-    (bytes) a run cannot work in or this machine cannot set.
+    Raise ValueError for a memory limit (bytes) a run cannot work in or the machine cannot set.
 
-    Below LEAST_MEMORY_BYTES no rclpy node starts; above this process's hard address-space
-    limit, less the reserve each process of a run gets, the limit cannot be set.
+    The one line names ``shown`` (the option as given). Below LEAST_MEMORY_BYTES no rclpy
+    node starts; above this process's hard address-space limit, less the reserve each process
+    of a run gets, the limit cannot be set.
     """
     if memory_bytes < LEAST_MEMORY_BYTES:
         raise ValueError(f'{shown} is less than the {LEAST_MEMORY_BYTES / 2 ** 30:g} GiB '
-                         '(256 MiB) an rclpy node needs to run')
+                         f'({LEAST_MEMORY_BYTES / 2 ** 20:g} MiB) an rclpy node needs to run')
     _, hard = resource.getrlimit(resource.RLIMIT_AS)
     highest = (MAX_ADDRESS_SPACE_BYTES if hard == resource.RLIM_INFINITY else hard) \
         - ADDRESS_SPACE_SLACK_BYTES

@@ -181,8 +181,10 @@ def meant_files(found: Found, python: list[tuple[str, Path]], absent: list[str])
 
 def missing_text(absent: list[str], found: Found, wanted: list[str], name: str) -> str:
     """
-    Say which files ``name/`` misses, in one line: the files that could each be one, or all
-    that was found instead (at most LISTED, and how many more), and what is expected.
+    Say in one line which files ``name/`` misses.
+
+    Then the files that could each be one, or all that was found instead (at most LISTED,
+    and how many more), and what is expected.
     """
     several = [f"{', '.join(found.choices[file])} could each be {file}" for file in absent
                if file in found.choices]
