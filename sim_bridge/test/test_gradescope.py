@@ -109,8 +109,8 @@ def fake_wall_follow(world, targets, **options):
                                     'wall_follow': evidence})
 
 
-def test_a_task_marked_by_points_has_a_test_per_point_saying_why_it_was_lost(
-        tmp_path, monkeypatch):
+def graded_by_points(tmp_path, monkeypatch, simulate) -> dict:
+    """Grade a wall follower on box_cw, marked by its points, with ``simulate``: results."""
     folder = tmp_path / 'scenarios'
     folder.mkdir()
     (folder / 'box_cw.yaml').write_text(SCENARIO.format(task=4, marks=3)
@@ -119,11 +119,16 @@ def test_a_task_marked_by_points_has_a_test_per_point_saying_why_it_was_lost(
     submission.mkdir()
     (submission / 'wall_follow.py').write_text('# graded by the stand-in simulator\n')
     monkeypatch.setattr(grade, 'grade_runs', lambda jobs, **options: [
-        run_scenario(job.run, job.out_dir, simulate=fake_wall_follow) for job in jobs])
+        run_scenario(job.run, job.out_dir, simulate=simulate) for job in jobs])
     results = tmp_path / 'results.json'
     grade.main([str(folder), '--submission', str(submission), '--gradescope', str(results),
                 '--out', str(tmp_path / 'out'), '--quiet'])
-    results = json.loads(results.read_text(encoding='utf-8'))
+    return json.loads(results.read_text(encoding='utf-8'))
+
+
+def test_a_task_marked_by_points_has_a_test_per_point_saying_why_it_was_lost(
+        tmp_path, monkeypatch):
+    results = graded_by_points(tmp_path, monkeypatch, fake_wall_follow)
     assert results['score'] == pytest.approx(3 - 1 / 3, abs=1e-4)
     assert [(test['name'], test['score'], test['max_score'], test.get('status'))
             for test in results['tests']] == [
@@ -138,24 +143,11 @@ def test_a_task_marked_by_points_has_a_test_per_point_saying_why_it_was_lost(
 
 def test_no_test_contradicts_the_score_when_the_points_are_earned_and_the_runs_fail(
         tmp_path, monkeypatch):
-    folder = tmp_path / 'scenarios'
-    folder.mkdir()
-    # Every run fails its criteria (laps >= 1: the evidence says -1) and shows every point.
-    (folder / 'box_cw.yaml').write_text(SCENARIO.format(task=4, marks=3)
-                                        + 'points: wall_follow\ndirection: clockwise\n')
-    submission = tmp_path / 'submission'
-    submission.mkdir()
-    (submission / 'wall_follow.py').write_text('# graded by the stand-in simulator\n')
-
-    def careful(world, targets, **options):
+    def careful(world, targets, **options):  # no collision, in every seed
         return fake_wall_follow(world, targets, **dict(options, seed=1))
 
-    monkeypatch.setattr(grade, 'grade_runs', lambda jobs, **options: [
-        run_scenario(job.run, job.out_dir, simulate=careful) for job in jobs])
-    results = tmp_path / 'results.json'
-    grade.main([str(folder), '--submission', str(submission), '--gradescope', str(results),
-                '--out', str(tmp_path / 'out'), '--quiet'])
-    results = json.loads(results.read_text(encoding='utf-8'))
+    # Every run fails its criteria (laps >= 1: the evidence says -1) and shows every point.
+    results = graded_by_points(tmp_path, monkeypatch, careful)
     assert results['score'] == 3.0
     assert sum(test['score'] for test in results['tests']) == results['score']
     for test in results['tests']:  # full marks: a test passes, or is there for information
