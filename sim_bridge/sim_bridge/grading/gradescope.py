@@ -154,9 +154,9 @@ def results(reports: list[RunReport], scenarios: list[Scenario],
     output saying why it was lost, and a test of its runs for information (``task 2: runs
     (for information)``: no score, no status) with their ``table`` (grade's pass/fail
     table). Another task has a test per scenario, named ``task 1: scan_ahead``, scoring its
-    share of its task's marks, passing when it earns them all (a scenario without marks: 0
-    of 0, no status), its output saying why the runs failed, how the task is marked and the
-    runs' ``table``. No test's status contradicts its score. Tests are ordered by task,
+    share of its task's marks (a scenario without marks scores 0 of 0), passing when every
+    run of it passed (so when it earns all its marks), its output saying why the runs failed,
+    how the task is marked and the runs' ``table``. No test's status contradicts its score. Tests are ordered by task,
     without the grader's paths (``names``), each output cut to OUTPUT_LIMIT_BYTES.
     """
     names = StudentNames(names or PathNames({}))
@@ -220,8 +220,9 @@ def _scenario_test(task: TaskMarks, scenario: str, reports: list[RunReport],
         lines.append(f'... and {len(failed) - REASONS_SHOWN} more failed runs')
     lines += [task.rule(), '', names(table(runs))]
     lines += tracebacks(runs, names)
+    # Passed when every run passed: for a scenario with marks, when it earns them all.
     return _test(f'{task.title}: {scenario}', score, maximum,
-                 bool(runs) and score >= maximum if maximum else None, lines)
+                 bool(runs) and passed == len(runs), lines)
 
 
 def tracebacks(reports: list[RunReport], names: PathNames) -> list[str]:
