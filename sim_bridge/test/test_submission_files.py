@@ -154,6 +154,15 @@ def test_a_file_too_large_to_parse_is_matched_by_its_name_only(tmp_path, monkeyp
     assert found.files['wall_follow.py'] == submission / 'wallfollower.py'
 
 
+@pytest.mark.parametrize('source', ['x = ' + '-' * 200_000 + '1', 'a' + '.b' * 100_000,
+                                    '(' * 100_000, '\x00not python'])
+def test_a_file_that_breaks_the_parser_is_matched_by_its_name_and_stops_nothing(
+        tmp_path, source):
+    submission = hand_in(tmp_path / 'sub', {'wall_follower.py': source, 'lab.py': source})
+    found = find_node_files(submission, WANTED, tmp_path / 'scratch')
+    assert found.files == {'wall_follow.py': submission / 'wall_follower.py'}
+
+
 def test_several_files_that_could_be_a_node_are_listed_in_one_line_and_none_graded(tmp_path):
     submission = hand_in(tmp_path / 'sub', {
         'scan_ahead.py': SCAN_AHEAD, 'wall_follower.py': FOLLOWER.format(name='wf'),

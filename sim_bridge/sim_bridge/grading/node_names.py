@@ -118,18 +118,23 @@ def entry_points(tree: ast.Module) -> list[tuple[str, str]]:
             for match in [ENTRY_POINT.fullmatch(constant.value)] if match]
 
 
-def candidates(files: list[tuple[str, Path]], node: str) -> list[Candidate]:
+def syntax_trees(files: list[tuple[str, Path]]) -> dict[Path, ast.Module | None]:
+    """Return the syntax tree of each of the first MAX_PARSED_FILES ``files`` (see parsed)."""
+    return {path: parsed(path) for _, path in files[:MAX_PARSED_FILES]}
+
+
+def candidates(files: list[tuple[str, Path]], node: str,
+               trees: dict[Path, ast.Module | None]) -> list[Candidate]:
     """
     Return the files of ``files`` ((shown path, path), shallowest first) that could be ``node``.
 
     A ``setup.py`` entry point of the node's name decides alone (the module it names, when
     that file is among ``files``); otherwise each file whose name, or a node name it gives,
-    is the node's (:func:`name_keys`), once.
+    is the node's (:func:`name_keys`), once. ``trees``: the files' :func:`syntax_trees`.
     """
     keys = name_keys(node)
     if not keys:
         return []
-    trees = {path: parsed(path) for _, path in files[:MAX_PARSED_FILES]}
     by_path = {path: shown for shown, path in files}
     named = []
     for shown, path in files:

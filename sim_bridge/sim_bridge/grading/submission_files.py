@@ -22,7 +22,7 @@ from typing import BinaryIO
 import zipfile
 
 from sim_bridge.common.text import printable
-from sim_bridge.grading.node_names import candidates
+from sim_bridge.grading.node_names import candidates, syntax_trees
 
 #: Folders no handed-in node is in: colcon's outputs, caches, virtual environments.
 SKIPPED = frozenset({'build', 'install', 'log', '__pycache__', '__MACOSX', 'venv', '.venv',
@@ -165,8 +165,10 @@ def meant_files(found: Found, python: list[tuple[str, Path]], absent: list[str])
     ('graded wall_follower.py as wall_follow (its name)'); several go to ``found.choices``.
     """
     taken = set(found.files.values())
+    trees = syntax_trees(python) if absent else {}
     for name in absent:
-        could_be = [candidate for candidate in candidates(python, PurePosixPath(name).stem)
+        could_be = [candidate for candidate in candidates(python, PurePosixPath(name).stem,
+                                                          trees)
                     if candidate.path not in taken]
         if len(could_be) == 1:
             [chosen] = could_be
