@@ -156,8 +156,9 @@ def results(reports: list[RunReport], scenarios: list[Scenario],
     table). Another task has a test per scenario, named ``task 1: scan_ahead``, scoring its
     share of its task's marks (a scenario without marks scores 0 of 0), passing when every
     run of it passed (so when it earns all its marks), its output saying why the runs failed,
-    how the task is marked and the runs' ``table``. No test's status contradicts its score. Tests are ordered by task,
-    without the grader's paths (``names``), each output cut to OUTPUT_LIMIT_BYTES.
+    how the task is marked and the runs' ``table``. No test's status contradicts its score.
+    Tests are ordered by task, without the grader's paths (``names``), each output cut to
+    OUTPUT_LIMIT_BYTES.
     """
     names = StudentNames(names or PathNames({}))
     entries = [report.as_dict(names) for report in reports]
