@@ -93,12 +93,76 @@ def test_a_huge_node_file_fails_its_student_in_one_line_and_the_class_is_graded(
     done = run_grader(str(scenario), '--submissions', str(submissions), '--out', str(out),
                       *QUICK, memory_bytes=4 * 2 ** 30)
     assert_one_line_errors(done.stderr)
-    assert done.returncode == 0, done.stderr  # a student's failure, not the grader's
+    assert done.returncode == 1, done.stderr  # a failed run, as every failed run is
     rows = (out / CSV_NAME).read_text().splitlines()
     assert rows[1:] == ['ana,0/1 error,0/1 error', 'bob,1/1,1/1'], rows
     [run] = json.loads((out / 'students' / 'ana' / 'report.json').read_text())['runs']
     assert run['error'] == ('node file too big: scan_ahead.py is 3.0 GiB, over the 8.0 MiB a '
                             'node file may be')
+
+
+#: A node that raises in its first scan callback.
+CRASHER = """import rclpy
+from rclpy.node import Node
+from sensor_msgs.msg import LaserScan
+
+
+class Crasher(Node):
+    def __init__(self):
+        super().__init__('scan_ahead')
+        self.create_subscription(LaserScan, 'scan', self.on_scan, 10)
+
+    def on_scan(self, msg):
+        raise RuntimeError('crashed on its first scan')
+
+
+def main(args=None):
+    rclpy.init(args=args)
+    rclpy.spin(Crasher())
+"""
+
+
+@pytest.mark.parametrize('node', ['too big', 'crashes', 'not submitted', 'passes'])
+def test_a_class_exits_1_for_every_kind_of_failed_run_alike(tmp_path, node):
+    """README: 0 when every run passed, 1 when any failed, whatever made it fail."""
+    submissions = tmp_path / 'class'
+    if node == 'too big':
+        class_folder(submissions, ana=None)
+    elif node == 'crashes':
+        crasher = tmp_path / 'crasher.py'
+        crasher.write_text(CRASHER)
+        class_folder(submissions, ana=crasher)
+    elif node == 'not submitted':
+        (submissions / 'ana').mkdir(parents=True)
+    else:
+        class_folder(submissions, ana=MOVER)
+    # It carries marks: a student without its file fails its run (else has none).
+    scenario = scenario_file(tmp_path / 'scenarios', extra='task: 1\nmarks: 1\n')
+    status = grade.main([str(scenario), '--submissions', str(submissions), '--out',
+                         str(tmp_path / 'out'), *QUICK])
+    [row] = (tmp_path / 'out' / CSV_NAME).read_text().splitlines()[1:]
+    assert status == (0 if node == 'passes' else 1), row
+    assert (',1,1/1,' if node == 'passes' else ',0,0/1 ') in row, row
+
+
+@pytest.mark.parametrize('gib', [1, 0.5])
+def test_a_memory_limit_of_1_gib_or_512_mib_runs_an_honest_node(tmp_path, gib):
+    out = tmp_path / 'out'
+    status = grade.main([str(scenario_file(tmp_path)), '--out', str(out), '--memory-limit',
+                         str(gib), '--node-override', str(MOVER), *QUICK])
+    [run] = json.loads((out / grade.REPORT_NAME).read_text())['runs']
+    assert (status, run['error'], run['metrics']['node_errors']) == (0, None, [])
+
+
+def test_a_memory_limit_no_node_can_run_in_is_refused_in_one_line_before_any_run(
+        tmp_path, monkeypatch, capsys):
+    monkeypatch.setattr(grade, 'grade_runs', lambda *args, **options: pytest.fail('ran'))
+    status = grade.main([str(scenario_file(tmp_path)), '--out', str(tmp_path / 'out'),
+                         '--memory-limit', '0.1', *QUICK])
+    [line] = capsys.readouterr().err.splitlines()
+    assert status == 2
+    assert line == ('error: --memory-limit 0.1 GiB is less than the 0.25 GiB (256 MiB) an '
+                    'rclpy node needs to run')
 
 
 def test_absurd_limits_are_refused_in_one_line_before_any_run(tmp_path, monkeypatch, capsys):

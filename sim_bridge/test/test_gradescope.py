@@ -87,7 +87,9 @@ def test_results_score_the_marks_with_a_test_per_scenario_ordered_by_task(
         'b_box/seed_3: laps >= 1', 'task 1: 2 marks x runs passed / 3 runs']
     assert 'laps >= 1' in output and str(tmp_path) not in json.dumps(results)
     assert results['output'].splitlines()[:2] == [
-        'marks 1.67/5 (task 1: 0.67/2, task 4: 1/3)', '2 of 6 runs passed']
+        'marks 1.67/5 (task 1: 0.67/2, task 4: 1/3)',
+        'for information: 2 of 6 runs met every criterion of their scenario (the marks are the '
+        'tests below)']
     assert {test['visibility'] for test in results['tests']} == {'visible'}
     # The summary line and the report show the marks too.
     assert '2 of 6 runs passed, marks 1.67/5 (task 1: 0.67/2, task 4: 1/3)' in \
@@ -107,8 +109,8 @@ def fake_wall_follow(world, targets, **options):
                                     'wall_follow': evidence})
 
 
-def test_a_task_marked_by_points_has_a_test_per_point_saying_why_it_was_lost(
-        tmp_path, monkeypatch):
+def graded_by_points(tmp_path, monkeypatch, simulate) -> dict:
+    """Grade a wall follower on box_cw, marked by its points, with ``simulate``: results."""
     folder = tmp_path / 'scenarios'
     folder.mkdir()
     (folder / 'box_cw.yaml').write_text(SCENARIO.format(task=4, marks=3)
@@ -117,35 +119,56 @@ def test_a_task_marked_by_points_has_a_test_per_point_saying_why_it_was_lost(
     submission.mkdir()
     (submission / 'wall_follow.py').write_text('# graded by the stand-in simulator\n')
     monkeypatch.setattr(grade, 'grade_runs', lambda jobs, **options: [
-        run_scenario(job.run, job.out_dir, simulate=fake_wall_follow) for job in jobs])
+        run_scenario(job.run, job.out_dir, simulate=simulate) for job in jobs])
     results = tmp_path / 'results.json'
     grade.main([str(folder), '--submission', str(submission), '--gradescope', str(results),
                 '--out', str(tmp_path / 'out'), '--quiet'])
-    results = json.loads(results.read_text(encoding='utf-8'))
+    return json.loads(results.read_text(encoding='utf-8'))
+
+
+def test_a_task_marked_by_points_has_a_test_per_point_saying_why_it_was_lost(
+        tmp_path, monkeypatch):
+    results = graded_by_points(tmp_path, monkeypatch, fake_wall_follow)
     assert results['score'] == pytest.approx(3 - 1 / 3, abs=1e-4)
-    assert [(test['name'], test['score'], test['max_score'], test['status'])
+    assert [(test['name'], test['score'], test['max_score'], test.get('status'))
             for test in results['tests']] == [
         ('task 4: loops the object in one direction', 1.0, 1.0, 'passed'),
         ('task 4: keeps the wall at the distance it chose', 1.0, 1.0, 'passed'),
         ('task 4: no collision', pytest.approx(2 / 3, abs=1e-4), 1.0, 'failed'),
-        ('task 4: runs', 0.0, 0.0, 'failed')]
+        ('task 4: runs (for information)', 0.0, 0.0, None)]
     assert results['tests'][2]['output'] == \
         '1 collision(s) (box_cw/seed_2; lost in 1 of 3 runs)'
     assert 'shown in every run (3)' == results['tests'][0]['output']
+
+
+def test_no_test_contradicts_the_score_when_the_points_are_earned_and_the_runs_fail(
+        tmp_path, monkeypatch):
+    def careful(world, targets, **options):  # no collision, in every seed
+        return fake_wall_follow(world, targets, **dict(options, seed=1))
+
+    # Every run fails its criteria (laps >= 1: the evidence says -1) and shows every point.
+    results = graded_by_points(tmp_path, monkeypatch, careful)
+    assert results['score'] == 3.0
+    assert sum(test['score'] for test in results['tests']) == results['score']
+    for test in results['tests']:  # full marks: a test passes, or is there for information
+        assert test.get('status', 'passed') == 'passed', test
+        assert test['score'] == test['max_score'], test
+    assert '0 of 3 runs passed' not in json.dumps(results)
+    assert '0 of 3 runs met every criterion' in results['tests'][-1]['output']
 
 
 def test_a_submission_without_the_node_file_scores_0_saying_which_file(
         tmp_path, monkeypatch, scenarios):
     submission = tmp_path / 'submission'
     submission.mkdir()
-    (submission / 'wallfollow.py').write_text('# misnamed\n')
+    (submission / 'lab_notes.py').write_text('# no node\n')
     status, results = graded(tmp_path, monkeypatch, scenarios, '--submission', submission)
     assert status == 1
     assert results['score'] == 0
     assert [(test['score'], test['max_score'], test['status']) for test in results['tests']] \
         == [(0, 2.0, 'failed'), (0, 3.0, 'failed')]
     assert results['tests'][1]['output'].splitlines()[1].startswith(
-        'a_box/seed_1: not submitted: no wall_follow.py in submission/ (found: wallfollow.py; ')
+        'a_box/seed_1: not submitted: no wall_follow.py in submission/ (found: lab_notes.py; ')
 
 
 @pytest.mark.parametrize('arguments, says', [

@@ -26,6 +26,7 @@ from rosbags.typesys import get_typestore, Stores
 from sim_bridge.commands.run import main
 from sim_bridge.common.errors import RunError, UserInterrupt
 from sim_bridge.grading.scenario import scenario_from_dict
+from sim_bridge.runner.node_sandbox import node_limits
 from sim_bridge.runner.run import run_simulation
 from sim_bridge.simulation.geometry import signed_distance
 from sim_bridge.simulation.world import World
@@ -958,9 +959,11 @@ def test_a_memory_error_while_importing_names_the_memory_limit_and_the_file(tmp_
             run_simulation('obstacles', [str(path)], duration_s=1.0, out_dir=tmp_path / 'out')
     finally:
         resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
+    # The node's limit, which node_limits derives from this process's hard limit.
+    limit = node_limits(1.0).memory_bytes
     assert str(error.value) == (
         f"'{path}' fails to import: MemoryError at {path}:2: TABLE = bytearray(2 ** 37) "
-        f'(memory limit 64 GiB reached while importing {path})')
+        f'(memory limit {limit / 2 ** 30:g} GiB reached while importing {path})')
 
 
 def test_a_node_file_imports_modules_beside_it(tmp_path, run_main):

@@ -17,10 +17,10 @@ the scenario format.
 """
 
 import argparse
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
+import contextlib
 import os
 from pathlib import Path
-import resource
 import signal
 import sys
 import sysconfig
@@ -34,7 +34,8 @@ from sim_bridge.grading import class_batch as grade_class, gradescope, html_repo
 from sim_bridge.grading.batch import BatchProgress, format_table, grade_runs, summary
 from sim_bridge.grading.grader_state import lock_out, OutInUse
 from sim_bridge.grading.limits import (
-    BUDGET_BASE_S, BUDGET_PER_SIM_S, DEFAULT_MEMORY_BYTES, DEFAULT_STALL_S, Limits)
+    BUDGET_BASE_S, BUDGET_PER_SIM_S, check_memory_limit, DEFAULT_MEMORY_BYTES, DEFAULT_STALL_S,
+    Limits)
 from sim_bridge.grading.runs import (
     GradeJob, PAGE_NAME, REPORT_NAME, reuse_notes, RunReport, write_outputs, write_report)
 from sim_bridge.grading.scenario import load_scenarios, Scenario, with_node_overrides
@@ -48,8 +49,6 @@ from sim_bridge.simulation.world import World, WorldError
 DEFAULT_OUT = Path('out') / 'grade'
 #: The kit's folder: the source checkout, or the folder its package is installed in.
 KIT_ROOT = repo_root() or Path(__file__).resolve().parents[1]
-#: The largest address space setrlimit takes (bytes) where the hard limit is unlimited.
-MAX_ADDRESS_SPACE_BYTES = 2 ** 63 - 1
 
 
 def report_names(out: Path, submissions: Path | None = None,
@@ -108,8 +107,8 @@ def build_parser() -> argparse.ArgumentParser:
                         help='wall-clock seconds a run may go without simulated time passing '
                         f'(a node stuck in a callback; default {DEFAULT_STALL_S:g})')
     parser.add_argument('--memory-limit', type=float, default=DEFAULT_MEMORY_BYTES / 2 ** 30,
-                        metavar='GIB', help='address space of each run, in GiB (default '
-                        f'{DEFAULT_MEMORY_BYTES / 2 ** 30:g})')
+                        metavar='GIB', help="memory of each run's nodes, in GiB (default "
+                        f'{DEFAULT_MEMORY_BYTES / 2 ** 30:g}, at least 0.25)')
     parser.add_argument('--fresh', action='store_true',
                         help='run everything again, even runs finished by an earlier invocation')
     parser.add_argument('--quiet', action='store_true',
@@ -132,11 +131,7 @@ def limits_from(args: argparse.Namespace) -> Limits:
         if value is not None and not 0 < value < float('inf'):
             raise ValueError(f"--{name.replace('_', '-')} must be a positive number, got {value}")
     memory_bytes = round(args.memory_limit * 2 ** 30)
-    _, hard = resource.getrlimit(resource.RLIMIT_AS)
-    highest = MAX_ADDRESS_SPACE_BYTES if hard == resource.RLIM_INFINITY else hard
-    if memory_bytes > highest:
-        raise ValueError(f'--memory-limit {args.memory_limit:g} GiB is more than this machine '
-                         f'can set as a limit ({highest / 2 ** 30:g} GiB)')
+    check_memory_limit(memory_bytes, f'--memory-limit {args.memory_limit:g} GiB')
     return Limits(args.timeout, args.stall_timeout, memory_bytes)
 
 
@@ -157,18 +152,10 @@ def check_options(args: argparse.Namespace) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Grade the scenarios named on the command line; return 0 when every run passed."""
+    """Grade the scenarios named on the command line; return its exit status (see status)."""
     args = build_parser().parse_args(argv)
-    if args.gradescope is not None:
-        # Written first and replaced at the end: Gradescope always finds a grade, even when
-        # this process is killed on the way.
-        try:
-            gradescope.write_results(args.gradescope, gradescope.failed_results(
-                'the grading did not finish (stopped, or out of time or memory)'))
-        except OSError as error:
-            print(f'error: --gradescope {args.gradescope}: {error.strerror or error}',
-                  file=sys.stderr)
-            return 2
+    if not first_gradescope_results(args):
+        return 2
     try:
         check_options(args)
         limits = limits_from(args)
@@ -181,12 +168,12 @@ def main(argv: list[str] | None = None) -> int:
         print(f'error: {error}', file=sys.stderr)
         failed_gradescope(args, str(error))
         return 2
-    isolation = isolation_line(node_limits(0.0, limits.memory_bytes))
+    isolation = isolation_line(node_limits(0.0, limits.address_space_bytes))
     try:
         say_isolation(isolation)
     except OSError:  # stderr closed: nothing to say it on
         pass
-    jobs, missing = batch_jobs(args, scenarios, batch)
+    jobs, missing, file_notes = batch_jobs(args, scenarios, batch)
     names = report_names(args.out, args.submissions or args.submission,
                          [scenario.path for scenario in scenarios if scenario.path])
     progress = (gradescope.GradescopeProgress(jobs, missing, scenarios, args.gradescope, names,
@@ -194,9 +181,57 @@ def main(argv: list[str] | None = None) -> int:
                 if args.gradescope is not None else
                 BatchProgress(len(jobs), sum(job.run.scenario.duration_s for job in jobs),
                               enabled=not args.quiet))
-    # SIGTERM (kill, a CI job's timeout) and SIGHUP (the terminal or the ssh session closed)
-    # interrupt as Ctrl-C does; the exit status then says which it was, 128 + the signal's
-    # number, as a shell's for a process killed by it.
+    with interrupted_as_ctrl_c() as interrupted_by:
+        try:
+            reports = grade_runs(jobs, workers=args.jobs, limits=limits, progress=progress,
+                                 resume=not args.fresh, names=names, quiet=False,
+                                 record=not args.no_record, plot=not args.no_plot)
+            if args.video:
+                write_videos(jobs, reports, args.names, progress.note)
+            # Still interruptible: the reports are written again from the runs' saved results.
+            warning = isolation_warning(isolation)
+            status = write_reports(args, batch, in_scenario_order(reports, missing, scenarios),
+                                   names, scenarios, [*([warning] if warning else []),
+                                                      *file_notes])
+            return max(status, 1) if progress.faults else status
+        except KeyboardInterrupt:
+            return stopped(progress, len(jobs), interrupted_by[0])
+        except Exception as error:  # noqa: B902 a grader's bug still leaves Gradescope a grade
+            failed_gradescope(args, f'the grader failed: {type(error).__name__}: {error}')
+            raise
+        finally:
+            out_lock.close()
+
+
+def first_gradescope_results(args: argparse.Namespace) -> bool:
+    """
+    Write Gradescope's results of a grading that did not finish, if asked; False if it cannot.
+
+    Written first and replaced at the end: Gradescope always finds a grade, even when this
+    process is killed on the way.
+    """
+    if args.gradescope is None:
+        return True
+    try:
+        gradescope.write_results(args.gradescope, gradescope.failed_results(
+            'the grading did not finish (stopped, or out of time or memory)'))
+    except OSError as error:
+        print(f'error: --gradescope {args.gradescope}: {error.strerror or error}',
+              file=sys.stderr)
+        return False
+    return True
+
+
+@contextlib.contextmanager
+def interrupted_as_ctrl_c() -> Iterator[list[int]]:
+    """
+    Make SIGTERM and SIGHUP interrupt as Ctrl-C does, while in the block; yield which did.
+
+    SIGTERM (kill, a CI job's timeout) and SIGHUP (the terminal or the ssh session closed)
+    raise KeyboardInterrupt; the list yielded then holds the signal's number (SIGINT for
+    Ctrl-C), so the exit status can say which it was, 128 + the number, as a shell's for a
+    process killed by it. A SIGHUP ignored (nohup) stays ignored.
+    """
     interrupted_by = [signal.SIGINT]
 
     def terminate(signum: int, frame: Any) -> None:
@@ -205,40 +240,35 @@ def main(argv: list[str] | None = None) -> int:
 
     previous = {signum: signal.signal(signum, terminate)
                 for signum in (signal.SIGTERM, signal.SIGHUP)
-                if signal.getsignal(signum) is not signal.SIG_IGN}  # nohup's SIGHUP stays
+                if signal.getsignal(signum) is not signal.SIG_IGN}
     try:
-        reports = grade_runs(jobs, workers=args.jobs, limits=limits, progress=progress,
-                             resume=not args.fresh, names=names, quiet=False,
-                             record=not args.no_record, plot=not args.no_plot)
-        if args.video:
-            write_videos(jobs, reports, args.names, progress.note)
-        if missing:  # one submission's runs in the scenarios' order (a class's: its batch's)
-            order = {scenario.name: index for index, scenario in enumerate(scenarios)}
-            reports = sorted(reports + missing, key=lambda report: (
-                order[report.run.scenario.name],
-                report.run.scenario.seeds.index(report.run.seed)))
-        # Still interruptible: the reports are written again from the runs' saved results.
-        status = write_reports(args, batch, reports, names, scenarios,
-                               [isolation_warning(isolation)] if isolation_warning(isolation)
-                               else [])
-        return max(status, 1) if progress.faults else status
-    except KeyboardInterrupt:
-        stopped = f'the grading was stopped after {progress.done} of {len(jobs)} runs'
-        if isinstance(progress, gradescope.GradescopeProgress):  # the finished runs' tests
-            progress.write_results(stopped, stopped=True)
-        try:
-            print(f'\ninterrupted: {progress.done} of {len(jobs)} runs finished; the same '
-                  'command again resumes from there', file=sys.stderr)
-        except OSError:  # the terminal that was closed (SIGHUP)
-            pass
-        return 128 + interrupted_by[0]
-    except Exception as error:  # noqa: B902 a grader's bug still leaves Gradescope a grade
-        failed_gradescope(args, f'the grader failed: {type(error).__name__}: {error}')
-        raise
+        yield interrupted_by
     finally:
         for signum, handler in previous.items():
             signal.signal(signum, handler)
-        out_lock.close()
+
+
+def in_scenario_order(reports: list[RunReport], missing: list[RunReport],
+                      scenarios: list[Scenario]) -> list[RunReport]:
+    """Return one submission's run ``reports`` and its ``missing`` in the scenarios' order."""
+    if not missing:  # as the batch has them (a class's: its batch's order)
+        return reports
+    order = {scenario.name: index for index, scenario in enumerate(scenarios)}
+    return sorted(reports + missing, key=lambda report: (
+        order[report.run.scenario.name], report.run.scenario.seeds.index(report.run.seed)))
+
+
+def stopped(progress: BatchProgress, jobs: int, signum: int) -> int:
+    """Say that the grading was stopped by ``signum`` and return its exit status, 128 + it."""
+    why = f'the grading was stopped after {progress.done} of {jobs} runs'
+    if isinstance(progress, gradescope.GradescopeProgress):  # the finished runs' tests
+        progress.write_results(why, stopped=True)
+    try:
+        print(f'\ninterrupted: {progress.done} of {jobs} runs finished; the same '
+              'command again resumes from there', file=sys.stderr)
+    except OSError:  # the terminal that was closed (SIGHUP)
+        pass
+    return 128 + signum
 
 
 def locked_out(out: Path) -> IO[bytes]:
@@ -252,15 +282,19 @@ def locked_out(out: Path) -> IO[bytes]:
 
 
 def batch_jobs(args: argparse.Namespace, scenarios: list[Scenario],
-               batch: grade_class.ClassBatch | None) -> tuple[list[GradeJob], list[RunReport]]:
-    """Return the runs to grade, and the failed runs of a submission's missing files."""
+               batch: grade_class.ClassBatch | None) -> grade_class.SubmissionRuns:
+    """
+    Return the runs to grade, the failed runs of a submission's missing files and its notes.
+
+    A class's missing files and notes are its batch's (:class:`grade_class.ClassBatch`).
+    """
     if batch is not None:
-        return batch.jobs, []
+        return grade_class.SubmissionRuns(batch.jobs, [], [])
     if args.submission is not None:
         return grade_class.submission_runs(scenarios, args.submission.resolve(), args.out,
                                            args.submission.resolve().name or 'submission')
-    return [GradeJob(run, args.out / run.name)
-            for scenario in scenarios for run in scenario.runs()], []
+    return grade_class.SubmissionRuns([GradeJob(run, args.out / run.name) for scenario in
+                                       scenarios for run in scenario.runs()], [], [])
 
 
 def failed_gradescope(args: argparse.Namespace, why: str) -> None:
@@ -323,8 +357,13 @@ def write_reports(args: argparse.Namespace, batch: grade_class.ClassBatch | None
     Write and print a finished batch's reports; return the grader's exit status.
 
     ``notes`` come first in every report (how the runs were isolated, when not fully).
+    The status is 0 when every run passed, 1 when any run failed, whatever made it fail (its
+    criteria, a node that raised, a file not submitted or too big to read, a run that could
+    not start), or an output could not be written: a class's runs of missing files count as
+    the runs of the files found do.
     """
-    status = 0 if all(report.passed for report in reports) else 1
+    graded = reports + [report for _, report in batch.missing] if batch is not None else reports
+    status = 0 if all(report.passed for report in graded) else 1
     if batch is not None:
         text, unwritten = batch.write_outputs(reports, names, notes)
         print_out(text)

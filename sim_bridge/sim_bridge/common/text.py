@@ -18,6 +18,9 @@ from typing import Any, Callable
 TEXT_LIMIT_BYTES = 16 * 1024
 #: The most characters of a reason in a progress line or a table cell.
 REASON_CHARS = 80
+#: How the grader's errors about a submission's files begin: a reason shows them whole, so
+#: every file they name is named in full.
+FILE_ERRORS = ('not submitted', 'node file too big')
 #: Run outcomes from the best to the worst (see :func:`outcome`), for a class table cell.
 OUTCOMES = ('passed', 'criteria failed', 'node error', 'error', 'not submitted')
 #: What each failed outcome means, for the legend under a class table.
@@ -176,11 +179,11 @@ def format_measured(criterion: str, value: Any) -> str:
     return str(value)
 
 
-def first_line(text: str, chars: int = REASON_CHARS) -> str:
-    """Return the first non-empty line of ``text``, printable, cut to ``chars`` with '...'."""
+def first_line(text: str, chars: int | None = REASON_CHARS) -> str:
+    """Return the first non-empty line of ``text``, printable, cut to ``chars`` (None: not)."""
     line = next((line.strip() for line in text.split('\n') if line.strip()), '')
     line = printable(line)
-    return line if len(line) <= chars else line[:chars - 3].rstrip() + '...'
+    return line if chars is None or len(line) <= chars else line[:chars - 3].rstrip() + '...'
 
 
 def outcome(entry: dict[str, Any]) -> str:
@@ -200,7 +203,7 @@ def reason(entry: dict[str, Any]) -> str:
     if entry.get('passed'):
         return ''
     if entry.get('error') is not None:
-        return first_line(str(entry['error']))
+        return error_reason(str(entry['error']))
     node_errors = (entry.get('metrics') or {}).get('node_errors') or []
     if node_errors:
         return first_line(str(node_errors[0].get('error')))
@@ -208,6 +211,16 @@ def reason(entry: dict[str, Any]) -> str:
     failed = [result['value'] if isinstance(result.get('value'), str) else result['criterion']
               for result in entry.get('criteria', []) if not result.get('passed')]
     return first_line(', '.join(failed) or 'failed')
+
+
+def error_reason(error: str) -> str:
+    """
+    Return a run's error as a reason: its first line, cut to REASON_CHARS.
+
+    The grader's errors about the submission's files (FILE_ERRORS: one bounded line) are kept
+    whole, so every file they name is named in full.
+    """
+    return first_line(error, None if error.startswith(FILE_ERRORS) else REASON_CHARS)
 
 
 def count_cell(entries: list[dict[str, Any]]) -> tuple[str, str]:

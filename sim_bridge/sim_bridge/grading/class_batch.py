@@ -16,7 +16,7 @@ import csv
 import os
 from pathlib import Path
 import re
-from typing import Sequence
+from typing import NamedTuple, Sequence
 
 from sim_bridge.common.console import text_table
 from sim_bridge.common.text import count_cell, one_line, OUTCOME_LEGEND, PathNames, printable
@@ -60,15 +60,18 @@ class ClassBatch:
         self.scenarios = scenarios
         self.out = out
         self.jobs: list[GradeJob] = []
-        #: Each run's student, and the reports of runs whose node files are missing.
+        #: Each run's student, the reports of runs whose node files are missing, and what
+        #: each student's report says of the files graded (graded wall_follower.py as ...).
         self.student_of: dict[str, str] = {}
         self.missing: list[tuple[str, RunReport]] = []
+        self.file_notes: dict[str, list[str]] = {}
         for student in self.students:
-            jobs, missing = submission_runs(scenarios, self.source_folder(submissions / student),
-                                            self.folder(student), student)
-            self.jobs += jobs
-            self.missing += [(student, report) for report in missing]
-            self.student_of.update({str(job.out_dir): student for job in jobs})
+            runs = submission_runs(scenarios, self.source_folder(submissions / student),
+                                   self.folder(student), student)
+            self.jobs += runs.jobs
+            self.missing += [(student, report) for report in runs.missing]
+            self.file_notes[student] = runs.notes
+            self.student_of.update({str(job.out_dir): student for job in runs.jobs})
 
     def source_folder(self, folder: Path) -> Path:
         """
@@ -163,13 +166,14 @@ class ClassBatch:
         notes = [*notes, *reuse_notes(reports, self.out / STUDENTS_DIR)]
         writers = {}
         for student, runs in students.items():
+            mine = [*notes, *self.file_notes[student]]
             writers[self.folder(student) / REPORT_NAME] = (
-                lambda path, runs=runs, student=student: write_report(
-                    runs, path, names=names, notes=notes, marks=marks[student]))
+                lambda path, runs=runs, student=student, mine=mine: write_report(
+                    runs, path, names=names, notes=mine, marks=marks[student]))
             writers[pages[student]] = (
-                lambda path, student=student: html_report.write_runs_page(
+                lambda path, student=student, mine=mine: html_report.write_runs_page(
                     path, f'Grading report: {student}', entries[student], up=index,
-                    root=self.out, notes=notes, marks=marks[student]))
+                    root=self.out, notes=mine, marks=marks[student]))
         rows = self.table(entries)
         with_points = self.table(entries, points=True)
         writers[self.out / CSV_NAME] = lambda path: write_csv(path, with_points)
@@ -179,9 +183,11 @@ class ClassBatch:
             {student: page for student, page in pages.items() if page.is_file()}, marks)
         unwritten = write_outputs(writers)
         legend = [f'  {name}: {text}' for name, text in OUTCOME_LEGEND.items()]
-        legend += [f'  {task.rule()}' for task in next(iter(marks.values()), [])
+        legend += [f'  {task.rule(own=False)}' for task in next(iter(marks.values()), [])
                    if task.marks is not None]
         lines = [format_rows(rows), *legend, *(f'note: {note}' for note in notes),
+                 *(f'note: {printable(student)}: {note}'
+                   for student, mine in self.file_notes.items() for note in mine),
                  f'class: {printable(os.fspath(self.out / CSV_NAME))} and '
                  f'{printable(os.fspath(index))}; each student: '
                  f'{printable(os.fspath(self.out / STUDENTS_DIR))}/<student>/{PAGE_NAME}']
@@ -191,19 +197,30 @@ class ClassBatch:
         return '\n'.join(lines), unwritten
 
 
+class SubmissionRuns(NamedTuple):
+    """One submission's runs: the jobs to run, the failed runs of missing files, its notes."""
+
+    jobs: list[GradeJob]
+    missing: list[RunReport]
+    #: What its reports say of the files graded ('graded wall_follower.py as wall_follow').
+    notes: list[str]
+
+
 def submission_runs(scenarios: list[Scenario], source: Path, out: Path,
-                    name: str) -> tuple[list[GradeJob], list[RunReport]]:
+                    name: str) -> SubmissionRuns:
     """
-    Return the runs of one submission: the jobs to run, and the failed runs of missing files.
+    Return the runs of one submission: the jobs to run, the failed runs of missing files.
 
     Each scenario's node is replaced by the student's file of the same name
-    (``wall_follow`` by ``wall_follow.py``), found in the folder ``source`` as students hand
-    it in (:func:`sim_bridge.submission_files.find_node_files`: at the top, in a folder, in
-    ``scan_pkg/scan_pkg/``, in a zip, which is unpacked below ``out``); a scenario with a file
-    missing is not run and its runs fail as ``not submitted: no wall_follow.py in <name>/ (found:
-    ...; expected ...)``, unless the scenario carries no marks (an extra task the instructor did
-    not ask for): then the student simply has no runs of it (``-`` in the class table).
-    Outputs go to ``out/<scenario>/seed_<n>``; the progress calls a run ``<name>/<run>``.
+    (``wall_follow`` by ``wall_follow.py``), or the one file meant for it, found in the folder
+    ``source`` as students hand it in (:func:`sim_bridge.submission_files.find_node_files`: at
+    the top, in a folder, in ``scan_pkg/scan_pkg/``, in a zip, which is unpacked below ``out``;
+    ``wall_follower.py``, a file whose node is so named, a ``setup.py`` entry point); a
+    scenario with a file missing is not run and its runs fail as ``not submitted: no
+    wall_follow.py in <name>/ (found: ...; expected ...)``, unless the scenario carries no
+    marks (an extra task the instructor did not ask for): then the student simply has no runs
+    of it (``-`` in the class table). Outputs go to ``out/<scenario>/seed_<n>``; the progress
+    calls a run ``<name>/<run>``.
     """
     wanted = list(dict.fromkeys(f'{target_name(node)}.py' for scenario in scenarios
                                 for node in scenario.nodes))
@@ -228,7 +245,7 @@ def submission_runs(scenarios: list[Scenario], source: Path, out: Path,
                 missing.append(RunReport(run, job.out_dir, [], None, why_not, 0.0))
             else:
                 jobs.append(job)
-    return jobs, missing
+    return SubmissionRuns(jobs, missing, found.notes)
 
 
 def oversized(files: list[Path]) -> str | None:

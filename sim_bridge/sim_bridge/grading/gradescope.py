@@ -151,12 +151,14 @@ def results(reports: list[RunReport], scenarios: list[Scenario],
 
     The score is the marks (:mod:`sim_bridge.grading.marks`). A task marked by the handout's points
     has a test per point, named ``task 2: no collision``, scoring the point's marks, its
-    output saying why it was lost, and a test of its runs (``task 2: runs``, no score) with
-    their ``table`` (grade's pass/fail table). Another task has a test per scenario, named
-    ``task 1: scan_ahead``, scoring its share of its task's marks (a scenario without marks
-    scores 0 of 0), passing when every run of it passed, its output saying why the runs
-    failed, how the task is marked and the runs' ``table``. Tests are ordered by task,
-    without the grader's paths (``names``), each output cut to OUTPUT_LIMIT_BYTES.
+    output saying why it was lost, and a test of its runs for information (``task 2: runs
+    (for information)``: no score, no status) with their ``table`` (grade's pass/fail
+    table). Another task has a test per scenario, named ``task 1: scan_ahead``, scoring its
+    share of its task's marks (a scenario without marks scores 0 of 0), passing when every
+    run of it passed (so when it earns all its marks), its output saying why the runs failed,
+    how the task is marked and the runs' ``table``. No test's status contradicts its score.
+    Tests are ordered by task, without the grader's paths (``names``), each output cut to
+    OUTPUT_LIMIT_BYTES.
     """
     names = StudentNames(names or PathNames({}))
     entries = [report.as_dict(names) for report in reports]
@@ -170,26 +172,36 @@ def results(reports: list[RunReport], scenarios: list[Scenario],
                             [point.why() or f'shown in every run ({point.runs})'])
                       for point in task.points]
             passed = sum(report.passed for report in runs)
-            lines = [f'{passed} of {len(runs)} runs passed', task.rule(), '',
+            lines = [f'{passed} of {len(runs)} runs met every criterion of their scenario '
+                     "(for information: the marks are the points' tests)", task.rule(), '',
                      names(table(runs)), *tracebacks(runs, names)]
-            tests.append(_test(f'{task.title}: runs', 0.0, 0.0, passed == len(runs), lines))
+            tests.append(_test(f'{task.title}: runs (for information)', 0.0, 0.0, None,
+                               lines))
             continue
         for scenario in task.scenarios:
             tests.append(_scenario_test(task, scenario, reports, entries, table, names))
     earned, _ = total(tasks)
     runs_passed = sum(report.passed for report in reports)
     output = [marks_summary(tasks) or 'no scenario carries marks',
-              f'{runs_passed} of {len(reports)} runs passed', *map(printable, notes)]
+              f'for information: {runs_passed} of {len(reports)} runs met every criterion of '
+              'their scenario (the marks are the tests below)', *map(printable, notes)]
     return {'score': round(earned, 4), 'output': '\n'.join(output), 'output_format': 'text',
             'visibility': 'visible', 'tests': tests}
 
 
-def _test(name: str, score: float, maximum: float, passed: bool,
+def _test(name: str, score: float, maximum: float, passed: bool | None,
           lines: list[str]) -> dict[str, Any]:
-    """Return one test of results.json: its marks (rounded), status and output."""
-    return {'name': name, 'score': round(score, 4), 'max_score': round(maximum, 4),
-            'status': 'passed' if passed else 'failed',
+    """
+    Return one test of results.json: its marks (rounded), status and output.
+
+    ``passed`` None: a test for information, with no marks and no status, so that no test
+    contradicts the score (Gradescope shows it neither passed nor failed).
+    """
+    test = {'name': name, 'score': round(score, 4), 'max_score': round(maximum, 4),
             'output': cap_text('\n'.join(lines), OUTPUT_LIMIT_BYTES), 'visibility': 'visible'}
+    if passed is not None:
+        test['status'] = 'passed' if passed else 'failed'
+    return test
 
 
 def _scenario_test(task: TaskMarks, scenario: str, reports: list[RunReport],
@@ -209,6 +221,7 @@ def _scenario_test(task: TaskMarks, scenario: str, reports: list[RunReport],
         lines.append(f'... and {len(failed) - REASONS_SHOWN} more failed runs')
     lines += [task.rule(), '', names(table(runs))]
     lines += tracebacks(runs, names)
+    # Passed when every run passed: for a scenario with marks, when it earns them all.
     return _test(f'{task.title}: {scenario}', score, maximum,
                  bool(runs) and passed == len(runs), lines)
 

@@ -134,14 +134,18 @@ def write_runs_page(path: Path, title: str, runs: list[dict], *, up: Path | None
     Write one page of runs (a student's report, or one grading batch) and return its path.
 
     The page opens with the marks (``marks``, per task and point, with why marks were lost),
-    then a summary line, ``notes`` (e.g. runs reused from an earlier invocation), the runs'
-    warnings (each once, with the number of runs it was in), the pass/fail table (a row per
-    criterion of each run, the error of a run that did not complete) and a section per run
-    with its plot and outputs. ``up`` is the index page to link back to;
+    and each task's scenarios (runs passed, the worst reason one failed), then a summary line,
+    ``notes`` (e.g. runs reused from an earlier invocation), the runs' warnings (each once,
+    with the number of runs it was in), the pass/fail table (a row per criterion of each run,
+    the error of a run that did not complete) and a section per run with its plot and
+    outputs. ``up`` is the index page to link back to;
     it is linked even if not written yet. Relative paths in ``runs`` are relative to ``root``.
     """
     root = Path(root) if root is not None else Path()
     return _page(path, 'runs.html', up, title=title, notes=list(notes),
+                 scenarios={scenario: _count_cell([run for run in runs
+                                                   if run['scenario'] == scenario])
+                            for scenario in dict.fromkeys(run['scenario'] for run in runs)},
                  passed=sum(bool(run['passed']) for run in runs),
                  marked=[task for task in marks or [] if task.marks is not None],
                  warnings=_warnings(runs),
@@ -159,31 +163,56 @@ def _count_cell(runs: list[dict]) -> dict[str, str] | None:
             'colour': 'pass' if passed == len(runs) else 'some' if passed else 'fail'}
 
 
+def _task_cell(task: TaskMarks | None, runs: list[dict]) -> dict[str, Any] | None:
+    """
+    Return a class page's cell of one task of a student, None when it has no runs of it.
+
+    Its marks and the first point lost (with why, and how many more were lost), and the
+    direction marked; for a task without marks, its runs (:func:`_count_cell`).
+    """
+    if task is None or task.marks is None:
+        return _count_cell(runs)
+    lost = ([f'{point.point}: {point.why()}' for point in task.points if point.lost]
+            or ([] if task.earned >= task.marks
+                else [f'{task.passed} of {task.runs} runs passed']))
+    return {'marks': (task.earned, task.marks),
+            'lost': lost[0] if lost else '',
+            'more': f'and {len(lost) - 1} more points lost' if len(lost) > 1 else '',
+            'direction': (f'marked on the {task.direction} starts'
+                          if task.direction and task.earned else '')}
+
+
 def write_class_index(path: Path, title: str, students: dict[str, list[dict]],
                       scenarios: list[str], pages: dict[str, Path],
                       marks: dict[str, list[TaskMarks]] | None = None) -> Path:
     """
-    Write the class index and return its path.
+    Write the class index and return its path: a page a TA reads on a 1280 px screen.
 
-    One row per student (sorted by name): with ``marks`` (each student's, per task), first the
-    marks in all and per task out of the maximum, with the points lost; then 'passed/total'
-    runs per scenario and in all, and the worst reason a run failed (see
-    :data:`OUTCOME_LEGEND`, under the table); a student's name links to ``pages[student]``
-    when that page exists.
+    One row per student (sorted by name): the marks in all, then one column per task (with
+    ``marks``, each student's; without, each scenario is a task): its marks, the first point
+    lost and why, and the direction the student was marked on; a task without marks, and a
+    student's runs in all, as 'passed/total' runs and the worst reason a run failed (see
+    :data:`OUTCOME_LEGEND`, under the table, with each task's rule). Each scenario's runs are
+    on the student's page, which the student's name links to (``pages[student]``) when it
+    exists.
     """
     marks = marks or {}
+    tasks = next(iter(marks.values()), [])
+    columns = ([(task.title, task.scenarios) for task in tasks] if tasks
+               else [(scenario, (scenario,)) for scenario in scenarios])
     rows = []
     for student in sorted(students, key=lambda name: (name.casefold(), name)):
         runs = students[student]
-        counts = [_count_cell([run for run in runs if run['scenario'] == scenario])
-                  for scenario in scenarios]
+        mine = marks.get(student, [None] * len(columns))
+        cells = [_task_cell(task, [run for run in runs if run['scenario'] in members])
+                 for task, (_, members) in zip(mine, columns)]
         rows.append({'name': student, 'page': _link(pages.get(student), path.parent, student),
-                     'counts': counts + [_count_cell(runs)],
-                     'tasks': [task for task in marks.get(student, [])
-                               if task.marks is not None]})
-    return _page(path, 'class_index.html', title=title, students=rows, scenarios=scenarios,
-                 marked=[task for task in next(iter(marks.values()), [])
-                         if task.marks is not None],
+                     'cells': cells, 'runs': _count_cell(runs),
+                     'total': marks_total(mine) if any(task and task.marks is not None
+                                                       for task in mine) else None})
+    marked = [task for task in tasks if task.marks is not None]
+    return _page(path, 'class_index.html', title=title, students=rows,
+                 columns=[name for name, _ in columns], marked=marked,
                  total=sum(len(runs) for runs in students.values()),
                  passed=sum(bool(run['passed']) for runs in students.values() for run in runs),
                  legend=OUTCOME_LEGEND)

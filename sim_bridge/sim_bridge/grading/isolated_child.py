@@ -224,7 +224,7 @@ def run_job(job: Job, status: multiprocessing.connection.Connection, scratch: Pa
     os.chdir(scratch)
     os.environ.clear()
     os.environ.update(environ)
-    resource.setrlimit(resource.RLIMIT_AS, (job.limits.memory_bytes,) * 2)
+    resource.setrlimit(resource.RLIMIT_AS, (job.limits.address_space_bytes,) * 2)
     # The supervisor ignores SIGABRT; after its dump, faulthandler ends the run with it.
     signal.signal(signal.SIGABRT, signal.SIG_DFL)
     faulthandler.enable()
@@ -281,7 +281,6 @@ def not_its_own_budget(cpu_s: float, budget_s: float) -> str | None:
 
 def with_memory_limit(error: str | None) -> str | None:
     """Return a run's error naming the memory limit when it is a MemoryError that does not."""
-    if (error is None or not re.search(r'\bMemoryError\b', error) or 'memory limit' in error
-            or memory_limit() is None):
+    if error is None or not re.search(r'\bMemoryError\b', error) or 'memory limit' in error:
         return error
     return f'{error} (memory limit {memory_limit()} reached)'

@@ -97,13 +97,20 @@ class TaskMarks:
             return self.marks * passed / self.runs, maximum
         return (maximum if self.passed == self.runs else 0.0), maximum
 
-    def rule(self) -> str:
-        """Say in a line how the task's runs become its marks."""
+    def rule(self, own: bool = True) -> str:
+        """
+        Say in a line how the task's runs become its marks.
+
+        ``own``: this student's rule, which names the direction their runs were marked on
+        (``the clockwise starts``); else the class's, which says each student's direction
+        counts.
+        """
         if self.marks is None:
             return f'{self.title} carries no marks'
         if self.points:
             share = format_marks(self.marks / len(self.points))
-            mine = f', the {self.direction} starts' if self.direction else ''
+            mine = ('' if not self.direction else f', the {self.direction} starts' if own
+                    else ", the starts of each student's direction (the one earning more)")
             return (f'{self.title}: {format_marks(self.marks)} marks, {share} for each of its '
                     f'{len(self.points)} points, x the runs showing it{mine}')
         runs = f'{self.runs} runs' if self.runs != 1 else '1 run'

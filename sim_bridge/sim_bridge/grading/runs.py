@@ -21,7 +21,7 @@ from typing import Any
 
 from sim_bridge.common.errors import RunError
 from sim_bridge.common.text import (
-    cap_text, first_line, json_safe, outcome, PathNames, printable)
+    cap_text, error_reason, first_line, json_safe, outcome, PathNames, printable)
 from sim_bridge.grading.criteria import CriterionResult
 from sim_bridge.grading.marks import as_dict as marks_as_dict, TaskMarks
 from sim_bridge.grading.scenario import ScenarioRun
@@ -77,7 +77,7 @@ class RunReport:
         if point_set is None:
             return []
         if self.error is not None or self.metrics is None:
-            return unearned_points(point_set, first_line(self.error or 'no metrics'))
+            return unearned_points(point_set, error_reason(self.error or 'no metrics'))
         points = judge_points(point_set, self.metrics)
         node_errors = self.metrics.get('node_errors') or []
         if node_errors:  # what the node did not show, it did not show for this reason

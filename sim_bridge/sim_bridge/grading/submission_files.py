@@ -6,8 +6,11 @@ package layout (``scan_pkg/scan_pkg/wanderbot.py`` beside ``setup.py``), or in a
 those. :func:`find_node_files` finds each wanted file: the shallowest of that name, a zip
 unpacked first (bounded: no path outside its folder, no link, at most MAX_MEMBERS files and
 MAX_UNPACKED_BYTES in all, each at most MAX_FILE_BYTES), colcon's ``build/``, ``install/`` and
-``log/`` and hidden folders left out. :func:`missing_text` says what was found when a file is
-missing. Plain files and folders: no rclpy.
+``log/`` and hidden folders left out. A node with no file of its name gets the one file the
+student meant for it (:mod:`sim_bridge.grading.node_names`: ``wall_follower.py``, a file whose
+node is named so, a ``setup.py`` entry point), and a note says so; several such files are
+listed, none graded. :func:`missing_text` says what was found when a file is missing. Plain
+files and folders: no rclpy.
 """
 
 from dataclasses import dataclass, field
@@ -19,6 +22,7 @@ from typing import BinaryIO
 import zipfile
 
 from sim_bridge.common.text import printable
+from sim_bridge.grading.node_names import candidates, syntax_trees
 
 #: Folders no handed-in node is in: colcon's outputs, caches, virtual environments.
 SKIPPED = frozenset({'build', 'install', 'log', '__pycache__', '__MACOSX', 'venv', '.venv',
@@ -43,6 +47,8 @@ class Found:
     #: Every .py file seen, relative to the submission (a zip's: under the zip's name).
     seen: list[str] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    #: The files that could each be a wanted file of none found, when there are several.
+    choices: dict[str, list[str]] = field(default_factory=dict)
 
 
 def unpack_zip(archive: Path, into: Path) -> str | None:
@@ -136,20 +142,58 @@ def find_node_files(submission: Path, wanted: list[str], scratch: Path) -> Found
             continue
         files += [(depth + 1, f'{shown}/{inner}', inner_path)
                   for depth, inner, inner_path in _walk(into, '')]
+    python = []
     for depth, shown, path in sorted(files, key=lambda item: (item[0], item[1])):
         if path.suffix != '.py' or path.is_symlink() or not path.is_file():
             continue
         found.seen.append(printable(shown))
+        python.append((printable(shown), path))
         if path.name in wanted and path.name not in found.files:
             found.files[path.name] = path
             if depth:
                 found.notes.append(f'{path.name}: graded {printable(shown)}')
+    meant_files(found, python, [name for name in wanted if name not in found.files])
     return found
 
 
+def meant_files(found: Found, python: list[tuple[str, Path]], absent: list[str]) -> None:
+    """
+    Add to ``found`` the file the student meant for each ``absent`` name, when there is one.
+
+    ``python``: (shown path, path) of the submission's Python files, shallowest first; a file
+    already taken for a wanted name is no other's. One candidate is graded, with a note
+    ('graded wall_follower.py as wall_follow (its name)'); several go to ``found.choices``.
+    """
+    taken = set(found.files.values())
+    trees = syntax_trees(python) if absent else {}
+    for name in absent:
+        could_be = [candidate for candidate in candidates(python, PurePosixPath(name).stem,
+                                                          trees)
+                    if candidate.path not in taken]
+        if len(could_be) == 1:
+            [chosen] = could_be
+            found.files[name] = chosen.path
+            taken.add(chosen.path)
+            found.notes.append(f'graded {chosen.shown} as {PurePosixPath(name).stem} '
+                               f'({chosen.why})')
+        elif could_be:
+            found.choices[name] = [f'{candidate.shown} ({candidate.why})'
+                                   for candidate in could_be]
+
+
 def missing_text(absent: list[str], found: Found, wanted: list[str], name: str) -> str:
-    """Say which files ``name/`` misses, what was found instead, and what is expected."""
-    seen = found.seen[:LISTED] + (['...'] if len(found.seen) > LISTED else [])
-    return (f"no {', '.join(absent)} in {name}/ (found: {', '.join(seen) or 'no Python file'}; "
-            f"expected {', '.join(wanted)} at the top, in a folder, in scan_pkg/scan_pkg/ or in "
-            'a zip)')
+    """
+    Say in one line which files ``name/`` misses.
+
+    Then the files that could each be one, or all that was found instead (at most LISTED,
+    and how many more), and what is expected.
+    """
+    several = [f"{', '.join(found.choices[file])} could each be {file}" for file in absent
+               if file in found.choices]
+    if several:
+        return f"no {', '.join(absent)} in {name}/: {'; '.join(several)} (rename the one to grade)"
+    more = len(found.seen) - LISTED
+    seen = ', '.join(found.seen[:LISTED]) + (f' and {more} more' if more > 0 else '')
+    return (f"no {', '.join(absent)} in {name}/ (found: {seen or 'no Python file'}; "
+            f"expected {', '.join(wanted)} or files named after them, at the top, in a "
+            'folder, in scan_pkg/scan_pkg/ or in a zip)')

@@ -11,7 +11,6 @@ imports a target's code.
 
 from contextlib import contextmanager
 import re
-import resource
 import traceback
 from typing import Any, Callable, Iterable, Iterator, Sequence
 
@@ -265,11 +264,9 @@ class LockstepRun:
         self.rclpy.try_shutdown()
 
 
-def memory_limit() -> str | None:
-    """Return this process's address-space limit as text ('2 GiB'), or None when unlimited."""
-    limit = resource.getrlimit(resource.RLIMIT_AS)[0]
-    if limit == resource.RLIM_INFINITY:
-        return None
+def memory_limit() -> str:
+    """Return the memory limit of this process's nodes as text ('2 GiB'; see node_limits)."""
+    limit = node_limits(0.0).memory_bytes
     return f'{limit / 2 ** 30:g} GiB' if limit >= 2 ** 30 else f'{limit / 2 ** 20:g} MiB'
 
 
@@ -327,7 +324,7 @@ def start_error(error: AgentStartError, target: str) -> RunError:
     from sim_bridge.runner.targets import module_file, split_target
     message = str(error)
     raised = message.partition(' fails to import: ')[2].partition(' at ')[0]
-    if raised == 'MemoryError' and memory_limit() is not None:
+    if raised == 'MemoryError':
         message += (f' (memory limit {memory_limit()} reached while importing '
                     f'{module_file(split_target(target)[0])})')
     elif ros_module_hint(printed_error(raised)):
@@ -344,7 +341,7 @@ def node_error(failure: AgentFailure, lidar: Any) -> dict:
     from sim_bridge.common.run_environment import FIELD_CHECK_HINT
     if error_line.startswith('AssertionError') and 'field must be' in error_line:
         hint = FIELD_CHECK_HINT
-    elif failure.memory and memory_limit() is not None:
+    elif failure.memory:
         hint = f'memory limit {memory_limit()} reached in {failure.place}'
     else:
         hint = (ros_module_hint(printed_error(error_line))
