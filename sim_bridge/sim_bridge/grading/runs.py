@@ -170,14 +170,16 @@ def entry_problem(entry: Any) -> str | None:
 
 def run_scenario(run: ScenarioRun, out_dir: Path, *, simulate: Simulate | None = None,
                  quiet: bool = True, record: bool = True, plot: bool = True,
-                 progress: Callable[[float, float], None] | None = None) -> RunReport:
+                 progress: Callable[[float, float], None] | None = None,
+                 on_scoring: Callable[[], None] | None = None) -> RunReport:
     """
     Run one seed of a scenario with ``simulate`` (default: the stepped runner) and judge it.
 
     A run that cannot start (bad world, target or parameter) or whose runner crashes is
     reported with its error and fails; a node raising during the run is in the metrics'
     ``node_errors`` and fails the criteria that look at it; a run a node ended early fails
-    (:func:`ended_early`).
+    (:func:`ended_early`). ``progress`` and ``on_scoring`` are passed on (see RunSpec), the
+    latter only when given.
     """
     if simulate is None:
         simulate = run_simulation
@@ -189,8 +191,8 @@ def run_scenario(run: ScenarioRun, out_dir: Path, *, simulate: Simulate | None =
                           start=scenario.start, robot=scenario.robot, remap=scenario.remap,
                           setpoint=scenario.setpoint.get('wall_distance_m'),
                           printed=scenario.printed, quiet=quiet, record=record, plot=plot,
-                          drive=scenario.drive or None,
-                          progress=progress)
+                          drive=scenario.drive or None, progress=progress,
+                          **({'on_scoring': on_scoring} if on_scoring is not None else {}))
     except Exception as error:  # one broken run must not stop the batch
         # A run that cannot start keeps the node's part of the traceback (its import failed),
         # or none (bad input); a crash of the runner keeps all of it.
