@@ -67,7 +67,7 @@ class RunReport:
 
         A run that failed as a whole (not submitted, could not start, ended early) shows no
         point: each is lost for that reason; a point a node that raised did not show is lost
-        for its node error. Judged from the metrics, so a report read back
+        for its node error, then what it measured. Judged from the metrics, so a report read back
         judges them the same way. Empty for a scenario without points.
         """
         point_set = self.run.scenario.points
@@ -79,8 +79,9 @@ class RunReport:
         node_errors = self.metrics.get('node_errors') or []
         if node_errors:  # what the node did not show, it did not show for this reason
             why = first_line(f"node error: {node_errors[0].get('error')}")
-            points = [point if point.earned else Point(point.point, False, why)
-                      for point in points]
+            points = [point if point.earned else Point(
+                point.point, False, f'{why}; {point.reason}' if point.reason else why, point.rule)
+                for point in points]
         return points
 
     @property
