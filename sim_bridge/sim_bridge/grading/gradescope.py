@@ -151,14 +151,14 @@ def results(reports: list[RunReport], scenarios: list[Scenario],
 
     The score is the marks (:mod:`sim_bridge.grading.marks`). A task marked by the handout's points
     has a test per point, named ``task 2: no collision``, scoring the point's marks, its
-    output saying why it was lost, and a test of its runs for information (``task 2: runs
-    (for information)``: no score, no status) with their ``table`` (grade's pass/fail
-    table). Another task has a test per scenario, named ``task 1: scan_ahead``, scoring its
-    share of its task's marks (a scenario without marks scores 0 of 0), passing when every
-    run of it passed (so when it earns all its marks), its output saying why the runs failed,
-    how the task is marked and the runs' ``table``. No test's status contradicts its score.
-    Tests are ordered by task, without the grader's paths (``names``), each output cut to
-    OUTPUT_LIMIT_BYTES.
+    output saying why it was lost and the rule it is judged by, and a test of its runs for
+    information (``task 2: runs (for information)``: no score, no status) with their ``table``
+    (grade's pass/fail table). Another task has a test per scenario, named ``task 1:
+    scan_ahead``, scoring its share of its task's marks (a scenario without marks scores 0 of
+    0), passing when every run of it passed (so when it earns all its marks), its output saying
+    why the runs failed, how the task is marked and the runs' ``table``. No test's status
+    contradicts its score. Tests are ordered by task, without the grader's paths (``names``),
+    each output cut to OUTPUT_LIMIT_BYTES.
     """
     names = StudentNames(names or PathNames({}))
     entries = [report.as_dict(names) for report in reports]
@@ -169,7 +169,8 @@ def results(reports: list[RunReport], scenarios: list[Scenario],
         if task.points:
             tests += [_test(f'{task.title}: {point.point}', point.earned, point.marks,
                             not point.lost,
-                            [point.why() or f'shown in every run ({point.runs})'])
+                            [point.why() or f'shown in every run ({point.runs})',
+                             *([f'rule: {point.rule}'] if point.rule else [])])
                       for point in task.points]
             passed = sum(report.passed for report in runs)
             lines = [f'{passed} of {len(runs)} runs met every criterion of their scenario '

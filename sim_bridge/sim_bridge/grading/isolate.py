@@ -18,13 +18,14 @@ every process it started (a process in a session of its own or a double fork inc
 subreaper, the supervisor inherits them) and exits with the run's status.
 
 The parent (:class:`Child`) watches the pipes. When no simulated second has passed for
-``Limits.stall_s`` of wall time, it sends SIGUSR1; when the run's wall-clock budget is used up,
-SIGUSR2. The run turns either into :class:`sim_bridge.runner.run.RunStopped`, raised wherever
-Python is: inside a node's callback that ends the run as failed, naming the node, the callback
-and the line, with every output written. A run that does not end within ``GRACE_S`` gets
-SIGABRT (faulthandler writes every thread's Python stack to the log), then is killed. A run
-that dies without a result (``os._exit``, a segfault, the kernel's OOM killer) fails with its
-exit status or signal and the end of its log.
+``Limits.stall_s`` of wall time while the nodes run, it sends SIGUSR1 (once they are stopped and
+the run is scored, the time is the grader's own, never a node's stall); when the run's wall-clock
+budget is used up, SIGUSR2. The run turns either into :class:`sim_bridge.runner.run.RunStopped`,
+raised wherever Python is: inside a node's callback that ends the run as failed, naming the node,
+the callback and the line, with every output written. A run that does not end within ``GRACE_S``
+gets SIGABRT (faulthandler writes every thread's Python stack to the log), then is killed. A run
+that dies without a result (``os._exit``, a segfault, the kernel's OOM killer) fails with its exit
+status or signal and the end of its log.
 
 A run stopped by a signal (SIGSTOP, SIGTSTP: its own, or anyone's) is not stalled: only its
 wall-clock budget ends it, and then its supervisor is continued and told to end it. A run that
@@ -206,6 +207,8 @@ class Child:
         self.log_failure: str | None = None
         #: True when the run was found stopped by a signal at its budget.
         self.halted = False
+        #: True once the run's nodes are stopped and the grader scores it: no stall limit.
+        self.scoring = False
         self.scratch = Path(tempfile.mkdtemp(prefix='run-', dir=grader_folder()))
         context = fork_server()
         self.pipe, writer = context.Pipe(duplex=False)
@@ -243,6 +246,8 @@ class Child:
                 if kind == 'progress':
                     self.sim_s = value
                     self.progressed = time.monotonic()
+                elif kind == 'scoring':
+                    self.scoring = True
                 elif kind == 'result':
                     self.result = value
         except (EOFError, OSError):  # closed, or cut mid-message by a kill
@@ -300,7 +305,7 @@ class Child:
                     self.aborted = self.halted = True
                 else:
                     self.stop(signal.SIGUSR2, reason)
-            elif now - self.progressed > stall_s:
+            elif now - self.progressed > stall_s and not self.scoring:
                 if stopped_group(self.process.pid):  # not stalled: its budget decides
                     self.progressed = now
                 else:

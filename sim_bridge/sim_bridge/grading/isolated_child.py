@@ -246,7 +246,8 @@ def run_job(job: Job, status: multiprocessing.connection.Connection, scratch: Pa
     signal.signal(signal.SIGUSR2, stop)
     wall_start = time.perf_counter()
     try:
-        report = run_scenario(job.run, job.out_dir, progress=progress, **job.options)
+        report = run_scenario(job.run, job.out_dir, progress=progress,
+                              on_scoring=lambda: status.send(('scoring', None)), **job.options)
     except BaseException as error:  # noqa: B902 a node's sys.exit() at import ends only its run
         report = RunReport(job.run, job.out_dir, [], None, describe(error),
                            time.perf_counter() - wall_start, traceback.format_exc())

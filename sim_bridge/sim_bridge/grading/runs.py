@@ -70,7 +70,7 @@ class RunReport:
 
         A run that failed as a whole (not submitted, could not start, ended early) shows no
         point: each is lost for that reason; a point a node that raised did not show is lost
-        for its node error. Judged from the metrics, so a report read back
+        for its node error, then what it measured. Judged from the metrics, so a report read back
         judges them the same way. Empty for a scenario without points.
         """
         point_set = self.run.scenario.points
@@ -82,8 +82,9 @@ class RunReport:
         node_errors = self.metrics.get('node_errors') or []
         if node_errors:  # what the node did not show, it did not show for this reason
             why = first_line(f"node error: {node_errors[0].get('error')}")
-            points = [point if point.earned else Point(point.point, False, why)
-                      for point in points]
+            points = [point if point.earned else Point(
+                point.point, False, f'{why}; {point.reason}' if point.reason else why, point.rule)
+                for point in points]
         return points
 
     @property
@@ -175,14 +176,16 @@ def entry_problem(entry: Any) -> str | None:
 
 def run_scenario(run: ScenarioRun, out_dir: Path, *, simulate: Simulate | None = None,
                  quiet: bool = True, record: bool = True, plot: bool = True,
-                 progress: Callable[[float, float], None] | None = None) -> RunReport:
+                 progress: Callable[[float, float], None] | None = None,
+                 on_scoring: Callable[[], None] | None = None) -> RunReport:
     """
     Run one seed of a scenario with ``simulate`` (default: the stepped runner) and judge it.
 
     A run that cannot start (bad world, target or parameter) or whose runner crashes is
     reported with its error and fails; a node raising during the run is in the metrics'
     ``node_errors`` and fails the criteria that look at it; a run a node ended early fails
-    (:func:`ended_early`).
+    (:func:`ended_early`). ``progress`` and ``on_scoring`` are passed on (see RunSpec), the
+    latter only when given.
     """
     if simulate is None:
         simulate = run_simulation
@@ -194,8 +197,8 @@ def run_scenario(run: ScenarioRun, out_dir: Path, *, simulate: Simulate | None =
                           start=scenario.start, robot=scenario.robot, remap=scenario.remap,
                           setpoint=scenario.setpoint.get('wall_distance_m'),
                           printed=scenario.printed, quiet=quiet, record=record, plot=plot,
-                          drive=scenario.drive or None,
-                          progress=progress)
+                          drive=scenario.drive or None, progress=progress,
+                          **({'on_scoring': on_scoring} if on_scoring is not None else {}))
     except Exception as error:  # one broken run must not stop the batch
         # A run that cannot start keeps the node's part of the traceback (its import failed),
         # or none (bad input); a crash of the runner keeps all of it.

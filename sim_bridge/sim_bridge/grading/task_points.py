@@ -20,7 +20,7 @@ from typing import Any, Callable, Mapping, Sequence
 
 from sim_bridge.scoring.metrics import (
     BRAKING_MARGIN, MAX_BLOCKED_DRIVING_S, STOP_DISTANCE, WALL_BAND)
-from sim_bridge.scoring.printed_values import judge_printed
+from sim_bridge.scoring.printed_values import judge_printed, PARTS, RIGHT_WITHIN_M
 
 #: A stop counts as for an obstacle when something is this close (m) in the cone ahead:
 #: the handout's 0.7 m and the distance braking and a controller's margin add.
@@ -36,8 +36,9 @@ MIN_DRIVEN = 1.0
 WALL_TOLERANCE = 0.15
 #: ... and must then follow for at least this share of the run.
 MIN_FOLLOWING = 0.5
-#: The worst printed value's error (m) and the share of scans a line must be about.
-PRINTED_ERROR = 0.06
+#: The worst printed value's error (m) and the share of the scenario's scans a right line
+#: must be about.
+PRINTED_ERROR = RIGHT_WITHIN_M
 PRINTED_SHARE = 0.9
 
 #: The point sets a scenario's ``points:`` can name, and the printed kind each reads.
@@ -51,10 +52,13 @@ class Point:
     point: str
     earned: bool
     reason: str = ''
+    #: The rule the point is judged by: the handout's sentence, what is measured, the margin.
+    rule: str = ''
 
     def as_dict(self) -> dict[str, Any]:
         """Return the point for a JSON report."""
-        return {'point': self.point, 'earned': self.earned, 'reason': self.reason}
+        return {'point': self.point, 'earned': self.earned, 'reason': self.reason,
+                'rule': self.rule}
 
 
 def _share(items: Sequence[Any], test: Callable[[Any], bool]) -> tuple[int, int]:
@@ -131,29 +135,104 @@ def wall_follow_points(evidence: Mapping[str, Any], collisions: int) -> list[Poi
     return points
 
 
+#: What each reading task prints, as its points name it.
+_PRINTED_WHAT = {'range_ahead': 'the range ahead', 'regions': 'the five region minima',
+                 'closest': 'the nearest obstacle'}
+#: The handout's (or the guide's) sentence each reading task's points rest on.
+_PRINTED_SENTENCE = {
+    'range_ahead': 'Handout, task 1: "the range values from only the front-most laser must be '
+                   'printed" as the robot moves.',
+    'regions': 'Handout, task 3: five regions (right, front-right, front, front-left, left), '
+               '"each region gives out the smallest value among its laser samples", Inf as '
+               '10 m, "five values printed on the terminal at any given time".',
+    'closest': 'Guide: the distance (and bearing) of the nearest obstacle, printed for each '
+               'scan.'}
+#: What counts as the right value, per reading task.
+_PRINTED_TRUTH = {
+    'range_ahead': 'a beam within one increment of straight ahead (beams 17 and 18 of the '
+                   'lab lidar), or a value between them',
+    'regions': "each region's minimum (36-degree bands centred on -72, -36, 0, 36, 72 "
+               'degrees; a beam on the edge of two bands in either)',
+    'closest': 'the nearest valid return'}
+
+
+def printed_rules(kind: str) -> tuple[str, str]:
+    """Return the rules of a reading task's two points: the handout, the measure, the margin."""
+    sentence, truth = _PRINTED_SENTENCE[kind], _PRINTED_TRUTH[kind]
+    within = (f'within {PRINTED_ERROR:g} m of {truth} of the scan it had just received, no '
+              "return as 10 m, inf or the node's own cap")
+    return (f"{sentence} Measured: every scan of the scenario's whole duration needs a line "
+            f'whose value is {within}; a node that stops (raises, exits, hangs, is stopped '
+            "at a limit) has missed every scan after it, and another beam's or region's range "
+            f'does not count. Margin: {100 * PRINTED_SHARE:.0f} % of the scans.',
+            f'{sentence} Measured: every value printed is {within}, and right values come '
+            f'throughout the scenario: a right line in each of its {PARTS} equal parts (a '
+            'node that stops or falls silent loses it). Margin: none beyond the '
+            f'{PRINTED_ERROR:g} m.')
+
+
+def _printed_hint(kind: str, scored: Mapping[str, Any]) -> str:
+    """Return what the printed values match instead of the asked-for ones, or ''."""
+    hints = []
+    for match in scored.get('matches') or []:
+        if kind == 'range_ahead':
+            hints.append(f"the printed values match {match['source']}, not the beam ahead")
+        elif kind == 'regions':
+            hints.append(f"the values printed as {match['what']} match {match['source']}, "
+                         f"not the {match['what']} region")
+        else:
+            hints.append(f"the printed values match {match['source']}, not the nearest return")
+    return '; '.join(hints)
+
+
+def _stopped(scored: Mapping[str, Any]) -> str:
+    """Say when the run stopped before the scenario's end, or ''."""
+    if not scored.get('not_run'):
+        return ''
+    return (f"the node stopped at t={scored['last_scan_s']:.1f} s: the {scored['not_run']} "
+            'scans after it count as missed')
+
+
 def printed_points(kind: str, scored: Mapping[str, Any] | None) -> list[Point]:
     """
     Judge a reading task's two points on its printed values' scores (printed_values).
 
-    Printed for each scan (PRINTED_SHARE of the scans), and right (the worst value within
-    PRINTED_ERROR m of its scan's truth, capped as the node caps: no return as the lab's 10 m,
-    inf or a word, or the node's own cap where it keeps one; see printed_values).
+    Printed for each scan: PRINTED_SHARE of the scenario's scans have a line giving the value
+    asked for within PRINTED_ERROR m (capped as the node caps: no return as the lab's 10 m, inf
+    or a word, or the node's own cap where it keeps one; see printed_values). Right: every
+    value printed within PRINTED_ERROR m, and right lines in each of the scenario's PARTS
+    parts. The rules, as :func:`printed_rules` states them, go with the points.
     """
-    what = {'range_ahead': 'the range ahead', 'regions': 'the five region minima',
-            'closest': 'the nearest obstacle'}[kind]
+    what = _PRINTED_WHAT[kind]
     scored = scored or {}
-    share = scored.get('matched_fraction')
-    printed = share is not None and share >= PRINTED_SHARE
-    right, why = judge_printed(kind, scored, max_error_m=PRINTED_ERROR, min_matched_fraction=0.0)
+    scans, share = scored.get('scans') or 0, scored.get('right_fraction')
     lines = scored.get('lines') or 0
+    each, right = printed_rules(kind)
     if share is None:
         missing = 'no scan to print about'
     else:
-        missing = f"{scored['missed']} of {scored['scans']} scans with no line giving {what}"
+        missing = (f"{scans - scored['right']} of {scans} scans with no line giving {what} "
+                   f'within {PRINTED_ERROR:g} m ({100 * share:.0f} % printed right, '
+                   f'{100 * PRINTED_SHARE:.0f} % wanted)')
         if kind == 'regions' and scored.get('unprinted') and lines:
             missing += f" ({', '.join(scored['unprinted'])} never printed)"
-    return [Point(f'prints {what} for each scan', printed, missing),
-            Point(f'{what} printed right (capped as the node caps)', right and lines > 0, why)]
+    worst_right, why = judge_printed(kind, scored, max_error_m=PRINTED_ERROR,
+                                     min_matched_fraction=0.0)
+    parts = scored.get('parts_right') or 0
+    if worst_right and parts < PARTS:
+        why = (f"right values in {parts} of the scenario's {PARTS} parts only"
+               + (f" ({', '.join(scored['unprinted'])} never printed)"
+                  if kind == 'regions' and scored.get('unprinted') else ''))
+    reasons = [_joined(missing, _stopped(scored), _printed_hint(kind, scored)),
+               _joined(why, _stopped(scored), _printed_hint(kind, scored))]
+    return [Point(f'prints {what} for each scan', share is not None and share >= PRINTED_SHARE,
+                  reasons[0], each),
+            Point(f'{what} printed right (capped as the node caps)',
+                  worst_right and lines > 0 and parts >= PARTS, reasons[1], right)]
+
+
+def _joined(*parts: str) -> str:
+    return '; '.join(part for part in parts if part)
 
 
 def judge_points(point_set: str, metrics: Mapping[str, Any]) -> list[Point]:
@@ -170,7 +249,7 @@ def judge_points(point_set: str, metrics: Mapping[str, Any]) -> list[Point]:
         points = wall_follow_points(metrics['wall_follow'], collisions)
     else:
         points = printed_points(point_set, (metrics.get('printed') or {}).get(point_set))
-    return [Point(point.point, point.earned, '' if point.earned else point.reason)
+    return [Point(point.point, point.earned, '' if point.earned else point.reason, point.rule)
             for point in points]
 
 
@@ -184,4 +263,5 @@ _NOTHING_SHOWN = {
 
 def unearned_points(point_set: str, reason: str) -> list[Point]:
     """Return the points of ``point_set``, none earned, each for ``reason`` (one line)."""
-    return [Point(point.point, False, reason) for point in judge_points(point_set, _NOTHING_SHOWN)]
+    return [Point(point.point, False, reason, point.rule)
+            for point in judge_points(point_set, _NOTHING_SHOWN)]

@@ -91,7 +91,9 @@ class RunSpec:
     sim_bridge.common.run_environment); off, the run behaves as Jazzy's default does on a
     robot. ``drive`` is a list of segments
     (sim_bridge.ros.drive) the runner's teleop node publishes on the simulator's command topic
-    while the nodes run. ``progress(sim_s, duration_s)`` is called as simulated time passes.
+    while the nodes run. ``progress(sim_s, duration_s)`` is called as simulated time passes;
+    ``on_scoring()`` once the nodes are stopped, before the run is scored and its outputs
+    written (the trusted side's own time: no node can stall it).
     """
 
     world: str
@@ -113,6 +115,7 @@ class RunSpec:
     field_checks: bool = True
     drive: Sequence[Any] | None = None
     progress: Callable[[float, float], None] | None = None
+    on_scoring: Callable[[], None] | None = None
 
 
 @dataclass(frozen=True)

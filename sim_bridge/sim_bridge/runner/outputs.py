@@ -71,7 +71,8 @@ class Observer:
 
     def __init__(self, simulator):
         self.sim = simulator
-        self.trace = Trace(robot_radius=simulator.robot_radius)
+        self.trace = Trace(robot_radius=simulator.robot_radius,
+                           scan_period_s=simulator.lidar_config.scan_period)
         simulator.trajectory = self.trace.samples
 
     def on_scan(self, msg: Any) -> None:
@@ -251,17 +252,18 @@ def write_outputs(out_dir: Path, observer: Observer, world_model: World,
                   setpoint: float | None, wall_start: float, node_errors: list,
                   warnings: list[str], ended_by: str | None, run_mode: Any,
                   commands: Sequence[str] = (), log_lines: Sequence[dict] = (),
-                  printed: Sequence[str] = ()) -> RunResult:
+                  printed: Sequence[str] = (), duration_s: float | None = None) -> RunResult:
     """
     Score a finished run and write ``metrics.json``, ``log.jsonl`` and the plot; return it.
 
-    ``wall_start`` is the run's start on the perf counter (s); ``log_lines`` the lines the
-    nodes wrote, dicts with the keys ``t`` (sim time, s), ``node``, ``level``, ``text`` and
-    ``line`` (sim_bridge.runner.node_output), in the order written; ``commands`` (the command line
-    that starts each node, :func:`node_commands`) are kept in the metrics for the run's video;
-    ``printed`` as in :func:`run_simulation`. A Ctrl-C while they are written waits for them
-    (``interrupt``); one pressed during the run is raised after them. RunError (one line) when
-    they cannot be written (a full disk).
+    ``wall_start`` is the run's start on the perf counter (s); ``log_lines`` the lines the nodes
+    wrote, dicts with the keys ``t`` (sim time, s), ``node``, ``level``, ``text`` and ``line``
+    (sim_bridge.runner.node_output), in the order written; ``commands`` (the command line that
+    starts each node, :func:`node_commands`) are kept in the metrics for the run's video;
+    ``printed`` as in :func:`run_simulation`, scored over the whole ``duration_s`` (s) of the
+    scenario when given (see printed_values.score_printed). A Ctrl-C while they are written waits
+    for them (``interrupt``); one pressed during the run is raised after them. RunError (one
+    line) when they cannot be written (a full disk).
     """
     try:
         left = write_log(out_dir / LOG_FILE, log_lines, LOG_CAP_BYTES)
@@ -271,7 +273,8 @@ def write_outputs(out_dir: Path, observer: Observer, world_model: World,
         metrics = compute_metrics(observer.finish(), world_model, setpoint=setpoint,
                                   wall_time_s=time.perf_counter() - wall_start,
                                   node_errors=node_errors, log_lines=log_lines,
-                                  printed=printed, runner_nodes=(BRIDGE_NODE, TELEOP_NODE))
+                                  printed=printed, runner_nodes=(BRIDGE_NODE, TELEOP_NODE),
+                                  duration_s=duration_s)
         metrics['warnings'] = [*metrics.get('warnings', []), *warnings]
         metrics['ended_by'] = ended_by
         metrics['ignored'] = world_model.ignored

@@ -158,10 +158,13 @@ def run_stepped(spec: RunSpec, prepared: PreparedRun) -> RunResult:
                             outputs.warn(warning)
         finally:
             run.close()
+    if spec.on_scoring is not None:
+        spec.on_scoring()
     return outputs.write(
         prepared.out_dir, prepared.world, plot=spec.plot,
         title=f"{prepared.world.name}: {', '.join(map(target_name, spec.targets))}",
-        setpoint=setpoint, printed=spec.printed, wall_start=wall_start,
+        setpoint=setpoint, printed=spec.printed, duration_s=spec.duration_s,
+        wall_start=wall_start,
         run_mode={'mode': 'stepped', 'reason': STEPPED_REASON, 'sandbox': run.isolation,
                   **run.notes()},
         commands=node_commands(spec.targets, prepared.remap, spec.ros_args))

@@ -71,9 +71,11 @@ NODE_ERROR_KEYS = ('node', 'error', 'traceback')
 #: The scores of each printed value (see printed_values.score_printed) and its worst line.
 _WORST_LINE = {'t': 'number', 'node': 'text', 'text': 'text', 'what': 'text', 'printed': 'text',
                'printed_m': 'number', 'truth_m': 'list'}
-_PRINTED_SCORES = {'scans': 'number', 'lines': 'number', 'missed': 'number',
-                   'matched_fraction': 'number', 'cap_m': 'number', 'mae_m': 'number',
-                   'worst_error_m': 'number', 'worst': _WORST_LINE}
+_PRINTED_SCORES = {'scans': 'number', 'not_run': 'number', 'last_scan_s': 'number',
+                   'lines': 'number', 'missed': 'number', 'matched_fraction': 'number',
+                   'right': 'number', 'right_fraction': 'number', 'parts_right': 'number',
+                   'cap_m': 'number', 'mae_m': 'number', 'worst_error_m': 'number',
+                   'worst': _WORST_LINE, 'matches': 'list'}
 #: What ``compute_metrics`` returns: each key's kind ('number', 'list', 'text') or, for a
 #: nested dict, the kinds of its keys. Scenario criteria are checked against it.
 METRIC_KINDS = {
@@ -452,7 +454,8 @@ def compute_metrics(trace: Trace, world: Any, *, setpoint: float | None = None,
                     wall_time_s: float,
                     node_errors: Iterable[Mapping[str, str]] = (),
                     log_lines: Sequence[Mapping[str, Any]] = (), printed: Iterable[str] = (),
-                    runner_nodes: Iterable[str] = ()) -> dict[str, Any]:
+                    runner_nodes: Iterable[str] = (),
+                    duration_s: float | None = None) -> dict[str, Any]:
     """
     Score a run; return a JSON-serialisable dict (plain floats and ints, None for no value).
 
@@ -465,7 +468,8 @@ def compute_metrics(trace: Trace, world: Any, *, setpoint: float | None = None,
     optionally ``traceback``; ``log_lines`` what the nodes printed (dicts with ``t`` s,
     ``node``, ``level``, ``text``, ``line``), scored for the ``printed`` values (of
     printed_values.KINDS) against the trace's scans, the lines of ``runner_nodes`` (the
-    simulator's own) left out (see printed_values.score_printed).
+    simulator's own) left out (see printed_values.score_printed), over the scenario's
+    ``duration_s`` (s) when given: the scans of a run that stopped before it are scans missed.
     """
     time, x, y = trace.array('time'), trace.array('x'), trace.array('y')
     sim_time = float(time[-1]) if len(time) else 0.0
@@ -508,6 +512,8 @@ def compute_metrics(trace: Trace, world: Any, *, setpoint: float | None = None,
         'wall_follow': wall_follow,
         'node_errors': [{key: str(error[key]) for key in NODE_ERROR_KEYS if key in error}
                         for error in node_errors],
-        'printed': {kind: score_printed(kind, trace.scans, log_lines, ignore_nodes=runner_nodes)
+        'printed': {kind: score_printed(kind, trace.scans, log_lines, ignore_nodes=runner_nodes,
+                                        not_run_s=max((duration_s or 0.0) - sim_time, 0.0),
+                                        scan_period_s=trace.scan_period_s)
                     for kind in PRINTED_KINDS if kind in printed},
     }

@@ -8,6 +8,10 @@ values; a length in cm or mm is converted to m; inf, and the words students prin
 written after it (deg, degrees, °, rad, radians); without one it is read as rad (REP-103),
 unless its magnitude exceeds 2 pi, which only degrees can.
 
+Reading is linear in a line's length and bounded: a line is read up to its first LINE_CHARS
+characters (the lab's 36 ranges printed in full take about 800), and a label is looked for in
+the LABEL_CHARS characters before its number.
+
 Pure: the standard library and scan_pkg's region names, no rclpy.
 """
 
@@ -17,6 +21,11 @@ import re
 from typing import Sequence
 
 from scan_pkg.laser import REGION_NAMES
+
+#: Characters of a printed line that are read: what follows is not.
+LINE_CHARS = 2000
+#: Characters before a number in which its label ("front distance is ") is looked for.
+LABEL_CHARS = 40
 
 _INF = r'[-+]?(?:inf(?:inity)?|\u221e)'
 # What students print instead of a number for no return: read as +inf.
@@ -80,9 +89,10 @@ def numbers_in(text: str) -> list[Number]:
 
     ``ranges[17]``, "beam 17", "index 3" are indices, not values. A length written in cm or
     mm is converted to m; inf, infinity and the infinity sign read as +inf (or -inf), and so
-    do the words for no return (nan, none, nothing, out of range, no obstacle).
+    do the words for no return (nan, none, nothing, out of range, no obstacle). Only the
+    first LINE_CHARS characters are read.
     """
-    blanked = _INDEXED.sub(lambda match: ' ' * len(match.group()), text)
+    blanked = _INDEXED.sub(lambda match: ' ' * len(match.group()), text[:LINE_CHARS])
     found = []
     for match in _NUMBER.finditer(blanked):
         unit = (match['unit'] or '').lower() or None
@@ -104,7 +114,14 @@ def _parse(written: str) -> float:
 
 
 def _labelled(text: str, numbers: Sequence[Number], words: re.Pattern) -> list[Number]:
-    return [number for number in numbers if words.search(text[:number.start])]
+    """Return the numbers ``words`` (a pattern ending in ``$``) label: within LABEL_CHARS."""
+    return [number for number in numbers
+            if _before(words, text, number.start)]
+
+
+def _before(words: re.Pattern, text: str, end: int) -> re.Match | None:
+    """Return the match of ``words`` ending at ``end`` in the LABEL_CHARS before it, or None."""
+    return words.search(text, max(end - LABEL_CHARS, 0), end)
 
 
 def read_range_ahead(text: str) -> Number | None:
@@ -137,7 +154,7 @@ def read_regions(text: str) -> list[tuple[str, Number]]:
     right to left, in the order of the beams.
     """
     pairs = []
-    blanked = _INDEXED.sub(lambda match: ' ' * len(match.group()), text)
+    blanked = _INDEXED.sub(lambda match: ' ' * len(match.group()), text[:LINE_CHARS])
     for match in _REGION.finditer(blanked):
         name = next(name for name, _ in _REGION_LABELS if match[name] is not None)
         unit = (match['unit'] or '').lower() or None
@@ -172,7 +189,7 @@ def read_closest(text: str) -> tuple[Number | None, float | None]:
                          or others), None)
     if not bearings and distance is not None:
         bearings = [number for number in others if number.start > distance.start
-                    and number.unit is None and _AT.search(text[:number.start])]
+                    and number.unit is None and _before(_AT, text, number.start)]
     bearing = None
     if bearings:
         number = bearings[0]
@@ -181,6 +198,6 @@ def read_closest(text: str) -> tuple[Number | None, float | None]:
         bearing = math.radians(number.value) if degrees else number.value
         if not math.isfinite(bearing):
             bearing = None
-    if distance is None and _NOTHING.search(text):
+    if distance is None and _NOTHING.search(text, 0, LINE_CHARS):
         distance = Number(math.inf, 'nothing', 0, None)
     return distance, bearing

@@ -41,6 +41,7 @@ from typing import Any, Callable, Iterable, Mapping, Sequence
 import numpy as np
 from scan_pkg.laser import (
     ANGLE_TOLERANCE, normalize_angle, REGION_CENTRES, REGION_HALF_WIDTH, REGION_NAMES, Scan)
+from sim_bridge.scoring.printed_match import matching_source
 from sim_bridge.scoring.printed_text import Number, read_closest, read_range_ahead, read_regions
 
 #: The printed values a run can be scored on, by the name metrics and scenarios use.
@@ -59,6 +60,12 @@ CAP_ROUNDING = 0.01
 TIME_SLACK_S = 1e-6
 #: A beam this many increments from the edge between two regions may be in either.
 EDGE_SLACK = 0.25
+#: A printed value this close (m) to its scan's truth is the value asked for: one decimal
+#: (+-0.05 m) and the float32 of a reading are close enough; another beam's range is not.
+RIGHT_WITHIN_M = 0.06
+#: The parts of a scenario's scans that must each hold a right line for values printed
+#: "throughout" it: a node that stops, or falls silent, leaves parts without one.
+PARTS = 10
 #: Characters of a line quoted in a report.
 QUOTE_CHARS = 70
 #: Log levels that are not what a node prints about a scan: a traceback goes to stderr.
@@ -143,6 +150,8 @@ class Comparison:
     truth: tuple[float, float]
     error: float
     line: Mapping[str, Any]
+    #: The index of the scan it is about.
+    scan: int = -1
 
 
 @dataclass(frozen=True)
@@ -166,10 +175,10 @@ class Cap:
 
 
 def _compare(what: str, printed: Number, truth: tuple[float, float], cap: Cap,
-             line: Mapping[str, Any]) -> Comparison:
+             line: Mapping[str, Any], scan: int) -> Comparison:
     value = cap.read(printed.value)
     low, high = truth
-    return Comparison(what, printed, truth, max(low - value, value - high, 0.0), line)
+    return Comparison(what, printed, truth, max(low - value, value - high, 0.0), line, scan)
 
 
 def _bearing_error(printed: float, truth: float) -> float:
@@ -193,14 +202,16 @@ def _lines_per_scan(kind: str, lines: Iterable[Mapping[str, Any]], times: Sequen
             continue
         time = float(line['t'])
         index = bisect.bisect_right(times, time + TIME_SLACK_S) - 1
-        found = _compare_line(kind, values, truth_of(index), cap, line) if index >= 0 else []
+        found = (_compare_line(kind, values, truth_of(index), cap, line, index)
+                 if index >= 0 else [])
         if found:
             per_scan.setdefault(index, []).append((found, bearing))
     return per_scan
 
 
 def score_printed(kind: str, scans: Sequence[Any], lines: Iterable[Mapping[str, Any]], *,
-                  cap: float = LAB_MAX_RANGE, ignore_nodes: Iterable[str] = ()) -> dict[str, Any]:
+                  cap: float = LAB_MAX_RANGE, ignore_nodes: Iterable[str] = (),
+                  not_run_s: float = 0.0, scan_period_s: float | None = None) -> dict[str, Any]:
     """
     Compare the values of ``kind`` (one of KINDS) the lines print with their scans' truth.
 
@@ -209,6 +220,9 @@ def score_printed(kind: str, scans: Sequence[Any], lines: Iterable[Mapping[str, 
     lines (dicts with ``t`` s, ``node``, ``level``, ``text``), those of ``ignore_nodes`` and
     of stderr left out. A line is about the last scan at or before its time (the node runs in
     lockstep with the simulator: it prints about the scan it has just received).
+    ``not_run_s`` (s) is the part of the scenario the run did not reach (a node raised,
+    exited, hung or was stopped at a limit): the scans the lidar would have sent in it, one
+    every ``scan_period_s`` (s), are scans of the scenario with no line.
 
     No return and readings beyond ``cap`` (m) are right as ``cap`` or more. A node that caps
     at a distance of its own prints one value wherever the scan reads farther (at least
@@ -217,26 +231,47 @@ def score_printed(kind: str, scans: Sequence[Any], lines: Iterable[Mapping[str, 
     (inf, or a word for no return, is right wherever the scan reads farther than it), when
     that makes their worst error smaller.
 
-    Returns a JSON-ready dict: ``scans`` (those a value is defined for), ``lines`` (lines a
-    value was read from), ``missed`` (scans with no line giving it; for regions, giving all
-    five), ``matched_fraction``, ``cap_m`` (the cap judged with, m), ``mae_m`` and
+    Returns a JSON-ready dict: ``scans`` (those of the scenario a value is defined for, the
+    ones not run included), ``not_run`` (of them, those after the run stopped), ``last_scan_s``
+    (the time of the last scan sent, s; 0 for none), ``lines`` (lines a value was
+    read from), ``missed`` (scans with no line giving it; for regions, giving all five),
+    ``matched_fraction``, ``right`` and ``right_fraction`` (scans with a line giving it within
+    RIGHT_WITHIN_M m; for regions, all five), ``parts_right`` (of the scenario's PARTS equal
+    parts by scan, those with such a scan), ``cap_m`` (the cap judged with, m), ``mae_m`` and
     ``worst_error_m`` (m) and ``worst`` (the line of the worst error: ``t``, ``node``,
     ``text``, ``what``, ``printed`` as written, ``printed_m``, ``truth_m`` [lowest, highest
-    right value]); for ``closest`` also ``bearing_lines``, ``bearing_mae_deg``,
+    right value]), ``matches`` (for each label whose values are mostly wrong, the beam or
+    region they match, :mod:`sim_bridge.scoring.printed_match`: ``what``, ``source``,
+    ``lines``, ``of``); for ``closest`` also ``bearing_lines``, ``bearing_mae_deg``,
     ``worst_bearing_error_deg`` and ``worst_bearing``; for ``regions``, ``unprinted``: the
     regions no line gave.
     """
     if kind not in KINDS:
         raise ValueError(f'unknown printed value {kind!r}; one of {", ".join(KINDS)}')
     lines, ignored = list(lines), set(ignore_nodes)
+    not_run = 0
+    if scan_period_s and not_run_s > 0.0:
+        not_run = math.floor(not_run_s / scan_period_s + 0.5)
     scored, comparisons = _score_with(kind, scans, lines, Cap(cap), ignored)
     reach = min((float(snapshot.range_max) for snapshot in scans), default=cap)
     own = _own_cap(comparisons, min(reach, SHORTEST_CAP), reach)
     if own is not None:
-        again, _ = _score_with(kind, scans, lines, Cap(own, clamps=own >= reach), ignored)
+        again, mine = _score_with(kind, scans, lines, Cap(own, clamps=own >= reach), ignored)
         if again['worst_error_m'] < scored['worst_error_m']:
-            return again
-    return scored
+            scored, comparisons = again, mine
+    return _with_not_run(scored, not_run, float(scans[-1].time) if scans else 0.0)
+
+
+def _with_not_run(scored: dict[str, Any], not_run: int, last_scan_s: float) -> dict[str, Any]:
+    """Return ``scored`` with ``not_run`` more scans (after ``last_scan_s``, s), none printed."""
+    counted = scored['scans'] + not_run
+    right, printed = scored['right'], counted - scored['missed'] - not_run
+    parts = scored.pop('right_scans')
+    return {**scored, 'scans': counted, 'not_run': not_run, 'last_scan_s': last_scan_s,
+            'missed': counted - printed,
+            'matched_fraction': printed / counted if counted else None,
+            'right_fraction': right / counted if counted else None,
+            'parts_right': len({PARTS * index // counted for index in parts})}
 
 
 def _own_cap(comparisons: Sequence[Comparison], lowest: float, reach: float) -> float | None:
@@ -272,47 +307,86 @@ def _score_with(kind: str, scans: Sequence[Any], lines: Sequence[Mapping[str, An
     comparisons: list[Comparison] = []
     bearing_errors: list[tuple[float, Comparison, float]] = []
     matched_lines = counted = missed = 0
+    right_scans: list[int] = []
     printed_regions: set[str] = set()
     for index in range(len(scans)):
         truth = truth_of(index)
         wanted = _wanted(kind, truth)
         if not wanted:
             continue
-        counted += 1
-        got = set()
+        got, right = set(), set()
         for found, bearing in per_scan.get(index, []):
             matched_lines += 1
             comparisons += found
             got |= {comparison.what for comparison in found}
+            right |= {comparison.what for comparison in found
+                      if comparison.error <= RIGHT_WITHIN_M}
             true_bearing = truth[1] if kind == 'closest' else None
             if bearing is not None and true_bearing is not None:
                 bearing_errors.append((_bearing_error(bearing, true_bearing), found[0],
                                        true_bearing))
+        if right >= wanted:
+            right_scans.append(counted)
+        counted += 1
         printed_regions |= got
         missed += not got >= wanted
     result: dict[str, Any] = {
         'scans': counted, 'lines': matched_lines, 'missed': missed,
-        'matched_fraction': (counted - missed) / counted if counted else None,
-        'cap_m': cap.at, 'mae_m': None, 'worst_error_m': None, 'worst': None}
+        'right': len(right_scans), 'right_scans': right_scans,
+        'cap_m': cap.at, 'mae_m': None, 'worst_error_m': None, 'worst': None,
+        'matches': _matches(kind, comparisons, scans, cap)}
     if comparisons:
         worst = max(comparisons, key=lambda comparison: comparison.error)
         result['mae_m'] = float(np.mean([comparison.error for comparison in comparisons]))
         result['worst_error_m'] = worst.error
         result['worst'] = _quote(worst, cap)
     if kind == 'regions':
-        result['unprinted'] = [name for name in REGION_NAMES
+        result['unprinted'] = [_label(name) for name in REGION_NAMES
                                if _label(name) not in printed_regions]
     if kind == 'closest':
-        result.update({'bearing_lines': len(bearing_errors), 'bearing_mae_deg': None,
-                       'worst_bearing_error_deg': None, 'worst_bearing': None})
-        if bearing_errors:
-            error, comparison, truth = max(bearing_errors, key=lambda item: item[0])
-            result['bearing_mae_deg'] = math.degrees(
-                float(np.mean([item[0] for item in bearing_errors])))
-            result['worst_bearing_error_deg'] = math.degrees(error)
-            result['worst_bearing'] = {**_quote(comparison, cap),
-                                       'truth_deg': math.degrees(truth)}
+        result.update(_bearing_scores(bearing_errors, cap))
     return result, comparisons
+
+
+def _bearing_scores(bearing_errors: list[tuple[float, Comparison, float]],
+                    cap: Cap) -> dict[str, Any]:
+    """Return the closest obstacle's bearing scores from (error rad, line, truth rad)."""
+    scores: dict[str, Any] = {'bearing_lines': len(bearing_errors), 'bearing_mae_deg': None,
+                              'worst_bearing_error_deg': None, 'worst_bearing': None}
+    if bearing_errors:
+        error, comparison, truth = max(bearing_errors, key=lambda item: item[0])
+        scores['bearing_mae_deg'] = math.degrees(
+            float(np.mean([item[0] for item in bearing_errors])))
+        scores['worst_bearing_error_deg'] = math.degrees(error)
+        scores['worst_bearing'] = {**_quote(comparison, cap), 'truth_deg': math.degrees(truth)}
+    return scores
+
+
+def _matches(kind: str, comparisons: Sequence[Comparison], scans: Sequence[Any],
+             cap: Cap) -> list[dict[str, Any]]:
+    """
+    Return, for each label whose values are mostly wrong, the beam or region they match.
+
+    Each a dict: ``what`` (the label), ``source`` (as printed_match names it), ``lines``
+    (values it matches), ``of`` (values printed with the label).
+    """
+    by_label: dict[str, list[Comparison]] = {}
+    for comparison in comparisons:
+        by_label.setdefault(comparison.what, []).append(comparison)
+    found = []
+    for what, mine in by_label.items():
+        right = sum(comparison.error <= RIGHT_WITHIN_M for comparison in mine)
+        if right == len(mine):
+            continue
+        source = matching_source([cap.read(comparison.printed.value) for comparison in mine],
+                                 [scan_of(scans[comparison.scan]) for comparison in mine],
+                                 cap.at, RIGHT_WITHIN_M,
+                                 (lambda scan: region_truths(scan, cap.at))
+                                 if kind == 'regions' else None)
+        if source is not None and source[1] > right:
+            found.append({'what': what, 'source': source[0], 'lines': source[1],
+                          'of': len(mine)})
+    return found
 
 
 def _label(name: str) -> str:
@@ -359,12 +433,12 @@ def _wanted(kind: str, truth: Any) -> set[str]:
 
 
 def _compare_line(kind: str, values: list[tuple[str, Number]], truth: Any, cap: Cap,
-                  line: Mapping[str, Any]) -> list[Comparison]:
-    """Return the comparisons of a line's values with a scan's truth (those it defines)."""
+                  line: Mapping[str, Any], scan: int) -> list[Comparison]:
+    """Return the comparisons of a line's values with scan ``scan``'s truth (those defined)."""
     if kind == 'closest':
-        return [_compare(what, printed, (truth[0], truth[0]), cap, line)
+        return [_compare(what, printed, (truth[0], truth[0]), cap, line, scan)
                 for what, printed in values]
-    return [_compare(what, printed, truth[what], cap, line) for what, printed in values
+    return [_compare(what, printed, truth[what], cap, line, scan) for what, printed in values
             if what in truth]
 
 

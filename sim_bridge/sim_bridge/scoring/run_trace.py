@@ -59,6 +59,8 @@ class Trace:
     samples: list[tuple[float, ...]] = field(default_factory=list)
     scans: list[ScanSnapshot] = field(default_factory=list)
     collisions: list[CollisionEvent] = field(default_factory=list)
+    #: The time (s) between the lidar's scans, when known.
+    scan_period_s: float | None = None
     _table: np.ndarray | None = field(default=None, init=False, repr=False, compare=False)
 
     def append(self, time: float, x: float, y: float, yaw: float, linear: float,
