@@ -32,6 +32,8 @@ DEFAULT_MEMORY_BYTES = 2 * 2 ** 30
 MAX_WRAPPERS = 4
 #: How the node process's command line goes on after its Python (boundary.agent_command).
 AGENT_ARGV = [b'-m', b'sim_bridge.runner.agent']
+#: The folder of a student's files in a run's scratch: shown as the student's own.
+COPY_FOLDER = 'node'
 #: A node process's wall time (s): this, plus a wall second per simulated second (the
 #: grader's own budget, sim_bridge.grading.limits, ends the run first).
 WALL_BASE_S = 120.0
@@ -115,6 +117,20 @@ def library_copies() -> list[Path]:
     return list(dict.fromkeys(folders))
 
 
+def student_files(node_file: Path) -> dict[str, Path]:
+    """
+    Return what a run of a student's ``node_file`` reads of the submission: name -> file.
+
+    The node file and the Python files beside it (its own modules), under COPY_FOLDER in the
+    sandbox's scratch folder; nothing else of the student's folder reaches the run.
+    """
+    folder = node_file.resolve().parent
+    files = {f'{COPY_FOLDER}/{sibling.name}': sibling for sibling in sorted(folder.glob('*.py'))
+             if sibling.is_file()}
+    files[f'{COPY_FOLDER}/{node_file.name}'] = node_file
+    return files
+
+
 def node_limits(duration_s: float, address_space_bytes: int | None = None) -> SandboxLimits:
     """
     Return a node process's limits: the run's memory and wall-clock budget.
@@ -150,15 +166,11 @@ class NodeSandbox:
         path = Path(where)
         self.copy_folder = self.own_folder = ''
         if path.is_file() and not is_kit_file(path):
-            folder = path.resolve().parent
-            name = 'node'  # the copy's folder: shown as the student's own (see shown)
-            files = {f'{name}/{sibling.name}': sibling for sibling in folder.glob('*.py')
-                     if sibling.is_file()}
-            files[f'{name}/{path.name}'] = path
-            self.sandbox = Sandbox(files, limits, readable=readable, library=library_folders(),
-                                   reference_nodes=True, hidden_files=reference_node_files())
-            self.copy_folder = str(self.sandbox.scratch / name)
-            self.own_folder = str(folder)
+            self.sandbox = Sandbox(student_files(path), limits, readable=readable,
+                                   library=library_folders(), reference_nodes=True,
+                                   hidden_files=reference_node_files())
+            self.copy_folder = str(self.sandbox.scratch / COPY_FOLDER)
+            self.own_folder = str(path.resolve().parent)
             inside = f'{self.copy_folder}/{path.name}'
             self.target = f'{inside}:{class_name}' if class_name else inside
         else:
