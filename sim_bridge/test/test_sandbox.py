@@ -20,7 +20,7 @@ import tempfile
 
 import pytest
 
-from sim_bridge.runner import sandbox as sandbox_module
+from sim_bridge.runner import sandbox as sandbox_module, sandbox_host
 from sim_bridge.runner.node_sandbox import isolation_line, NodeSandbox
 from sim_bridge.runner.sandbox import (
     clean_environment, isolation_mode, IsolationMode, KIT_PACKAGE, python_roots, Sandbox,
@@ -323,6 +323,59 @@ def test_a_run_cannot_signal_the_grader_or_another_run(python):
     refusals = output.split()
     assert len(refusals) == 2 * len(targets), output
     assert set(refusals) <= {'ProcessLookupError', 'PermissionError'}, output
+
+
+def owned_by(uid: int, folders) -> list[str]:
+    """Return what ``uid`` owns in ``folders`` (entries, not below) and its System V IPC."""
+    found = [entry.path for folder in folders for entry in os.scandir(folder)
+             if entry.stat(follow_symlinks=False).st_uid == uid]
+    for table in ('shm', 'sem', 'msg'):
+        header, *rows = Path('/proc/sysvipc', table).read_text().splitlines()
+        columns = header.split()
+        found += [f'{table} {row.split()[1]}' for row in rows
+                  if str(uid) in (row.split()[columns.index('uid')],
+                                  row.split()[columns.index('cuid')])]
+    return found
+
+
+@needs_root
+def test_nothing_a_run_without_namespaces_wrote_outlives_it(shared_python, monkeypatch):
+    # PARTLY sandboxed, the run's uid writes where any user may, starts Fast DDS and makes
+    # System V IPC, then dies by SIGKILL: its uid goes to the next run, which must find none.
+    monkeypatch.setattr(sandbox_module, 'LAUNCHER_PYTHON', shared_python)
+    monkeypatch.setattr(sandbox_module, 'isolation_mode',
+                        lambda: IsolationMode('uid', 'namespaces turned off by the test'))
+    shared = Path(tempfile.mkdtemp())  # a folder any user may write to, as /tmp/.X11-unix
+    try:
+        shared.chmod(0o1777)
+        places = [path for path in ('/tmp', '/var/tmp', '/dev/shm') if os.path.isdir(path)]
+        with Sandbox(hostile('litter')) as box:
+            status, output = run(box, 'litter', *places, shared, python=shared_python)
+            made = json.loads(output.splitlines()[-1])
+            while_it_ran = owned_by(box.uid, [*places, shared])
+        left = owned_by(box.uid, [*places, shared])
+    finally:
+        shutil.rmtree(shared)
+    assert status == -signal.SIGKILL, output
+    assert [path for path in made if 'fastrtps' in path], made  # Fast DDS's segments
+    assert len(while_it_ran) >= 2 * len(places) + 5, while_it_ran
+    assert left == []
+
+
+@needs_root
+def test_what_a_dead_graders_run_left_goes_before_its_uid_is_leased_again(monkeypatch):
+    uid = sandbox_host.UID_BASE + sandbox_host.UID_COUNT - 1
+    monkeypatch.setattr(sandbox_host, 'UID_BASE', uid)
+    monkeypatch.setattr(sandbox_host, 'UID_COUNT', 1)
+    folder = Path(tempfile.mkdtemp())  # as a run of the uid made it, in /tmp
+    os.chown(folder, uid, uid)
+    (folder / 'for the next run').write_text('planted')
+    try:
+        lease = sandbox_host.UidLease()
+        lease.release()
+        assert not folder.exists()
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
 
 
 @needs_root
