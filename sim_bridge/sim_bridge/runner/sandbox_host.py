@@ -54,16 +54,17 @@ def close_to_runs(paths: Sequence[str]) -> None:
     """
     Make ``paths`` unreadable by the runs' uids, but for group ANSWERS_GID (no o+rwx, g+r).
 
-    Without a mount namespace a run sees the host's files: this hides the kit's reference
-    answers from it (the change stays: other users of the machine cannot read them either).
-    SandboxError when it cannot be done (a read-only installation).
+    A folder gets g+x too. Without a mount namespace a run sees the host's files: this hides
+    the kit's answers from it (the change stays: other users of the machine cannot read them
+    either). SandboxError when it cannot be done (a read-only installation).
     """
     for path in paths:
         try:
             status = os.stat(path)
             if status.st_gid != ANSWERS_GID or status.st_mode & 0o007:
+                group = stat.S_IRGRP | (stat.S_IXGRP if stat.S_ISDIR(status.st_mode) else 0)
                 os.chown(path, -1, ANSWERS_GID)
-                os.chmod(path, stat.S_IMODE(status.st_mode) & ~0o007 | stat.S_IRGRP)
+                os.chmod(path, stat.S_IMODE(status.st_mode) & ~0o007 | group)
         except OSError as error:
             raise SandboxError(f'cannot hide {path} from runs without namespaces: '
                                f'{error.strerror or error}') from None
