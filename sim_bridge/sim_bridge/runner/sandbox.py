@@ -42,6 +42,7 @@ import tempfile
 import threading
 from typing import Iterator, Mapping, Sequence
 
+from sim_bridge.common.run_environment import NO_SHARED_MEMORY
 from sim_bridge.runner.sandbox_host import (
     ANSWERS_GID, close_to_runs, END_TIMEOUT_S, grader_folder, kill_uid, read_lines, RunCgroup,
     SandboxError, SCRATCH_PREFIX, uid_processes, UidLease, unreachable_by_others)
@@ -196,7 +197,8 @@ def clean_environment(scratch: Path, extra: Mapping[str, str] = {},
     sees (:func:`python_roots` and the system's), and Python's starts with the folders of the
     kit's package and of the ``library`` packages (where a run sees those packages alone:
     they are imported from where the grader imports them, whatever else is installed); ROS 2
-    discovery is OFF (a run's DDS stays in its processes) and ROS_LOCALHOST_ONLY unset.
+    discovery is OFF (a run's DDS stays in its processes), without Fast DDS's shared memory
+    (NO_SHARED_MEMORY), and ROS_LOCALHOST_ONLY unset.
     ``extra`` is added last (it may override).
     """
     roots = [*python_roots(), *SYSTEM_PATHS]
@@ -204,8 +206,8 @@ def clean_environment(scratch: Path, extra: Mapping[str, str] = {},
     env = {'PATH': os.pathsep.join([bin_folder, '/usr/local/bin', '/usr/bin', '/bin']),
            'HOME': str(scratch), 'TMPDIR': str(scratch), 'LANG': 'C.UTF-8',
            'PYTHONUNBUFFERED': '1', 'PYTHONDONTWRITEBYTECODE': '1',
-           'ROS_AUTOMATIC_DISCOVERY_RANGE': 'OFF', 'OPENBLAS_NUM_THREADS': '1',
-           'OMP_NUM_THREADS': '1'}
+           'ROS_AUTOMATIC_DISCOVERY_RANGE': 'OFF', **NO_SHARED_MEMORY,
+           'OPENBLAS_NUM_THREADS': '1', 'OMP_NUM_THREADS': '1'}
     if sys.prefix != sys.base_prefix:
         env['VIRTUAL_ENV'] = sys.prefix
     for name in ('PYTHONPATH', 'LD_LIBRARY_PATH', 'AMENT_PREFIX_PATH'):
