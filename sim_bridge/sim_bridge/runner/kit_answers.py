@@ -51,7 +51,7 @@ def reference_node_files() -> list[str]:
         for copy in copies:
             for name in names:
                 source = copy / name
-                if source.exists():
+                if os.path.exists(source):
                     files.append(str(source))
                 files += map(str, (source.parent / '__pycache__').glob(f'{source.stem}.*.pyc'))
     return list(dict.fromkeys(files))
@@ -90,7 +90,7 @@ def library_folders() -> list[Path]:
     spec = importlib.util.find_spec('scan_pkg')
     folders += [Path(os.path.realpath(folder)) for folder in
                 ((spec.submodule_search_locations or []) if spec else [])
-                if (Path(folder) / '__init__.py').is_file()]
+                if os.path.isfile(Path(folder) / '__init__.py')]
     return list(dict.fromkeys(folders))
 
 
@@ -106,7 +106,7 @@ def library_copies() -> list[Path]:
     folders = library_folders()
     for entry in dict.fromkeys([*sys.path, *site.getsitepackages()]):
         candidate = Path(entry or '.') / 'scan_pkg'
-        if (candidate / '__init__.py').is_file():
+        if os.path.isfile(candidate / '__init__.py'):
             folders.append(Path(os.path.realpath(candidate)))
     return list(dict.fromkeys(folders))
 
@@ -115,7 +115,7 @@ def kit_tops() -> list[Path]:
     """Return the kit's top folders: those holding its ament packages (with package.xml)."""
     packages = [KIT_PACKAGE.parent, *(folder.parent for folder in library_folders())]
     return list(dict.fromkeys(package.parent for package in packages
-                              if (package / 'package.xml').is_file()))
+                              if os.path.isfile(package / 'package.xml')))
 
 
 def answer_folders(needed: Sequence[str]) -> list[str]:
@@ -125,17 +125,18 @@ def answer_folders(needed: Sequence[str]) -> list[str]:
     TOP_ANSWER_FOLDERS at each of :func:`kit_tops`, PACKAGE_ANSWER_FOLDERS beside each of its
     packages (real paths). A folder that holds one of ``needed`` (what a run must read: its
     Python, the kit's packages) stays open: :func:`reference_node_files` hides the answers in
-    it file by file.
+    it file by file. A folder this process cannot enter (an ordinary user's grader, a folder
+    already closed) is taken as it is named.
     """
     folders = []
     for top in kit_tops():
         candidates = [top / name for name in TOP_ANSWER_FOLDERS]
         for package in sorted(top.iterdir()):
-            if (package / 'package.xml').is_file():
+            if os.path.isfile(package / 'package.xml'):
                 candidates += [match for pattern in PACKAGE_ANSWER_FOLDERS
                                for match in sorted(package.glob(pattern))]
         folders += [os.path.realpath(folder) for folder in candidates
-                    if folder.is_dir() and not folder.is_symlink()
+                    if os.path.isdir(folder) and not folder.is_symlink()
                     and not any(is_within(path, [os.path.realpath(folder)]) for path in needed)]
     return list(dict.fromkeys(folders))
 
