@@ -2,9 +2,11 @@
 Every test process keeps its ROS 2 traffic to itself (README, How a run works).
 
 ``shared_python``: a Python with this one's packages that every user can run (a run's uid
-without namespaces sees the host's folders).
+without namespaces sees the host's folders). ``answer_hunt``: the hostile node that names the
+files it can read holding an answer of the kit.
 """
 
+import importlib.util
 import os
 from pathlib import Path
 import shutil
@@ -18,6 +20,10 @@ import pytest
 from sim_bridge.common.run_environment import keep_dds_in_process
 
 keep_dds_in_process()
+
+FIXTURES = Path(__file__).resolve().parent / 'fixtures'
+#: Makes a venv every user can run with this Python's packages.
+SHARED_VENV = FIXTURES / 'shared_venv.py'
 
 
 def reachable_by_others(path: Path) -> bool:
@@ -33,8 +39,7 @@ def shared_python():
     Return a Python with this one's packages that every user can run, as Gradescope's venv.
 
     This one when it can; else a venv of the system's Python of the same version, in a folder
-    every user enters, that reads this one's site folder (``site.addsitedir`` in a .pth) and
-    links this one's shared libraries (the ROS wheels' ``lib/*.so``).
+    every user enters (fixtures/shared_venv.py).
     """
     site_folder = Path(sysconfig.get_path('purelib'))
     if reachable_by_others(Path(sys.executable)) and reachable_by_others(site_folder):
@@ -50,15 +55,18 @@ def shared_python():
     folder = Path(tempfile.mkdtemp(prefix='shared-python-'))
     try:
         folder.chmod(0o755)
-        subprocess.run([str(system), '-m', 'venv', '--without-pip', str(folder)], check=True)
+        subprocess.run([sys.executable, str(SHARED_VENV), str(folder)], check=True)
         python = folder / 'bin' / 'python'
-        shared_site = subprocess.run([str(python), '-c', 'import sysconfig; print(sysconfig.'
-                                      "get_path('purelib'))"], capture_output=True, text=True,
-                                     check=True).stdout.strip()
-        Path(shared_site, 'this_venv.pth').write_text(
-            f'import site; site.addsitedir({str(site_folder)!r})\n')
-        for library in Path(sys.prefix, 'lib').glob('*.so*'):
-            (folder / 'lib' / library.name).symlink_to(library)
         yield str(python)
     finally:
         shutil.rmtree(folder)
+
+
+@pytest.fixture(scope='session')
+def answer_hunt():
+    """Return fixtures/hostile/answer_hunt.py as a module (its ``wanted`` describes answers)."""
+    spec = importlib.util.spec_from_file_location('answer_hunt',
+                                                  FIXTURES / 'hostile' / 'answer_hunt.py')
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module

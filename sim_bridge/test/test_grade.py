@@ -504,3 +504,30 @@ def test_a_run_a_node_ended_early_fails_saying_when_and_who(tmp_path, runs):
     assert all(result.passed for result in report.results)
     assert not report.passed
     assert report.error == f'the run ended at 3.0 s of its 30 s: {ended_by}'
+
+
+def test_a_run_is_resumed_only_while_every_file_it_reads_of_the_submission_is_unchanged(
+        tmp_path):
+    # A hostile student grades a node whose logic is in a helper module beside it, then
+    # swaps the helper: the run reads the new helper, so the signed result cannot be reused.
+    student = tmp_path / 'student'
+    student.mkdir()
+    (student / 'wall_follow.py').write_text('from helper import main\n')
+    helper = student / 'helper.py'
+    helper.write_text('def main():\n    pass\n')
+    [run] = scenario_from_dict({'world': 'obstacles', 'nodes': [str(student / 'wall_follow.py')],
+                                'duration': 1.0, 'criteria': ['collisions == 0']},
+                               'follow').runs()
+
+    def digest():
+        return batch.fingerprint(GradeJob(run, tmp_path / 'out'), {}, batch.Limits())
+
+    first = digest()
+    assert digest() == first
+    helper.write_text('def main():\n    print("changed")\n')
+    changed = digest()
+    (student / 'helper2.py').write_text('')  # a module more the run can import
+    added = digest()
+    (student / 'notes.txt').write_text('not copied into the run')
+    assert len({first, changed, added}) == 3
+    assert digest() == added

@@ -346,6 +346,84 @@ def test_run_autograder_partly_sandboxed_grades_as_the_dedicated_uid_and_says_so
     assert ahead_run['metrics']['run_mode']['sandbox'].startswith('PARTLY sandboxed: uid 6')
 
 
+#: ``python3`` on the machine setup.sh is tried on, offline: ``-m venv`` makes a venv of the
+#: system's Python, with its pip, that reads this Python's packages (fixtures/shared_venv.py).
+PYTHON3_STUB = ('#!/bin/sh\n[ "$1 $2" = "-m venv" ] || exec /usr/bin/python3 "$@"\n'
+                'exec {python} {shared_venv} --with-pip "$3"\n')
+#: The grader's side of a hunt, run as run_autograder runs the grader: the node file given
+#: runs as a submission's, with the answers to look for; prints what it printed.
+HUNT_AS_GRADER = """
+import subprocess, sys, tempfile
+from sim_bridge.runner.node_sandbox import NodeSandbox
+from sim_bridge.runner.sandbox import SandboxLimits
+where = NodeSandbox(sys.argv[1], SandboxLimits())
+with where.sandbox as box, tempfile.TemporaryFile() as output:
+    box.popen([sys.executable, where.target, sys.argv[2]], where.environment(), stdout=output,
+              stderr=subprocess.STDOUT).wait(300)
+    output.seek(0)
+    print(output.read().decode())
+"""
+
+
+def set_up(root: Path) -> None:
+    """Run the zip's setup.sh as Gradescope does (as root), offline: apt-get does nothing."""
+    stubs = root.parent / 'stubs'
+    stubs.mkdir()
+    (stubs / 'apt-get').write_text('#!/bin/sh\nexit 0\n')
+    (stubs / 'python3').write_text(PYTHON3_STUB.format(
+        python=sys.executable, shared_venv=FIXTURES / 'shared_venv.py'))
+    for stub in stubs.iterdir():
+        stub.chmod(0o755)
+    # pip finds every requirement installed (this Python's site folder), and builds the kit's
+    # packages with the setuptools there.
+    done = subprocess.run(['bash', str(root / 'source' / 'setup.sh')], timeout=600, text=True,
+                          capture_output=True, env={**os.environ, 'PIP_NO_INDEX': '1',
+                                                    'PATH': f'{stubs}:{os.environ["PATH"]}',
+                                                    'PIP_NO_BUILD_ISOLATION': '0'})
+    assert done.returncode == 0, done.stderr[-2000:]
+
+
+def test_setup_leaves_no_answer_a_partly_sandboxed_run_can_read(
+        autograder, tmp_path, shared_python, answer_hunt):
+    # pip builds the kit's packages in their folders, which leaves a readable copy of the
+    # reference nodes in kit/scan_pkg/build/lib (3/3 for a wall_follow.py that runs it from
+    # there, PARTLY sandboxed). A hostile student's node walks the machine,
+    # as the autograder's grader runs it without namespaces, and names every answer it reads.
+    if os.geteuid() != 0 or not Path('/usr/bin/python3').is_file():
+        pytest.skip("setup.sh runs as root, with the system's Python")
+    folder = Path(tempfile.mkdtemp(prefix='gradescope-'))  # the runs' uids read the kit there
+    try:
+        folder.chmod(0o755)
+        root = gradescope_root(folder, autograder, {})
+        set_up(root)
+        kit = root / 'source' / 'kit'
+        built = [str(path.relative_to(kit)) for pattern in ('*/build', '*/*.egg-info')
+                 for path in kit.glob(pattern)]
+        # What the setup.sh of earlier kits left there: the grader closes it to runs.
+        shutil.copytree(kit / 'scan_pkg' / 'scan_pkg', kit / 'scan_pkg' / 'build' / 'lib'
+                        / 'scan_pkg', dirs_exist_ok=True)
+        (tmp_path / 'student').mkdir()
+        node = tmp_path / 'student' / 'wall_follow.py'
+        shutil.copy(FIXTURES / 'hostile' / 'answer_hunt.py', node)
+        sources = [path for path in (kit / 'scan_pkg' / 'scan_pkg').rglob('*.py')
+                   if path.stem in ('closest_obstacle', 'scan_ahead', 'scan_around',
+                                    'wall_follow', 'wanderbot') or 'behaviors' in path.parts]
+        library = kit / 'scan_pkg' / 'scan_pkg' / 'report.py'
+        hunted = subprocess.run(
+            [str(kit / '.venv' / 'bin' / 'python'), '-c', HUNT_AS_GRADER, str(node),
+             json.dumps(answer_hunt.wanted(sources, [library]))],
+            capture_output=True, text=True, timeout=600,
+            env={**os.environ, 'PYTHONPATH': f'{kit}/scan_pkg:{kit}/sim_bridge',
+                 NO_NAMESPACES_VARIABLE: '1'})
+        found = json.loads(hunted.stdout.strip().splitlines()[-1])
+    finally:
+        shutil.rmtree(folder)
+    assert len(sources) == 8 and found['expected'] == [str(library)], (sources, found)
+    assert built == []
+    # The run sees the whole machine: other checkouts of the kit are other people's files.
+    assert [path for path in found['answers'] if path.startswith(str(folder))] == []
+
+
 def test_run_autograder_gives_0_to_a_crashing_node_and_a_missing_file(autograder, tmp_path):
     root = gradescope_root(tmp_path, autograder,
                            {'scan_ahead.py': FIXTURES / 'raising_node.py'})

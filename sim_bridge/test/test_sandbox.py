@@ -21,7 +21,7 @@ import time
 
 import pytest
 
-from sim_bridge.runner import sandbox as sandbox_module
+from sim_bridge.runner import sandbox as sandbox_module, sandbox_host
 from sim_bridge.runner.node_sandbox import isolation_line, NodeSandbox
 from sim_bridge.runner.sandbox import (
     clean_environment, isolation_mode, IsolationMode, KIT_PACKAGE, python_roots, Sandbox,
@@ -324,6 +324,118 @@ def test_a_run_cannot_signal_the_grader_or_another_run(python):
     refusals = output.split()
     assert len(refusals) == 2 * len(targets), output
     assert set(refusals) <= {'ProcessLookupError', 'PermissionError'}, output
+
+
+def owned_by(uid: int, folders) -> list[str]:
+    """Return what ``uid`` owns in ``folders`` (entries, not below) and its System V IPC."""
+    found = [entry.path for folder in folders for entry in os.scandir(folder)
+             if entry.stat(follow_symlinks=False).st_uid == uid]
+    for table in ('shm', 'sem', 'msg'):
+        header, *rows = Path('/proc/sysvipc', table).read_text().splitlines()
+        columns = header.split()
+        found += [f'{table} {row.split()[1]}' for row in rows
+                  if str(uid) in (row.split()[columns.index('uid')],
+                                  row.split()[columns.index('cuid')])]
+    return found
+
+
+@needs_root
+def test_nothing_a_run_without_namespaces_wrote_outlives_it(shared_python, monkeypatch):
+    # PARTLY sandboxed, the run's uid writes where any user may, starts Fast DDS and makes
+    # System V IPC, then dies by SIGKILL: its uid goes to the next run, which must find none.
+    monkeypatch.setattr(sandbox_module, 'LAUNCHER_PYTHON', shared_python)
+    monkeypatch.setattr(sandbox_module, 'isolation_mode',
+                        lambda: IsolationMode('uid', 'namespaces turned off by the test'))
+    shared = Path(tempfile.mkdtemp())  # a folder any user may write to, as /tmp/.X11-unix
+    try:
+        shared.chmod(0o1777)
+        places = [path for path in ('/tmp', '/var/tmp', '/dev/shm') if os.path.isdir(path)]
+        with Sandbox(hostile('litter')) as box:
+            status, output = run(box, 'litter', *places, shared, python=shared_python)
+            made = json.loads(output.splitlines()[-1])
+            while_it_ran = owned_by(box.uid, [*places, shared])
+        left = owned_by(box.uid, [*places, shared])
+    finally:
+        shutil.rmtree(shared)
+    assert status == -signal.SIGKILL, output
+    assert [path for path in made if 'fastrtps' in path], made  # Fast DDS's segments
+    assert len(while_it_ran) >= 2 * len(places) + 5, while_it_ran
+    assert left == []
+
+
+#: Publishes 20 messages to itself through rclpy and prints how many it received.
+PUBLISH_TO_ITSELF = """
+import rclpy
+from std_msgs.msg import String
+rclpy.init()
+node = rclpy.create_node('neighbour')
+got = []
+node.create_subscription(String, 'chatter', lambda message: got.append(message.data), 10)
+publisher = node.create_publisher(String, 'chatter', 10)
+for index in range(20):
+    publisher.publish(String(data=str(index)))
+    for _ in range(50):
+        if len(got) > index:
+            break
+        rclpy.spin_once(node, timeout_sec=0.1)
+print(len(got))
+"""
+#: Run in a /dev/shm of its own: a squatter's run, then beside it a neighbour's trusted side
+#: (in the run environment it gets) and a neighbour's run; prints their exit statuses and
+#: outputs (JSON).
+SQUAT_BESIDE = """
+import json, os, subprocess, sys
+from sim_bridge.runner.sandbox import Sandbox
+hostile, publish = sys.argv[1], sys.argv[2]
+trusted = ('from sim_bridge.common.run_environment import run_environment\\n'
+           'with run_environment():\\n    exec(compile(%r, "neighbour", "exec"))' % publish)
+with Sandbox({'squatter.py': hostile}) as squatter, Sandbox({}) as neighbour:
+    process = squatter.popen([sys.executable, 'squatter.py'], squatter.environment(),
+                             stdout=subprocess.PIPE)
+    assert process.stdout.readline() == b'squatted\\n'
+    ran = [subprocess.run([sys.executable, '-c', trusted], capture_output=True, text=True,
+                          timeout=120)]
+    # A run's environment, with the libraries of this test's venv (in a folder of its own).
+    libraries = {'LD_LIBRARY_PATH': os.environ.get('LD_LIBRARY_PATH', '')}
+    ran.append(subprocess.run(
+        neighbour.launcher([sys.executable, '-c', publish]),
+        env=neighbour.environment(libraries), capture_output=True, text=True, timeout=120))
+print(json.dumps([[done.returncode, done.stdout.strip(), done.stderr[-300:]] for done in ran]))
+"""
+
+
+@needs_root
+def test_a_run_squatting_fast_dds_files_crashes_no_neighbour(shared_python):
+    # Without namespaces every run and the grader share /dev/shm. In a /dev/shm of its own
+    # (the machine's other processes keep theirs), a run squats Fast DDS's port files; the
+    # trusted side of a neighbouring run and the neighbouring run itself start rclpy.
+    unshare = shutil.which('unshare')
+    if unshare is None:
+        pytest.skip('needs unshare, for a /dev/shm of its own')
+    done = subprocess.run(
+        [unshare, '--mount', '--propagation', 'private', 'sh', '-c',
+         'mount -t tmpfs tmpfs /dev/shm && exec "$@"', 'sh', shared_python, '-c', SQUAT_BESIDE,
+         str(HOSTILE / 'squatter.py'), PUBLISH_TO_ITSELF], capture_output=True, text=True,
+        timeout=600, env={**os.environ, sandbox_module.NO_NAMESPACES_VARIABLE: '1'})
+    assert done.returncode == 0, done.stderr[-2000:]
+    trusted, run = json.loads(done.stdout.splitlines()[-1])
+    assert (trusted[:2], run[:2]) == ([0, '20'], [0, '20']), (trusted, run)
+
+
+@needs_root
+def test_what_a_dead_graders_run_left_goes_before_its_uid_is_leased_again(monkeypatch):
+    uid = sandbox_host.UID_BASE + sandbox_host.UID_COUNT - 1
+    monkeypatch.setattr(sandbox_host, 'UID_BASE', uid)
+    monkeypatch.setattr(sandbox_host, 'UID_COUNT', 1)
+    folder = Path(tempfile.mkdtemp())  # as a run of the uid made it, in /tmp
+    os.chown(folder, uid, uid)
+    (folder / 'for the next run').write_text('planted')
+    try:
+        lease = sandbox_host.UidLease()
+        lease.release()
+        assert not folder.exists()
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
 
 
 @needs_root

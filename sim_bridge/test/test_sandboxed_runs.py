@@ -15,8 +15,12 @@ import subprocess
 import tempfile
 
 import pytest
+from sim_bridge.grading.class_batch import ClassBatch
+from sim_bridge.grading.scenario import scenario_from_dict
+from sim_bridge.runner import sandbox as sandbox_module
+from sim_bridge.runner.node_sandbox import NodeSandbox
 from sim_bridge.runner.run import run_simulation
-from sim_bridge.runner.sandbox import NO_NAMESPACES_VARIABLE
+from sim_bridge.runner.sandbox import isolation_mode, NO_NAMESPACES_VARIABLE, SandboxLimits
 
 HOSTILE = Path(__file__).resolve().parent / 'fixtures' / 'hostile'
 KIT_NODES = Path(__file__).resolve().parents[2] / 'scan_pkg' / 'scan_pkg'
@@ -109,3 +113,44 @@ def test_not_sandboxed_a_run_still_runs_to_its_grade_and_says_so_loudly(shared_p
     assert report['notes'] == [f'runs {said}'] and said in page
     [run] = report['runs']
     assert run['passed'] and run['metrics']['run_mode']['sandbox'] == said
+
+
+def test_partly_sandboxed_a_students_run_reads_no_classmates_file_nor_output(
+        shared_python, monkeypatch):
+    # Without namespaces a run's uid reads what any user may: a class folder as an
+    # instructor's umask leaves it (0755, 0644) hands alice's run bob's honest node file.
+    if os.geteuid() != 0:
+        pytest.skip('a dedicated uid needs root')
+    monkeypatch.setenv(NO_NAMESPACES_VARIABLE, '1')
+    monkeypatch.setattr(sandbox_module, 'LAUNCHER_PYTHON', shared_python)
+    isolation_mode.cache_clear()
+    folder = Path(tempfile.mkdtemp())
+    try:
+        folder.chmod(0o755)
+        submissions, out = folder / 'class', folder / 'out'
+        for student in ('alice', 'bob'):
+            (submissions / student).mkdir(parents=True)
+        shutil.copy(HOSTILE / 'snoop.py', submissions / 'alice' / 'wall_follow.py')
+        (submissions / 'bob' / 'wall_follow.py').write_text(
+            (KIT_NODES / 'wall_follow.py').read_text())  # 0644, as bob's upload
+        earlier = out / 'students' / 'bob' / 'wall_follow' / 'seed_1' / 'log.jsonl'
+        earlier.parent.mkdir(parents=True)
+        earlier.write_text('{"printed": "what bob printed"}\n')
+        scenario = scenario_from_dict({'world': 'obstacles', 'nodes': ['wall_follow'],
+                                       'duration': 1.0, 'criteria': ['collisions == 0']},
+                                      'wall_follow')
+        ClassBatch([scenario], submissions, out)
+        targets = [submissions / 'bob' / 'wall_follow.py', earlier]
+        where = NodeSandbox(str(submissions / 'alice' / 'wall_follow.py'), SandboxLimits())
+        with where.sandbox as box, tempfile.TemporaryFile() as output:
+            box.popen([shared_python, where.target, str(os.getpid()), *map(str, targets),
+                       '--write'], where.environment(), stdout=output,
+                      stderr=subprocess.STDOUT).wait(120)
+            output.seek(0)
+            text = output.read().decode()
+    finally:
+        shutil.rmtree(folder)
+        isolation_mode.cache_clear()
+    assert box.isolation.startswith('PARTLY sandboxed'), box.isolation
+    found = json.loads(text.splitlines()[-1])
+    assert [found[str(target)] for target in targets] == ['PermissionError'] * 2, found

@@ -2,7 +2,8 @@
 The ROS 2 environment of an in-process run: its traffic kept in the process, field checks on.
 
 ``ROS_AUTOMATIC_DISCOVERY_RANGE=OFF``: the process still talks to itself, and no other process
-(another run, a live simulator, another machine) sees it or is seen.
+(another run, a live simulator, another machine) sees it or is seen. NO_SHARED_MEMORY: nor
+does it open Fast DDS's files in /dev/shm.
 
 ``ROS_PYTHON_CHECK_FIELDS=1``: rosidl's generated setters raise ``AssertionError: The 'z' field
 must be of type 'float'`` when a node puts an int in a float field. Jazzy's default (unset)
@@ -19,6 +20,12 @@ import sys
 from typing import Iterator, Mapping
 
 CHECK_FIELDS_VARIABLE = 'ROS_PYTHON_CHECK_FIELDS'
+#: Fast DDS without its shared-memory transport: a run's traffic stays in its process
+#: (intra-process delivery), and no file in /dev/shm, which every user shares, is opened. A
+#: process of any user that squats Fast DDS's port files there (fs.protected_regular=0) makes
+#: every participant that opens them abort ("The futex facility returned an unexpected error
+#: code"): the grader's, another run's.
+NO_SHARED_MEMORY = {'FASTDDS_BUILTIN_TRANSPORTS': 'UDPv4'}
 #: What a run's error adds when a field check fails.
 FIELD_CHECK_HINT = (
     "field checks are on in runs (ROS_PYTHON_CHECK_FIELDS=1); on a robot, Jazzy's default does "
@@ -57,7 +64,8 @@ def run_environment(field_checks: bool = True) -> Iterator[None]:
     check = '1' if field_checks else ''
     modules = {module: module.ros_python_check_fields for module in _message_modules()}
     outside = os.environ.get(CHECK_FIELDS_VARIABLE, '')  # what a module first imported here gets
-    with environment_set({'ROS_AUTOMATIC_DISCOVERY_RANGE': 'OFF', CHECK_FIELDS_VARIABLE: check}):
+    with environment_set({'ROS_AUTOMATIC_DISCOVERY_RANGE': 'OFF', CHECK_FIELDS_VARIABLE: check,
+                          **NO_SHARED_MEMORY}):
         for module in modules:
             module.ros_python_check_fields = check
         try:

@@ -12,6 +12,7 @@ from collections.abc import Callable, Iterable
 from dataclasses import asdict
 import hashlib
 import json
+import os
 from pathlib import Path
 import select
 import shutil
@@ -28,6 +29,7 @@ from sim_bridge.grading.isolate import Child
 from sim_bridge.grading.limits import Job, Limits
 from sim_bridge.grading.runs import GradeJob, RESULT_NAME, RunReport
 from sim_bridge.grading.scenario import ScenarioRun
+from sim_bridge.runner.node_sandbox import is_kit_file, student_files
 from sim_bridge.runner.targets import split_target
 from sim_bridge.simulation.world import World, WorldError
 
@@ -162,8 +164,10 @@ def fingerprint(job: GradeJob, options: dict[str, Any], limits: Limits) -> str:
     Return a digest of everything a run's outcome depends on.
 
     The scenario's settings, the runner options and limits, and the contents of the scenario,
-    world, model and node files (or, for a world that does not load, why): a run is resumed
-    only when none of them changed since it ran.
+    world and model files (or, for a world that does not load, why) and of all a run reads of
+    a submission (a student's node file and its own modules beside it, by name: see
+    :func:`sim_bridge.runner.node_sandbox.student_files`): a run is resumed only when none of
+    them changed since it ran.
     """
     scenario = job.run.scenario
     digest = hashlib.sha256(json.dumps({
@@ -180,11 +184,26 @@ def fingerprint(job: GradeJob, options: dict[str, Any], limits: Limits) -> str:
         world_files = ()
         digest.update(str(error).encode())
     node_files = [Path(split_target(node)[0]) for node in scenario.nodes]
-    for path in (Path(scenario.path or ''), *world_files, *node_files):
-        if path.is_file():  # read in chunks: a file's size costs time, never memory
-            with open(path, 'rb') as file:
-                digest.update(hashlib.file_digest(file, 'sha256').digest())
+    for path in (Path(scenario.path or ''), *world_files):
+        digest.update(file_digest(path))
+    for path in node_files:
+        read = student_files(path) if path.is_file() and not is_kit_file(path) else {'': path}
+        for name, source in read.items():  # all a run reads of a submission, by name
+            digest.update(name.encode() + b'\0' + file_digest(source))
     return digest.hexdigest()
+
+
+def file_digest(path: Path) -> bytes:
+    """
+    Return the SHA-256 of a file's contents (b'' when it is not a file), a symlink's target first.
+
+    Read in chunks: a file's size costs time, never memory.
+    """
+    digest = hashlib.sha256(os.fsencode(os.readlink(path)) if path.is_symlink() else b'')
+    if path.is_file():
+        with open(path, 'rb') as file:
+            digest.update(hashlib.file_digest(file, 'sha256').digest())
+    return digest.digest()
 
 
 class ResultRefused(Exception):

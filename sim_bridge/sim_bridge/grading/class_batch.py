@@ -10,6 +10,7 @@ name (``col:on``, ``index.html``, bytes that are not UTF-8). Outputs below ``--o
 others failed, then the runs in all and, when the scenarios carry marks
 (:mod:`sim_bridge.grading.marks`), the marks per task and in all) and ``index.html``, the class's
 page; ``students/<student>/`` with each run's outputs, ``report.json`` and ``report.html``.
+Without namespaces, the class's folder and the outputs are closed to the runs.
 """
 
 import csv
@@ -28,6 +29,8 @@ from sim_bridge.grading.runs import (
 from sim_bridge.grading.scenario import Scenario
 from sim_bridge.grading.submission_files import (
     find_node_files, MAX_FILE_BYTES, missing_text)
+from sim_bridge.runner import sandbox
+from sim_bridge.runner.sandbox_host import close_to_runs
 from sim_bridge.runner.targets import target_name
 
 CSV_NAME = 'class.csv'
@@ -72,6 +75,7 @@ class ClassBatch:
             self.missing += [(student, report) for report in runs.missing]
             self.file_notes[student] = runs.notes
             self.student_of.update({str(job.out_dir): student for job in runs.jobs})
+        close_to_students_runs([submissions, out])
 
     def source_folder(self, folder: Path) -> Path:
         """
@@ -204,6 +208,19 @@ class SubmissionRuns(NamedTuple):
     missing: list[RunReport]
     #: What its reports say of the files graded ('graded wall_follower.py as wall_follow').
     notes: list[str]
+
+
+def close_to_students_runs(folders: Sequence[Path]) -> None:
+    """
+    Close a class's ``folders`` (its submissions, the outputs) to the runs without namespaces.
+
+    A run's uid alone (PARTLY sandboxed) reads what any user may: a classmate's node file, the
+    outputs of earlier runs. A run reads its own files from its sandbox's copy, none of these.
+    """
+    if sandbox.isolation_mode().kind == 'uid':
+        for folder in folders:
+            folder.mkdir(parents=True, exist_ok=True)
+        close_to_runs([str(folder) for folder in folders])
 
 
 def submission_runs(scenarios: list[Scenario], source: Path, out: Path,

@@ -74,6 +74,10 @@ ros=$(grep -v -E '^[[:space:]]*(#|$)|ament-(flake8|pep257)' "$kit/requirements-r
 "$kit/.venv/bin/python" -m pip install --quiet --no-cache-dir -r "$kit/requirements.txt" $ros
 "$kit/.venv/bin/python" -m pip install --quiet --no-cache-dir --no-deps "$kit/scan_pkg" \
     "$kit/sim_bridge"
+# pip builds each package in its folder, where setuptools leaves a copy of it (build/lib: the
+# reference nodes, readable by any user) and its egg-info: no run may read them.
+rm -rf "$kit/scan_pkg/build" "$kit/sim_bridge/build" "$kit"/scan_pkg/*.egg-info \
+    "$kit"/sim_bridge/*.egg-info
 """
 
 RUN_AUTOGRADER = r"""#!/usr/bin/env bash

@@ -3,23 +3,25 @@ Where a node process runs: a Sandbox (sim_bridge.runner.sandbox) of its own, for
 
 A student's node file is copied, with the Python files beside it (its own modules), into the
 sandbox's scratch folder, and runs from that copy, with the kit's scan_pkg library (its
-``report``, ``laser``, ``cmd_vel`` helpers) readable but its reference nodes (the modules of
-its console scripts) empty; the kit's own targets (a console script or
+``report``, ``laser``, ``cmd_vel`` helpers) readable but none of its answers, in any copy
+(sim_bridge.runner.kit_answers: hidden in the sandbox's namespaces, closed to its uid without
+them); the kit's own targets (a console script or
 module such as ``wall_follow``, a file inside the kit) run sandboxed too, with the kit's
 reference nodes readable. What the process prints names the copy: :class:`NodeSandbox`
 maps it back to the student's own folder before anyone sees it.
 """
 
-import importlib.machinery
-import importlib.util
 import os
 from pathlib import Path
 import resource
 import sys
 from typing import Mapping
 
-from sim_bridge.runner.sandbox import ADDRESS_SPACE_SLACK_BYTES, KIT_PACKAGE, Sandbox, \
-    SandboxError, SandboxLimits
+from sim_bridge.runner.kit_answers import (
+    answer_folders, library_copies, library_folders, reference_node_files)
+from sim_bridge.runner.sandbox import ADDRESS_SPACE_SLACK_BYTES, Sandbox, SandboxError, \
+    SandboxLimits
+from sim_bridge.runner.sandbox_view import KIT_PACKAGE, python_roots
 from sim_bridge.runner.targets import split_target
 
 #: What of the trusted side's environment a node process gets (its DDS domain, its checks).
@@ -32,87 +34,25 @@ DEFAULT_MEMORY_BYTES = 2 * 2 ** 30
 MAX_WRAPPERS = 4
 #: How the node process's command line goes on after its Python (boundary.agent_command).
 AGENT_ARGV = [b'-m', b'sim_bridge.runner.agent']
+#: The folder of a student's files in a run's scratch: shown as the student's own.
+COPY_FOLDER = 'node'
 #: A node process's wall time (s): this, plus a wall second per simulated second (the
 #: grader's own budget, sim_bridge.grading.limits, ends the run first).
 WALL_BASE_S = 120.0
 
 
-def reference_node_files() -> list[str]:
+def student_files(node_file: Path) -> dict[str, Path]:
     """
-    Return the files of the kit's reference answers, to be hidden from a student's node.
+    Return what a run of a student's ``node_file`` reads of the submission: name -> file.
 
-    The modules of scan_pkg's console scripts (the lab's nodes), the pure controllers they run
-    (``scan_pkg.behaviors``), and the bytecode Python cached of each (a student could load a
-    ``.pyc`` by hand as well as a ``.py``), in every copy of scan_pkg a run could read
-    (:func:`library_copies`: an autograder's venv holds one beside the kit's own).
+    The node file and the Python files beside it (its own modules), under COPY_FOLDER in the
+    sandbox's scratch folder; nothing else of the student's folder reaches the run.
     """
-    sources = [Path(source) for source in reference_node_sources()]
-    copies = library_copies()
-    files = []
-    for imported in library_folders():
-        names = [source.relative_to(imported) for source in sources
-                 if source.is_relative_to(imported)]
-        for copy in copies:
-            for name in names:
-                source = copy / name
-                if source.exists():
-                    files.append(str(source))
-                files += map(str, (source.parent / '__pycache__').glob(f'{source.stem}.*.pyc'))
-    return list(dict.fromkeys(files))
-
-
-def reference_node_sources() -> list[str]:
-    """Return the source files of the kit's reference answers (see reference_node_files)."""
-    files = [os.path.realpath(spec.origin) for spec in console_script_specs()]
-    behaviors = importlib.util.find_spec('scan_pkg.behaviors')
-    for folder in (behaviors.submodule_search_locations or []) if behaviors else []:
-        files.extend(os.path.realpath(path) for path in sorted(Path(folder).glob('*.py')))
+    folder = node_file.resolve().parent
+    files = {f'{COPY_FOLDER}/{sibling.name}': sibling for sibling in sorted(folder.glob('*.py'))
+             if sibling.is_file()}
+    files[f'{COPY_FOLDER}/{node_file.name}'] = node_file
     return files
-
-
-def console_script_specs() -> list[importlib.machinery.ModuleSpec]:
-    """Return the specs of scan_pkg's console scripts' modules, as this process finds them."""
-    from importlib.metadata import distribution, PackageNotFoundError
-    try:
-        scripts = [entry for entry in distribution('scan_pkg').entry_points
-                   if entry.group == 'console_scripts']
-    except PackageNotFoundError:
-        return []
-    specs = [importlib.util.find_spec(entry.module) for entry in scripts]
-    return [spec for spec in specs if spec is not None and spec.origin]
-
-
-def library_folders() -> list[Path]:
-    """
-    Return the folders of the kit's scan_pkg package as this process imports it, real paths.
-
-    The folder of each console script's module's package (``scan_pkg`` imported from the
-    workspace's top is a namespace of the ament package's folder; its modules are not).
-    """
-    folders = [Path(os.path.realpath(spec.origin)).parents[spec.name.count('.') - 1]
-               for spec in console_script_specs()]
-    spec = importlib.util.find_spec('scan_pkg')
-    folders += [Path(os.path.realpath(folder)) for folder in
-                ((spec.submodule_search_locations or []) if spec else [])
-                if (Path(folder) / '__init__.py').is_file()]
-    return list(dict.fromkeys(folders))
-
-
-def library_copies() -> list[Path]:
-    """
-    Return every scan_pkg package folder a run could import (real paths).
-
-    This process's (:func:`library_folders`), and any other on Python's path or in its site
-    folders: a venv with the kit installed (Gradescope's setup.sh) holds a copy that a
-    ``PYTHONPATH`` to the kit's source only shadows.
-    """
-    import site
-    folders = library_folders()
-    for entry in dict.fromkeys([*sys.path, *site.getsitepackages()]):
-        candidate = Path(entry or '.') / 'scan_pkg'
-        if (candidate / '__init__.py').is_file():
-            folders.append(Path(os.path.realpath(candidate)))
-    return list(dict.fromkeys(folders))
 
 
 def node_limits(duration_s: float, address_space_bytes: int | None = None) -> SandboxLimits:
@@ -128,6 +68,19 @@ def node_limits(duration_s: float, address_space_bytes: int | None = None) -> Sa
     memory = DEFAULT_MEMORY_BYTES if hard == resource.RLIM_INFINITY \
         else max(LEAST_MEMORY_BYTES, hard - ADDRESS_SPACE_SLACK_BYTES)
     return SandboxLimits(memory_bytes=memory, wall_s=WALL_BASE_S + max(duration_s, 1.0))
+
+
+def kit_answers() -> list[str]:
+    """
+    Return what a student's run must not read of the kit: answer files and folders.
+
+    The answer files of every copy of scan_pkg (:func:`reference_node_files`) and the kit's
+    folders of answers and copies (:func:`answer_folders`) but those holding what a run reads:
+    its Python (the grader's, and the launcher's), the kit's packages.
+    """
+    needed = [*python_roots(), *map(str, library_folders()), str(KIT_PACKAGE),
+              os.path.realpath(sys.executable)]
+    return [*reference_node_files(), *answer_folders(needed)]
 
 
 def is_kit_file(path: Path) -> bool:
@@ -150,15 +103,11 @@ class NodeSandbox:
         path = Path(where)
         self.copy_folder = self.own_folder = ''
         if path.is_file() and not is_kit_file(path):
-            folder = path.resolve().parent
-            name = 'node'  # the copy's folder: shown as the student's own (see shown)
-            files = {f'{name}/{sibling.name}': sibling for sibling in folder.glob('*.py')
-                     if sibling.is_file()}
-            files[f'{name}/{path.name}'] = path
-            self.sandbox = Sandbox(files, limits, readable=readable, library=library_folders(),
-                                   reference_nodes=True, hidden_files=reference_node_files())
-            self.copy_folder = str(self.sandbox.scratch / name)
-            self.own_folder = str(folder)
+            self.sandbox = Sandbox(student_files(path), limits, readable=readable,
+                                   library=library_folders(), reference_nodes=True,
+                                   hidden_files=kit_answers())
+            self.copy_folder = str(self.sandbox.scratch / COPY_FOLDER)
+            self.own_folder = str(path.resolve().parent)
             inside = f'{self.copy_folder}/{path.name}'
             self.target = f'{inside}:{class_name}' if class_name else inside
         else:

@@ -30,7 +30,6 @@ process; a cgroup and a dedicated uid are swept until empty), and removes the sc
 
 from dataclasses import dataclass, fields
 import functools
-import importlib.util
 import json
 import os
 from pathlib import Path
@@ -43,22 +42,17 @@ import tempfile
 import threading
 from typing import Iterator, Mapping, Sequence
 
+from sim_bridge.common.run_environment import NO_SHARED_MEMORY
 from sim_bridge.runner.sandbox_host import (
     ANSWERS_GID, close_to_runs, END_TIMEOUT_S, grader_folder, kill_uid, read_lines, RunCgroup,
     SandboxError, SCRATCH_PREFIX, uid_processes, UidLease, unreachable_by_others)
+from sim_bridge.runner.sandbox_view import (
+    hidden_mounts, hidden_package_folders, is_within, KIT_PACKAGE, parent_folders, python_roots,
+    system_mounts, SYSTEM_PATHS)
 
 #: Where a bwrap run's process finds the host copy of the student's files, read-only; the
 #: launcher copies them into the run's size-limited scratch tmpfs.
 FILES_MOUNT = '/run/lab-files'
-#: What of /etc a Python and a DDS participant read (the rest is the instructor's).
-ETC_PATHS = ('/etc/ld.so.cache', '/etc/ld.so.conf', '/etc/ld.so.conf.d', '/etc/localtime',
-             '/etc/nsswitch.conf', '/etc/hosts', '/etc/host.conf', '/etc/alternatives')
-#: Top folders of the system installation, read-only (symlinks mirrored on merged-/usr).
-SYSTEM_PATHS = ('/usr', '/bin', '/sbin', '/lib', '/lib32', '/lib64')
-#: The kit's sim_bridge package, which runs see read-only (the stepping agent lives there).
-KIT_PACKAGE = Path(__file__).resolve().parents[1]
-#: Packages of the kit a run must not import (the reference nodes).
-HIDDEN_PACKAGES = ('scan_pkg',)
 #: Namespaces every bwrap run gets; an ordinary user's also gets a user namespace.
 NAMESPACES = ('--unshare-ipc', '--unshare-pid', '--unshare-net', '--unshare-uts',
               '--unshare-cgroup-try')
@@ -194,64 +188,6 @@ def isolation_mode() -> IsolationMode:
     return IsolationMode('uid' if root else 'none', why)
 
 
-def is_within(path: str, roots: Sequence[str]) -> bool:
-    """Tell whether ``path`` is one of ``roots`` or inside one (paths as strings)."""
-    return any(path == root or path.startswith(root.rstrip('/') + '/') for root in roots)
-
-
-def python_roots() -> list[str]:
-    """
-    Return the folders outside the system ones a run needs read-only, outermost only.
-
-    The Python installation and venv (``sys.prefix``, ``sys.base_prefix``, the site
-    folders: the installation's and any on Python's path, such as one a ``.pth`` file added),
-    the kit's ``sim_bridge`` package, and a sourced ROS 2 (``/opt/ros/$ROS_DISTRO``).
-    """
-    import site
-    site_folders = [path for path in sys.path
-                    if os.path.basename(path) in ('site-packages', 'dist-packages')]
-    candidates = [sys.prefix, sys.base_prefix, sys.exec_prefix, sys.base_exec_prefix,
-                  os.path.dirname(os.path.dirname(os.path.realpath(sys.executable))),
-                  *site.getsitepackages(), *site_folders, str(KIT_PACKAGE)]
-    if os.environ.get('ROS_DISTRO'):
-        candidates.append(f'/opt/ros/{os.environ["ROS_DISTRO"]}')
-    roots: list[str] = []
-    for path in sorted({os.path.realpath(path) for path in candidates}, key=len):
-        if os.path.isdir(path) and not is_within(path, [*SYSTEM_PATHS, *roots]):
-            roots.append(path)
-    return roots
-
-
-def hidden_package_folders(roots: Sequence[str]) -> list[str]:
-    """
-    Return the folders of HIDDEN_PACKAGES that a run would see under ``roots`` or /usr.
-
-    A kit installed as a package (not editable: in site-packages, or /usr/local) has its
-    reference nodes there; a run gets an empty read-only folder in their place.
-    """
-    folders = []
-    for name in HIDDEN_PACKAGES:
-        spec = importlib.util.find_spec(name)
-        for folder in (spec.submodule_search_locations or []) if spec else []:
-            folder = os.path.realpath(folder)
-            if is_within(folder, [*SYSTEM_PATHS, *roots]):
-                folders.append(folder)
-    return folders
-
-
-def system_mounts() -> list[str]:
-    """Return bwrap's arguments for the system folders and /etc's few files, read-only."""
-    arguments = []
-    for path in SYSTEM_PATHS:
-        if os.path.islink(path):
-            arguments += ['--symlink', os.readlink(path), path]
-        elif os.path.isdir(path):
-            arguments += ['--ro-bind', path, path]
-    for path in ETC_PATHS:
-        arguments += ['--ro-bind-try', path, path]
-    return arguments
-
-
 def clean_environment(scratch: Path, extra: Mapping[str, str] = {},
                       library: Sequence[Path] = ()) -> dict[str, str]:
     """
@@ -261,7 +197,8 @@ def clean_environment(scratch: Path, extra: Mapping[str, str] = {},
     sees (:func:`python_roots` and the system's), and Python's starts with the folders of the
     kit's package and of the ``library`` packages (where a run sees those packages alone:
     they are imported from where the grader imports them, whatever else is installed); ROS 2
-    discovery is OFF (a run's DDS stays in its processes) and ROS_LOCALHOST_ONLY unset.
+    discovery is OFF (a run's DDS stays in its processes), without Fast DDS's shared memory
+    (NO_SHARED_MEMORY), and ROS_LOCALHOST_ONLY unset.
     ``extra`` is added last (it may override).
     """
     roots = [*python_roots(), *SYSTEM_PATHS]
@@ -269,8 +206,8 @@ def clean_environment(scratch: Path, extra: Mapping[str, str] = {},
     env = {'PATH': os.pathsep.join([bin_folder, '/usr/local/bin', '/usr/bin', '/bin']),
            'HOME': str(scratch), 'TMPDIR': str(scratch), 'LANG': 'C.UTF-8',
            'PYTHONUNBUFFERED': '1', 'PYTHONDONTWRITEBYTECODE': '1',
-           'ROS_AUTOMATIC_DISCOVERY_RANGE': 'OFF', 'OPENBLAS_NUM_THREADS': '1',
-           'OMP_NUM_THREADS': '1'}
+           'ROS_AUTOMATIC_DISCOVERY_RANGE': 'OFF', **NO_SHARED_MEMORY,
+           'OPENBLAS_NUM_THREADS': '1', 'OMP_NUM_THREADS': '1'}
     if sys.prefix != sys.base_prefix:
         env['VIRTUAL_ENV'] = sys.prefix
     for name in ('PYTHONPATH', 'LD_LIBRARY_PATH', 'AMENT_PREFIX_PATH'):
@@ -332,8 +269,8 @@ class Sandbox:
     agent's files), read-only at the same place; ``library`` are package folders the run may
     read and import (the kit's scan_pkg, from where the grader imports it);
     ``reference_nodes``: the kit's reference nodes are not hidden there (a run of the kit's
-    own nodes); ``hidden_files`` are files under those the run sees empty (the reference
-    nodes' modules), or, without namespaces, cannot read (:func:`close_to_runs`).
+    own nodes); ``hidden_files`` are files and folders the run sees empty (the kit's answers:
+    sim_bridge.runner.kit_answers), or, without namespaces, cannot read (:func:`close_to_runs`).
     :attr:`scratch` is the host folder with the copy; in a bwrap run, the run's working folder
     at that same path is a tmpfs of ``limits.scratch_bytes`` seeded from it (what the run
     writes stays in the sandbox).
@@ -470,8 +407,7 @@ class Sandbox:
         hidden = [] if self.reference_nodes else hidden_package_folders([*roots, *self.readable])
         for folder in hidden:
             arguments += ['--tmpfs', folder, '--remount-ro', folder]
-        for path in self.hidden_files:
-            arguments += ['--ro-bind', '/dev/null', path]
+        arguments += hidden_mounts(self.hidden_files, [*roots, *self.readable])
         return arguments + ['--ro-bind', str(self.scratch), FILES_MOUNT, '--size', size,
                             '--tmpfs', str(self.scratch), '--info-fd', str(info_fd)]
 
@@ -575,19 +511,6 @@ class Sandbox:
             shutil.rmtree(self.scratch, ignore_errors=True)
             if self.lease is not None:
                 self.lease.release()
-
-
-def parent_folders(paths: Sequence[str]) -> list[str]:
-    """
-    Return the folders above ``paths`` that bwrap must make, outermost first.
-
-    bwrap makes a mount point's missing parents 0700 (root's, in a root sandbox): made
-    first as 0755, the run's uid can pass through them to what is mounted below.
-    """
-    parents = {str(parent) for path in paths for parent in Path(path).parents}
-    mounted = [*paths, *SYSTEM_PATHS, '/dev', '/proc']
-    return sorted((folder for folder in parents
-                   if folder not in ('/', '/tmp') and not is_within(folder, mounted)), key=len)
 
 
 def parent_pid(pid: int) -> int | None:

@@ -3,7 +3,8 @@ What the machine gives each sandbox (sim_bridge.runner.sandbox): an identity, gr
 
 - :class:`UidLease`: a dedicated uid (and gid) per concurrent run when the grader is root,
   leased machine-wide with a lock file in a root-only folder; :func:`kill_uid` ends every
-  process of it.
+  process of it, and what it left where any user writes goes before the uid is leased again
+  (sim_bridge.runner.sandbox_leftovers).
 - :class:`RunCgroup`: the memory, pids and cpu control groups of a run's whole tree (root only).
 - :func:`unreachable_by_others` and :func:`close_to_runs`: what a run without namespaces (its
   uid alone) can read of the host's files, and the kit's answers made unreadable to it.
@@ -23,6 +24,8 @@ import stat
 import tempfile
 import time
 from typing import Mapping, Sequence
+
+from sim_bridge.runner.sandbox_leftovers import sweep_uid
 
 #: Dedicated uids (and gids of the same number) for runs of a grader running as root.
 UID_BASE = 60100
@@ -54,16 +57,17 @@ def close_to_runs(paths: Sequence[str]) -> None:
     """
     Make ``paths`` unreadable by the runs' uids, but for group ANSWERS_GID (no o+rwx, g+r).
 
-    Without a mount namespace a run sees the host's files: this hides the kit's reference
-    answers from it (the change stays: other users of the machine cannot read them either).
-    SandboxError when it cannot be done (a read-only installation).
+    A folder gets g+x too. Without a mount namespace a run sees the host's files: this hides
+    the kit's answers from it (the change stays: other users of the machine cannot read them
+    either). SandboxError when it cannot be done (a read-only installation).
     """
     for path in paths:
         try:
             status = os.stat(path)
             if status.st_gid != ANSWERS_GID or status.st_mode & 0o007:
+                group = stat.S_IRGRP | (stat.S_IXGRP if stat.S_ISDIR(status.st_mode) else 0)
                 os.chown(path, -1, ANSWERS_GID)
-                os.chmod(path, stat.S_IMODE(status.st_mode) & ~0o007 | stat.S_IRGRP)
+                os.chmod(path, stat.S_IMODE(status.st_mode) & ~0o007 | group)
         except OSError as error:
             raise SandboxError(f'cannot hide {path} from runs without namespaces: '
                                f'{error.strerror or error}') from None
@@ -181,13 +185,17 @@ class UidLease:
             if fd is not None:
                 self.uid, self.fd = uid, fd
                 kill_uid(uid)
+                sweep_uid(uid)  # what a dead grader's run of the uid left
                 return
         raise RuntimeError(f'every sandbox uid from {UID_BASE} to {UID_BASE + UID_COUNT - 1} '
                            'is in use by a run on this machine')
 
     def release(self) -> None:
-        """Hand the uid back."""
-        os.close(self.fd)
+        """Hand the uid back, without what its run left where any user may write."""
+        try:
+            sweep_uid(self.uid)
+        finally:
+            os.close(self.fd)
 
 
 def lease_folder() -> Path:
