@@ -24,7 +24,7 @@ from sim_bridge.common.message_types import message_type_name
 from sim_bridge.common.run_environment import environment_set
 from sim_bridge.runner.node_output import NodeLog, ROSOUT_TOPIC, ROSOUT_TYPE
 from sim_bridge.runner.options import load_world, started_world, write_params_file
-from sim_bridge.runner.outputs import open_outputs, write_outputs
+from sim_bridge.runner.outputs import open_outputs, RunAccount, Scoring, write_outputs
 from sim_bridge.scoring.run_trace import CollisionEvent, Trace
 from sim_bridge.simulation.robot import pose_in_world
 
@@ -182,8 +182,7 @@ class LiveRecorder:
             self.write_log()
             self.bag.close()
         if len(self.trace):
+            account = RunAccount({'mode': 'live', 'reason': 'recorded by ./lab live --record'},
+                                 self.commands, log_lines=self.log.entries)
             write_outputs(self.out_dir, _Observer(self.trace), self.world, UserInterrupt(),
-                          plot=True, title=f'{self.world.name}: live', setpoint=None,
-                          wall_start=self.wall_start, node_errors=[], warnings=[],
-                          ended_by=None, commands=self.commands, log_lines=self.log.entries,
-                          run_mode={'mode': 'live', 'reason': 'recorded by ./lab live --record'})
+                          account, Scoring(f'{self.world.name}: live', self.wall_start))

@@ -11,12 +11,13 @@ twice: escapes make it longer). A run whose recording reaches its cap, or whose 
 with one line (OutputsFull, RunError), and no other run with it.
 """
 
+from dataclasses import dataclass
 import functools
 import json
 from pathlib import Path
 import shutil
 import time
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 from rclpy.event_handler import SubscriptionEventCallbacks
@@ -247,45 +248,78 @@ def open_outputs(out_dir: Path, params_file: Path, record: bool) -> BagRecorder 
         raise RunError(f'cannot write to {out_dir}: {error}') from None
 
 
+@dataclass(frozen=True)
+class RunAccount:
+    """
+    What a finished run tells its outputs: how it ran, how its nodes ended, what they wrote.
+
+    ``run_mode`` says how the run was driven (stepped or live, the sandbox); ``commands`` the
+    command line that starts each node (:func:`node_commands`), kept for the run's video;
+    ``log_lines`` the lines the nodes wrote, dicts with the keys ``t`` (sim time, s), ``node``,
+    ``level``, ``text`` and ``line`` (sim_bridge.runner.node_output), in the order written.
+    """
+
+    run_mode: Mapping[str, Any]
+    commands: Sequence[str] = ()
+    node_errors: Sequence[dict] = ()
+    warnings: Sequence[str] = ()
+    ended_by: str | None = None
+    log_lines: Sequence[dict] = ()
+
+
+@dataclass(frozen=True)
+class Scoring:
+    """
+    How a finished run is scored and drawn.
+
+    ``wall_start`` is the run's start on the perf counter (s); ``setpoint`` the wall distance
+    (m) the run is judged against, if any; ``printed`` as in :func:`run_simulation`, scored over
+    the whole ``duration_s`` (s) of the scenario when given (see printed_values.score_printed);
+    ``title`` the plot's, drawn when ``plot``.
+    """
+
+    title: str
+    wall_start: float
+    setpoint: float | None = None
+    printed: Sequence[str] = ()
+    duration_s: float | None = None
+    plot: bool = True
+
+
 def write_outputs(out_dir: Path, observer: Observer, world_model: World,
-                  interrupt: 'UserInterrupt', *, plot: bool, title: str,
-                  setpoint: float | None, wall_start: float, node_errors: list,
-                  warnings: list[str], ended_by: str | None, run_mode: Any,
-                  commands: Sequence[str] = (), log_lines: Sequence[dict] = (),
-                  printed: Sequence[str] = (), duration_s: float | None = None) -> RunResult:
+                  interrupt: 'UserInterrupt', account: RunAccount, scoring: Scoring
+                  ) -> RunResult:
     """
     Score a finished run and write ``metrics.json``, ``log.jsonl`` and the plot; return it.
 
-    ``wall_start`` is the run's start on the perf counter (s); ``log_lines`` the lines the nodes
-    wrote, dicts with the keys ``t`` (sim time, s), ``node``, ``level``, ``text`` and ``line``
-    (sim_bridge.runner.node_output), in the order written; ``commands`` (the command line that
-    starts each node, :func:`node_commands`) are kept in the metrics for the run's video;
-    ``printed`` as in :func:`run_simulation`, scored over the whole ``duration_s`` (s) of the
-    scenario when given (see printed_values.score_printed). A Ctrl-C while they are written waits
-    for them (``interrupt``); one pressed during the run is raised after them. RunError (one
-    line) when they cannot be written (a full disk).
+    A Ctrl-C while they are written waits for them (``interrupt``); one pressed during the run
+    is raised after them. RunError (one line) when they cannot be written (a full disk).
     """
     try:
-        left = write_log(out_dir / LOG_FILE, log_lines, LOG_CAP_BYTES)
+        warnings = list(account.warnings)
+        left = write_log(out_dir / LOG_FILE, account.log_lines, LOG_CAP_BYTES)
         if left:
-            warnings = [*warnings, f'{LOG_FILE} holds the lines that fit its cap of '
-                                   f'{LOG_CAP_BYTES} bytes; {left} more were not written']
-        metrics = compute_metrics(observer.finish(), world_model, setpoint=setpoint,
-                                  wall_time_s=time.perf_counter() - wall_start,
-                                  node_errors=node_errors, log_lines=log_lines,
-                                  printed=printed, runner_nodes=(BRIDGE_NODE, TELEOP_NODE),
-                                  duration_s=duration_s)
+            warnings.append(f'{LOG_FILE} holds the lines that fit its cap of '
+                            f'{LOG_CAP_BYTES} bytes; {left} more were not written')
+        metrics = compute_metrics(observer.finish(), world_model, setpoint=scoring.setpoint,
+                                  wall_time_s=time.perf_counter() - scoring.wall_start,
+                                  node_errors=list(account.node_errors),
+                                  log_lines=account.log_lines, printed=scoring.printed,
+                                  runner_nodes=(BRIDGE_NODE, TELEOP_NODE),
+                                  duration_s=scoring.duration_s)
         metrics['warnings'] = [*metrics.get('warnings', []), *warnings]
-        metrics['ended_by'] = ended_by
+        metrics['ended_by'] = account.ended_by
         metrics['ignored'] = world_model.ignored
-        metrics['run_mode'] = run_mode
-        metrics['commands'] = list(commands)
+        metrics['run_mode'] = dict(account.run_mode)
+        metrics['commands'] = list(account.commands)
         (out_dir / 'metrics.json').write_text(json.dumps(metrics, indent=2) + '\n')
-        if plot:
+        if scoring.plot:
             plot_trajectory(observer.trace, world_model, out_dir / 'trajectory.png',
-                            title=title)
+                            title=scoring.title)
     except OSError as error:  # a full disk: this run fails, in one line
-        raise RunError(f"cannot write the run's outputs ({error.strerror or error})") from None
+        raise RunError(f'cannot write {error.filename}: {error.strerror or error}'
+                       if error.filename else
+                       f"cannot write the run's outputs ({error.strerror or error})") from None
     finally:
         interrupt.restore()
     if interrupt.pressed:
@@ -355,8 +389,9 @@ class RunOutputs:
             return True
         return False
 
-    def write(self, out_dir: Path, world: World, **details: Any) -> RunResult:
-        """Write the run's outputs (see :func:`write_outputs` for ``details``); its result."""
-        return write_outputs(out_dir, self.observer, world, self.interrupt,
-                             node_errors=self.node_errors, warnings=self.warnings,
-                             ended_by=self.ended_by, log_lines=self.log.entries, **details)
+    def write(self, out_dir: Path, world: World, scoring: Scoring, run_mode: Mapping[str, Any],
+              commands: Sequence[str]) -> RunResult:
+        """Write the run's outputs (see :func:`write_outputs`); return its result."""
+        account = RunAccount(run_mode, commands, self.node_errors, self.warnings, self.ended_by,
+                             self.log.entries)
+        return write_outputs(out_dir, self.observer, world, self.interrupt, account, scoring)

@@ -21,7 +21,7 @@ from sim_bridge.runner.node_output import terminal_colours, to_terminal
 from sim_bridge.runner.node_sandbox import isolation_warning
 from sim_bridge.runner.options import (
     node_commands, prepare_run, PreparedRun, RunResult, RunSpec, write_params_files)
-from sim_bridge.runner.outputs import RunOutputs
+from sim_bridge.runner.outputs import RunOutputs, Scoring
 from sim_bridge.runner.ros_graph import NANOSECONDS_PER_SECOND
 from sim_bridge.runner.stepped_run import AgentFailure, LockstepRun, node_error
 from sim_bridge.runner.targets import target_name
@@ -160,11 +160,10 @@ def run_stepped(spec: RunSpec, prepared: PreparedRun) -> RunResult:
             run.close()
     if spec.on_scoring is not None:
         spec.on_scoring()
+    scoring = Scoring(f"{prepared.world.name}: {', '.join(map(target_name, spec.targets))}",
+                      wall_start, setpoint, spec.printed, spec.duration_s, spec.plot)
     return outputs.write(
-        prepared.out_dir, prepared.world, plot=spec.plot,
-        title=f"{prepared.world.name}: {', '.join(map(target_name, spec.targets))}",
-        setpoint=setpoint, printed=spec.printed, duration_s=spec.duration_s,
-        wall_start=wall_start,
+        prepared.out_dir, prepared.world, scoring,
         run_mode={'mode': 'stepped', 'reason': STEPPED_REASON, 'sandbox': run.isolation,
                   **run.notes()},
         commands=node_commands(spec.targets, prepared.remap, spec.ros_args))
