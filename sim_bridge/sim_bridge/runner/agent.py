@@ -57,7 +57,7 @@ BUSY, ASLEEP = -1, math.inf
 #: Wall seconds main()'s own code may run without waiting, sleeping or running a callback
 #: before the run is stepped without it (see the module's docstring); the longest step then
 #: (s of sim time, so that main() sees each), and the wall seconds between two looks.
-BUSY_MAIN_S = 1.0
+BUSY_MAIN_S = 2.0
 PACE_STEP_S = 0.005
 PACE_TICK_S = 0.005
 #: What a run says of a main() that kept the main thread busy (see the module's docstring).
