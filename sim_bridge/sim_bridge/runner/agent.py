@@ -166,8 +166,9 @@ class Lockstep:
         Say that what the nodes printed since the last sync was printed by ``node``'s code.
 
         ('' for none: the process's one node if it has one.) Only when they printed: Python's
-        streams and rclpy's loggers count what they write (a C library's printf is cut at the
-        next sync, the time still right). The trusted side answers once it has cut the bytes
+        streams count what they write, rcutils' output handler the lines it prints
+        (node_patches.ConsoleCounter; a C library's printf is cut at the next sync, the time
+        still right). The trusted side answers once it has cut the bytes
         written before the sync, so no byte written after it is cut with them.
         """
         if self.printed:
