@@ -56,10 +56,15 @@ THREAD_DRAIN_S = 2.0
 BUSY, ASLEEP = -1, math.inf
 #: Wall seconds main()'s own code may run without waiting, sleeping or running a callback
 #: before the run is stepped without it (see the module's docstring); the longest step then
-#: (s of sim time, so that main() sees each), and the wall seconds between two looks.
+#: (s of sim time, so that main() sees each), and the wall seconds between two looks while
+#: it paces, and while it does not.
 BUSY_MAIN_S = 2.0
 PACE_STEP_S = 0.005
 PACE_TICK_S = 0.005
+LOOK_S = 0.1
+#: Most wall seconds the pacing thread waits, after a step, for a main() that polls the clock
+#: to read it (under load its thread may not run at once).
+SEE_S = 0.05
 #: What a run says of a main() that kept the main thread busy (see the module's docstring).
 PACED_NOTE = (f'its main() ran its own code for over {BUSY_MAIN_S:g} s of wall time without '
               'waiting, sleeping or spinning: sim time followed the wall clock (real-time '
@@ -160,6 +165,9 @@ class Lockstep:
         self.step_wall_ns = monotonic_ns()
         self.clock_lock = threading.Lock()
         self.clock_last_ns = 0
+        #: Times main()'s own code read the clock; the count after the last paced step.
+        self.main_reads = 0
+        self.main_reads_seen = 0
 
     def sync(self, node: str) -> None:
         """
@@ -246,6 +254,7 @@ class Lockstep:
         """
         in_main_code = (threading.current_thread() is threading.main_thread()
                         and not self.main_inside)
+        self.main_reads += in_main_code
         with self.clock_lock:
             reading = self.now_ns if in_main_code else (
                 self.now_ns + monotonic_ns() - self.step_wall_ns)
@@ -259,18 +268,34 @@ class Lockstep:
         Once it has been BUSY_MAIN_S away (wall time) with nodes made, sim time follows the
         wall clock from then on, never ahead of it: steps of PACE_STEP_S at most, or to the
         nodes' next timer, each message delivered at its time; the threads that spin handle
-        it as ever.
+        it as ever. A main() that polls the clock gets to read it after each step (SEE_S of
+        wall time at most). Pacing ends with the nodes' context.
         """
+        import rclpy
+        context = rclpy.utilities.get_default_context()
         while True:
             if self._paced_wake() is None:  # the lock untouched while main() is not busy
-                wall_sleep(PACE_TICK_S)
+                pacing = self.paced_from is not None and self.paced_from[0] == self.main_left
+                wall_sleep(PACE_TICK_S if pacing and not self.main_inside else LOOK_S)
                 continue
             with self.stepping:
                 wake_ns = self._paced_wake()
-                if wake_ns is not None:
-                    if PACED_NOTE not in self.notes:
-                        self.notes.append(PACED_NOTE)
+                if wake_ns is None or not context.ok():
+                    continue
+                if PACED_NOTE not in self.notes:
+                    self.notes.append(PACED_NOTE)
+                polled = self.main_reads != self.main_reads_seen  # since the last step
+                try:
                     self.exchange(wake_ns)
+                except Exception:  # noqa: B902 main() shut the context down meanwhile
+                    if context.ok():
+                        raise
+                    return
+                self.main_reads_seen = self.main_reads
+            deadline_ns = monotonic_ns() + round(SEE_S * NANOSECONDS_PER_SECOND)
+            while polled and self.main_reads == self.main_reads_seen and (
+                    monotonic_ns() < deadline_ns):
+                wall_sleep(SEE_S / 100)
 
     def _paced_wake(self) -> int | None:
         """Return the sim time (ns) the pacing thread steps to now, or None (see pace)."""
