@@ -22,8 +22,8 @@ process's stdout and stderr, pipes it reads) at those points. ROS discovery is o
 hear only this process.
 
 main()'s own code that runs on and on (a loop polling ``time.time()``, a ``join`` of the thread
-that spins) reaches none of those points: after BUSY_MAIN_S of wall time without one, a pacing
-thread exchanges in its stead, sim time following the wall clock from when main() left (real-time
+that spins) reaches none of those points: sim time stands still for BUSY_MAIN_S of wall time,
+then a pacing thread exchanges in its stead, sim time following the wall clock (real-time
 factor 1), each message delivered at its time and handled by the threads that spin.
 """
 
@@ -157,10 +157,10 @@ class Lockstep:
         #: Held by the thread that exchanges, until the threads that spin handled the step.
         self.stepping = threading.RLock()
         #: The main thread's calls into the agent under way; the wall and sim time (ns) when
-        #: it last left one; the wall time (ns) the last step was delivered at.
+        #: it last left one; when pacing began (main_left then, wall ns, sim ns: see
+        #: :meth:`pace`); the wall time (ns) the last step was delivered at.
         self.main_inside = 0
         self.main_left = (monotonic_ns(), 0)
-        #: When pacing began (main_left then, wall ns, sim ns): see :meth:`pace`.
         self.paced_from: tuple[tuple[int, int], int, int] | None = None
         self.step_wall_ns = monotonic_ns()
         self.clock_lock = threading.Lock()
