@@ -101,7 +101,7 @@ def fake_wall_follow(world, targets, **options):
     """Stand in for run_simulation: a clockwise follower at 0.7 m; seed 2 touches the box."""
     seed = options['seed']
     evidence = {'laps': -1, 'direction': 'clockwise', 'winding': -1.2, 'distance_m': 12.0,
-                'chosen_m': 0.7, 'declared_m': None, 'following': 0.9, 'mae_m': 0.05}
+                'along_turns': 1.1, 'chosen_m': 0.7, 'declared_m': None, 'mae_m': 0.05}
     return SimpleNamespace(metrics={'laps': -1, 'sim_time_s': 30.0, 'node_errors': [],
                                     'collisions': 1 if seed == 2 else 0,
                                     'wall_follow': evidence})

@@ -33,6 +33,8 @@ class PointMarks:
     runs: int
     #: (run name, reason) of each counted run that did not show the point.
     lost: tuple[tuple[str, str], ...] = ()
+    #: How the point is judged (task_points.Point.rule), '' when not stated.
+    rule: str = ''
 
     def why(self) -> str:
         """Return in one line why the point was lost ('' when earned in every run)."""
@@ -46,7 +48,7 @@ class PointMarks:
     def as_dict(self) -> dict[str, Any]:
         """Return the point for a JSON report."""
         return {'point': self.point, 'marks': self.earned, 'max': self.marks,
-                'runs': self.runs, 'lost': len(self.lost), 'why': self.why()}
+                'runs': self.runs, 'lost': len(self.lost), 'why': self.why(), 'rule': self.rule}
 
 
 @dataclass(frozen=True)
@@ -185,14 +187,14 @@ def point_marks(marks: float, point_set: str,
                entry.get('points') or [point.as_dict() for point in unearned_points(
                    point_set, failure_reason(entry) or 'no points judged')])
               for entry in entries]
-    names = [point.point for point in unearned_points(point_set, '')]
-    share = marks / len(names)
+    stated = unearned_points(point_set, '')
+    share = marks / len(stated)
     result = []
-    for index, name in enumerate(names):
+    for index, point in enumerate(stated):
         lost = tuple((run, points[index]['reason']) for run, points in judged
                      if not points[index]['earned'])
         earned = share * (len(judged) - len(lost)) / len(judged) if judged else 0.0
-        result.append(PointMarks(name, share, earned, len(judged), lost))
+        result.append(PointMarks(point.point, share, earned, len(judged), lost, point.rule))
     return tuple(result)
 
 

@@ -79,7 +79,7 @@ class RunReport:
         node_errors = self.metrics.get('node_errors') or []
         if node_errors:  # what the node did not show, it did not show for this reason
             why = first_line(f"node error: {node_errors[0].get('error')}")
-            points = [point if point.earned else Point(point.point, False, why)
+            points = [point if point.earned else Point(point.point, False, why, point.rule)
                       for point in points]
         return points
 
