@@ -8,9 +8,9 @@ into the project. As pasted, the code is indented with no-break spaces and does 
 grader's hint says what to replace, and the answers are then graded as a student who followed
 it hands them in. They lose marks for their real faults only: the wanderbot collides at 1 m/s
 and stays pinned, scan_around drops the last beam from the left region, the wall follower
-measures the wall once (and circles away from the object for good). A careful student's wall follower (clockwise, 0.7 m,
-``examples/careful_wall_follow.py``) and wanderbot (stops within 0.7 m, turns 110-170 degrees,
-``examples/careful_wanderbot.py``) get full marks.
+measures the wall once (and circles away from the object for good). A careful student's wall
+follower (clockwise, 0.7 m, ``examples/careful_wall_follow.py``) and wanderbot (stops within
+0.7 m, turns 110-170 degrees, ``examples/careful_wanderbot.py``) get full marks.
 """
 
 import json

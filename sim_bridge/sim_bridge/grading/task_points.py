@@ -6,13 +6,16 @@ something is within 0.7 m ahead, turns more than 90 degrees, resumes, repeats, w
 collision; task 4's wall follower loops the object in one direction of its choosing, keeping
 the wall at a distance of its choosing, without a collision; tasks 1 and 3 print the range
 ahead and the five region minima for every scan. Each point earns its share of the task's
-marks on its own, so a fault costs the points it breaks, not the whole task.
+marks on its own, so a fault costs the points it breaks, not the whole task. A point is
+evidence that the node did what it names, over the whole run, not the absence of a failure:
+the motion points count only what an obstacle caused, a robot that wandered, a wall followed.
 
-Two steps, both pure (numpy, no rclpy): the *evidence* of a run (:func:`wander_evidence`,
-:func:`wall_follow_evidence`) is computed from its ground-truth trace with the other metrics
-and kept in ``metrics.json``; the *points* (:func:`judge_points`) are judged from the metrics
-alone, so a report read back judges them again the same way. Each judged point has a one-line
-reason when it is not earned.
+Two steps, both pure (numpy, no rclpy): the *evidence* of a run
+(:mod:`sim_bridge.scoring.motion_evidence`, the printed values' scores) is computed from its
+ground-truth trace with the other metrics and kept in ``metrics.json``; the *points*
+(:func:`judge_points`) are judged from the metrics alone, so a report read back judges them
+again the same way. Each judged point has a one-line reason when it is not earned, and each
+motion point its rule (the handout's sentence, what is measured, the margin).
 """
 
 from dataclasses import dataclass
