@@ -106,7 +106,9 @@ def test_the_class_page_and_each_students_report_show_the_marks(graded):
     # The page opens with the marks, a row per point with why it was lost.
     assert page.index('<b>marks 2/5</b>') < page.index('runs passed</p>')
     assert '<td class="fail"><b>0/3</b></td>' in page
-    assert '<td>&nbsp;&nbsp;no collision</td><td class="fail">0/1</td>' in page
+    # Beside each point, the rule it is judged by.
+    assert re.search(r'<td>&nbsp;&nbsp;no collision<span class="why">[^<]*Move along walls '
+                     r'without hitting them[^<]*</span></td><td class="fail">0/1</td>', page)
 
 
 def test_each_student_has_a_report_with_the_reasons(graded):

@@ -103,7 +103,7 @@ def fake_wall_follow(world, targets, **options):
     """Stand in for run_simulation: a clockwise follower at 0.7 m; seed 2 touches the box."""
     seed = options['seed']
     evidence = {'laps': -1, 'direction': 'clockwise', 'winding': -1.2, 'distance_m': 12.0,
-                'chosen_m': 0.7, 'declared_m': None, 'following': 0.9, 'mae_m': 0.05}
+                'along_turns': 1.1, 'chosen_m': 0.7, 'declared_m': None, 'mae_m': 0.05}
     return SimpleNamespace(metrics={'laps': -1, 'sim_time_s': 30.0, 'node_errors': [],
                                     'collisions': 1 if seed == 2 else 0,
                                     'wall_follow': evidence})
@@ -136,9 +136,11 @@ def test_a_task_marked_by_points_has_a_test_per_point_saying_why_it_was_lost(
         ('task 4: keeps the wall at the distance it chose', 1.0, 1.0, 'passed'),
         ('task 4: no collision', pytest.approx(2 / 3, abs=1e-4), 1.0, 'failed'),
         ('task 4: runs (for information)', 0.0, 0.0, None)]
-    assert results['tests'][2]['output'] == \
-        '1 collision(s) (box_cw/seed_2; lost in 1 of 3 runs)'
-    assert 'shown in every run (3)' == results['tests'][0]['output']
+    assert results['tests'][2]['output'].splitlines() == [
+        '1 collision(s) (box_cw/seed_2; lost in 1 of 3 runs)',
+        'rule: "Move along walls without hitting them": no contact, only for a robot that moved '
+        'along the object for 0.75 of a loop or more (a parked or crashed robot shows none).']
+    assert results['tests'][0]['output'].startswith('shown in every run (3)')
 
 
 def test_no_test_contradicts_the_score_when_the_points_are_earned_and_the_runs_fail(

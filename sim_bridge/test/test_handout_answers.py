@@ -6,11 +6,11 @@ one of its parents) when the test runs: the code between each ``CODE STARTS HERE
 ENDS HERE`` line, its Markdown escapes undone, is the node file the handout names. Never copied
 into the project. As pasted, the code is indented with no-break spaces and does not compile: the
 grader's hint says what to replace, and the answers are then graded as a student who followed
-it hands them in. They lose marks for their real faults only: the wanderbot collides at 1 m/s,
-scan_around drops the last beam from the left region, the wall follower measures the wall
-once. A careful student's wall follower (clockwise, 0.7 m,
-``examples/careful_wall_follow.py``) and wanderbot (stops within 0.7 m, turns 110-170 degrees,
-``examples/careful_wanderbot.py``) get full marks.
+it hands them in. They lose marks for their real faults only: the wanderbot collides at 1 m/s
+and stays pinned, scan_around drops the last beam from the left region, the wall follower
+measures the wall once (and circles away from the object for good). A careful student's wall
+follower (clockwise, 0.7 m, ``examples/careful_wall_follow.py``) and wanderbot (stops within
+0.7 m, turns 110-170 degrees, ``examples/careful_wanderbot.py``) get full marks.
 """
 
 import json
@@ -94,10 +94,12 @@ def test_the_handout_scan_ahead_earns_both_points_of_task_1(marks):
     assert marks['handout']['1']['marks'] == 2.0, lost(marks['handout']['1'])
 
 
-def test_the_handout_wanderbot_loses_the_points_its_collisions_at_1_m_s_break(marks):
+def test_the_handout_wanderbot_that_crashes_at_1_m_s_and_stays_pinned_gets_a_tas_0_to_1(marks):
+    # At 1 m/s, turning only while its one beam sees the obstacle, it hits something within
+    # its first few turns and stays pinned there for most of the run: not wandering.
     task = marks['handout']['2']
-    assert 0.0 < task['marks'] < 3.0
-    assert 'drives straight' not in lost(task)
+    assert task['marks'] <= 1.0, lost(task)
+    assert 'stuck for most of the run' in lost(task)['drives straight']
     assert 'collision' in lost(task)['no collision']
 
 
@@ -110,9 +112,11 @@ def test_the_handout_scan_around_prints_five_labelled_lines_and_loses_its_droppe
 
 
 def test_the_handout_wall_follower_that_measures_the_wall_once_loops_nothing(marks):
+    # It keeps its first reading of the wall and drives circles beside the box: a TA's 0.
     task = marks['handout']['4']
-    assert task['marks'] < 3.0
+    assert task['marks'] == 0.0
     assert 'no full loop' in lost(task)['loops the object in one direction']
+    assert 'not following it' in lost(task)['no collision']
 
 
 def test_a_careful_one_direction_follower_at_0_7_m_gets_full_marks(marks):

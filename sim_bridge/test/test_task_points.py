@@ -75,9 +75,10 @@ def test_each_turn_is_measured_and_resumed():
     assert evidence['straight_m'] == pytest.approx(evidence['distance_m'])
 
 
-GOOD_WANDER = {'distance_m': 40.0, 'straight_m': 38.0, 'blocked_driving_s': 0.0,
-               'turns': [{'t': 5.0 * n, 'deg': 130.0, 'ahead_m': 0.65, 'resumed': True}
-                         for n in range(6)]}
+GOOD_WANDER = {'duration_s': 180.0, 'moving_s': 160.0, 'distance_m': 40.0, 'straight_m': 38.0,
+               'blocked_driving_s': 0.0, 'stalls': [],
+               'turns': [{'t': 5.0 * n, 'deg': 130.0, 'ahead_m': 0.65, 'caused': True,
+                          'resumed': True} for n in range(6)]}
 
 
 def test_a_wanderbot_turning_45_degrees_loses_that_point_only():
@@ -85,7 +86,7 @@ def test_a_wanderbot_turning_45_degrees_loses_that_point_only():
     points = points_of('wander', {'wander': {**GOOD_WANDER, 'turns': turns}, 'collisions': 0})
     lost = [point for point in points.values() if not point.earned]
     assert [point.point for point in lost] == ['turns more than 90 degrees']
-    assert lost[0].reason == '6 of 6 turns not more than 90 degrees (smallest 45)'
+    assert lost[0].reason == '6 of 6 stops without a turn of 92° or more (smallest 45.0°)'
 
 
 def test_a_collision_costs_its_point_not_the_task():
@@ -118,15 +119,15 @@ def test_a_careful_one_direction_follower_at_its_own_distance_earns_every_point(
     assert all(point.earned for point in points.values()), points
 
 
-def test_a_follower_far_from_the_wall_without_a_loop_keeps_only_no_collision():
+def test_a_follower_far_from_the_wall_without_a_loop_shows_none_of_the_three():
     time, x, y = circle_around(0.3, radius=1.0 + 2.4)
     evidence = wall_follow_evidence(time, x, y, 0, [(0.0, 0.0)], np.hypot(x, y) - 1.0, None)
     points = points_of('wall_follow', {'wall_follow': evidence, 'collisions': 0})
-    assert [name for name, point in points.items() if point.earned] == ['no collision']
+    assert not any(point.earned for point in points.values())
     assert points['loops the object in one direction'].reason == (
         'went 0.30 of the way round the object: no full loop')
     assert points['keeps the wall at the distance it chose'].reason == (
-        'wall distance 2.40 m (its median) outside 0.2-1.5 m')
+        'moved along the object for 0.00 of a loop only (0.75 wanted): not following it')
 
 
 def test_a_wavering_wall_distance_loses_that_point_with_its_error():

@@ -6,25 +6,28 @@ something is within 0.7 m ahead, turns more than 90 degrees, resumes, repeats, w
 collision; task 4's wall follower loops the object in one direction of its choosing, keeping
 the wall at a distance of its choosing, without a collision; tasks 1 and 3 print the range
 ahead and the five region minima for every scan. Each point earns its share of the task's
-marks on its own, so a fault costs the points it breaks, not the whole task.
+marks on its own, so a fault costs the points it breaks, not the whole task. A point is
+evidence that the node did what it names, over the whole run, not the absence of a failure:
+the motion points count only what an obstacle caused, a robot that wandered, a wall followed.
 
-Two steps, both pure (numpy, no rclpy): the *evidence* of a run (:func:`wander_evidence`,
-:func:`wall_follow_evidence`) is computed from its ground-truth trace with the other metrics
-and kept in ``metrics.json``; the *points* (:func:`judge_points`) are judged from the metrics
-alone, so a report read back judges them again the same way. Each judged point has a one-line
-reason when it is not earned.
+Two steps, both pure (numpy, no rclpy): the *evidence* of a run
+(:mod:`sim_bridge.scoring.motion_evidence`, the printed values' scores) is computed from its
+ground-truth trace with the other metrics and kept in ``metrics.json``; the *points*
+(:func:`judge_points`) are judged from the metrics alone, so a report read back judges them
+again the same way. Each judged point has a one-line reason when it is not earned, and each
+motion point its rule (the handout's sentence, what is measured, the margin).
 """
 
 from dataclasses import dataclass
+import math
 from typing import Any, Callable, Mapping, Sequence
 
-from sim_bridge.scoring.metrics import (
-    BRAKING_MARGIN, MAX_BLOCKED_DRIVING_S, STOP_DISTANCE, WALL_BAND)
+from sim_bridge.scoring.motion_evidence import (
+    BRAKING_MARGIN, CAUSE_DISTANCE, DRIVING_SPEED, MAX_BLOCKED_DRIVING_S, RESUME_DISTANCE,
+    RESUME_WINDOW_S, STALL_S, STOP_CONE, STOP_DISTANCE, STRAIGHT_ANGULAR, WALL_BAND,
+    WALL_SETTLED)
 from sim_bridge.scoring.printed_values import judge_printed, PARTS, RIGHT_WITHIN_M
 
-#: A stop counts as for an obstacle when something is this close (m) in the cone ahead:
-#: the handout's 0.7 m and the distance braking and a controller's margin add.
-STOP_SLACK = 0.2
 #: Stop-turn-resume cycles that make "repeats".
 REPEATS = 3
 #: The share of a run's turns that must satisfy a point about each turn: one odd turn (cut
@@ -32,10 +35,16 @@ REPEATS = 3
 MOST = 0.8
 #: The least distance (m) a robot must drive for points that only a moving robot can show.
 MIN_DRIVEN = 1.0
+#: A wanderbot wandered when it moved (DRIVING_SPEED) for at least this share of its run: less
+#: is a robot stuck (pinned on a wall, stopped for good) for most of it.
+WANDERED_SHARE = 0.5
+#: A turn is more than 90 degrees when measured at 90 plus this (deg) or more: above the
+#: measurement's error, the turn of one 0.01 s physics step at the handout's 3.14 rad/s (1.8).
+TURN_MARGIN_DEG = 2.0
+#: A follower follows the wall once it moved along the object this share of a loop.
+FOLLOW_LOOP_SHARE = 0.75
 #: The wall distance's mean error (m) around the chosen distance while following.
 WALL_TOLERANCE = 0.15
-#: ... and must then follow for at least this share of the run.
-MIN_FOLLOWING = 0.5
 #: The worst printed value's error (m) and the share of the scenario's scans a right line
 #: must be about.
 PRINTED_ERROR = RIGHT_WITHIN_M
@@ -61,78 +70,140 @@ class Point:
                 'rule': self.rule}
 
 
+#: How each motion point is judged (shown beside it): the handout's sentence, what is
+#: measured, the margin. Keyed by the point's name.
+WANDER_RULES = {
+    'drives straight': (
+        f'"The robot normally drives in a straight line." Only for a robot that wandered: it '
+        f'moved (over {DRIVING_SPEED:g} m/s) for {100 * WANDERED_SHARE:.0f} % of the run or more; '
+        f'then at least half of its path, and {MIN_DRIVEN:g} m, driven with the turn rate under '
+        f'{STRAIGHT_ANGULAR:g} rad/s.'),
+    f'stops when something is within {STOP_DISTANCE:g} m ahead': (
+        f'"When the robot sees an obstacle in front within {STOP_DISTANCE:g} meters, it will '
+        f'stop." A stop-and-turn counts when an obstacle caused it: something within '
+        f'{CAUSE_DISTANCE:g} m in the ±{math.degrees(STOP_CONE):.0f}° cone ahead as it began, '
+        f'and no collision on the way there (a turn after hitting a wall does not count). At '
+        f'least one, and {100 * MOST:.0f} % of its stop-and-turns (else this point and the '
+        f'next three are lost: its turns are not for obstacles but, say, a timer); never driving '
+        f'on for more than {MAX_BLOCKED_DRIVING_S:g} s with under '
+        f'{STOP_DISTANCE - BRAKING_MARGIN:g} m straight ahead.'),
+    'turns more than 90 degrees': (
+        f'"The turn should be more than 90 degrees." {100 * MOST:.0f} % of the caused '
+        f'stop-and-turns measured at {90 + TURN_MARGIN_DEG:g}° or more (ground-truth heading; '
+        f'{TURN_MARGIN_DEG:g}° above the error of the measurement, one 0.01 s step of turning at '
+        f'3.14 rad/s); standing {STALL_S:g} s or more facing an obstacle within '
+        f'{CAUSE_DISTANCE:g} m without turning counts as a turn not made.'),
+    'resumes driving straight after a turn': (
+        f'"The robot then resumes moving in the straight line." After {100 * MOST:.0f} % of '
+        f'the caused stop-and-turns (and stops that never turned) it drove on '
+        f'{RESUME_DISTANCE:g} m within {RESUME_WINDOW_S:g} s; lost by a robot stuck for most '
+        f'of the run (moving less than {100 * WANDERED_SHARE:.0f} % of it).'),
+    'repeats the sequence': (
+        f'"This sequence is repeated." {REPEATS} caused stop-turn-resume cycles; lost by a '
+        f'robot stuck for most of the run.'),
+    'no collision': (
+        f'"A wandering robot which simply turns away from obstacles": no contact with '
+        f'anything, only for a robot that wandered (moved for {100 * WANDERED_SHARE:.0f} % of '
+        f'the run or more).'),
+}
+WALL_FOLLOW_RULES = {
+    'loops the object in one direction': (
+        '"The robot move around the model object either in clockwise or counterclockwise '
+        'manner": a full loop round the object (the robot winds once round every point inside '
+        'it), one way.'),
+    'keeps the wall at the distance it chose': (
+        f'"The robot must use its lasers to track the wall of the object." Judged only while '
+        f'the robot moves along the object (over {DRIVING_SPEED:g} m/s within '
+        f'{WALL_BAND[1]:g} m of it), for '
+        f'{FOLLOW_LOOP_SHARE:g} of a loop or more: the distance it chose (its parameter, else '
+        f'its median while moving along) within {WALL_BAND[0]:g}-{WALL_BAND[1]:g} m, a mean '
+        f'error of at most {WALL_TOLERANCE:g} m from the first time within {WALL_SETTLED:g} m '
+        f'of it.'),
+    'no collision': (
+        f'"Move along walls without hitting them": no contact, only for a robot that moved '
+        f'along the object for {FOLLOW_LOOP_SHARE:g} of a loop or more (a parked or crashed '
+        f'robot shows none).'),
+}
+
+
 def _share(items: Sequence[Any], test: Callable[[Any], bool]) -> tuple[int, int]:
     return sum(1 for item in items if test(item)), len(items)
+
+
+def _ruled(points: list[tuple[str, bool, str]], rules: Mapping[str, str]) -> list[Point]:
+    """Return the (point, earned, reason) triples as Points with each one's rule."""
+    return [Point(point, earned, reason, rules[point]) for point, earned, reason in points]
 
 
 def wander_points(evidence: Mapping[str, Any], collisions: int) -> list[Point]:
     """Judge the handout's six wanderbot points on a run's evidence and collision count."""
     driven, straight = evidence['distance_m'], evidence['straight_m']
-    turns = evidence['turns']
-    moved = driven >= MIN_DRIVEN
-    points = [Point('drives straight', moved and straight >= 0.5 * driven,
-                    f'drove {straight:.1f} m of its {driven:.1f} m in a straight line (at least '
-                    f'{MIN_DRIVEN:g} m and half of the path wanted)')]
-    near, count = _share(turns, lambda turn: turn['ahead_m'] is not None
-                         and turn['ahead_m'] <= STOP_DISTANCE + STOP_SLACK)
+    duration, moving = evidence.get('duration_s', 0.0), evidence.get('moving_s', 0.0)
+    wandered = driven >= MIN_DRIVEN and moving >= WANDERED_SHARE * duration > 0.0
+    stuck = '' if wandered else (f'moved {moving:.0f} s of {duration:.0f} s only: stuck for '
+                                 'most of the run, not wandering')
+    turns, stalls = evidence['turns'], evidence.get('stalls') or []
+    caused = [turn for turn in turns if turn.get('caused')]
+    points = [('drives straight', wandered and straight >= 0.5 * driven, stuck or (
+        f'drove {straight:.1f} m of its {driven:.1f} m in a straight line'))]
     blocked = evidence['blocked_driving_s']
-    if not count:
-        why = 'never stopped to turn'
-    elif blocked > MAX_BLOCKED_DRIVING_S:
-        why = (f'drove on for {blocked:.1f} s with the way ahead under '
-               f'{STOP_DISTANCE - BRAKING_MARGIN:g} m')
-    else:
-        why = (f'{count - near} of {count} stops with nothing within '
-               f'{STOP_DISTANCE + STOP_SLACK:g} m ahead')
-    points.append(Point(f'stops when something is within {STOP_DISTANCE:g} m ahead',
-                        count > 0 and blocked <= MAX_BLOCKED_DRIVING_S and near >= MOST * count,
-                        why))
-    wide, count = _share(turns, lambda turn: turn['deg'] > 90.0)
-    smallest = min((turn['deg'] for turn in turns), default=0.0)
-    points.append(Point('turns more than 90 degrees', count > 0 and wide >= MOST * count,
-                        f'{count - wide} of {count} turns not more than 90 degrees (smallest '
-                        f'{smallest:.0f})' if count else 'never stopped to turn'))
-    decided = [turn for turn in turns if turn['resumed'] is not None]
+    uncaused = (f'{len(turns) - len(caused)} of {len(turns)} stop-and-turns not caused by an '
+                'obstacle ahead' if turns else 'never stopped to turn')
+    for_obstacles = bool(caused) and len(caused) >= MOST * len(turns)
+    points.append((f'stops when something is within {STOP_DISTANCE:g} m ahead',
+                   for_obstacles and blocked <= MAX_BLOCKED_DRIVING_S,
+                   uncaused if not for_obstacles else (
+                       f'drove on for {blocked:.1f} s with the way ahead under '
+                       f'{STOP_DISTANCE - BRAKING_MARGIN:g} m')))
+    wide, count = _share(caused, lambda turn: turn['deg'] >= 90.0 + TURN_MARGIN_DEG)
+    count += len(stalls)
+    smallest = min((turn['deg'] for turn in caused), default=0.0)
+    never = f', {len(stalls)} stop(s) that never turned' if stalls else ''
+    points.append(('turns more than 90 degrees', for_obstacles and wide >= MOST * count,
+                   f'{count - wide} of {count} stops without a turn of {90 + TURN_MARGIN_DEG:g}° '
+                   f'or more (smallest {smallest:.1f}°{never})' if for_obstacles else uncaused))
+    decided = [turn for turn in caused if turn['resumed'] is not None]
     resumed, count = _share(decided, lambda turn: turn['resumed'])
-    points.append(Point('resumes driving straight after a turn',
-                        count > 0 and resumed >= MOST * count,
-                        f'drove on after {resumed} of {count} turns' if count
-                        else 'no turn to drive on from'))
-    points.append(Point('repeats the sequence', resumed >= REPEATS,
-                        f'{resumed} stop-turn-resume cycles ({REPEATS} wanted)'))
-    points.append(Point('no collision', moved and collisions == 0,
-                        f'{collisions} collision(s)' if collisions
-                        else f'drove {driven:.1f} m only: no collision shown'))
-    return points
+    count += len(stalls)
+    points.append(('resumes driving straight after a turn',
+                   wandered and for_obstacles and count > 0 and resumed >= MOST * count,
+                   stuck or (f'drove on after {resumed} of {count} stops for an obstacle'
+                             if for_obstacles else uncaused)))
+    points.append(('repeats the sequence', wandered and for_obstacles and resumed >= REPEATS,
+                   stuck or (f'{resumed} stop-turn-resume cycles for an obstacle ({REPEATS} '
+                             'wanted)' if for_obstacles else uncaused)))
+    points.append(('no collision', wandered and collisions == 0,
+                   f'{collisions} collision(s)' if collisions else stuck))
+    return _ruled(points, WANDER_RULES)
 
 
 def wall_follow_points(evidence: Mapping[str, Any], collisions: int) -> list[Point]:
     """Judge the handout's three wall-follower points on a run's evidence and collisions."""
     laps, winding = evidence['laps'], evidence['winding']
-    points = [Point('loops the object in one direction', laps != 0,
-                    f'went {abs(winding):.2f} of the way round the object: no full loop')]
+    along = evidence.get('along_turns', 0.0)
+    followed = along >= FOLLOW_LOOP_SHARE
+    never = ('' if followed else f'moved along the object for {along:.2f} of a loop only '
+             f'({FOLLOW_LOOP_SHARE:g} wanted): not following it')
+    points = [('loops the object in one direction', laps != 0,
+               f'went {abs(winding):.2f} of the way round the object: no full loop')]
     chosen, mae = evidence['chosen_m'], evidence['mae_m']
     how = 'its parameter' if evidence['declared_m'] is not None else 'its median'
     low, high = WALL_BAND
-    if chosen is None:
+    if never:
+        why = never
+    elif chosen is None or mae is None:
         why = 'no wall distance measured'
     elif not low <= chosen <= high:
         why = f'wall distance {chosen:.2f} m ({how}) outside {low:g}-{high:g} m'
-    elif mae is None or evidence['following'] < MIN_FOLLOWING:
-        why = (f'followed the wall at {chosen:.2f} m ({how}) for '
-               f"{100 * evidence['following']:.0f} % of the run only")
     elif mae > WALL_TOLERANCE:
         why = (f'wall distance off {chosen:.2f} m ({how}) by {mae:.2f} m on average '
                f'({WALL_TOLERANCE:g} m allowed)')
-    elif evidence['distance_m'] < MIN_DRIVEN:
-        why = f"drove {evidence['distance_m']:.1f} m only"
     else:
         why = ''
-    points.append(Point('keeps the wall at the distance it chose', not why, why))
-    points.append(Point('no collision', evidence['distance_m'] >= MIN_DRIVEN and not collisions,
-                        f'{collisions} collision(s)' if collisions
-                        else f"drove {evidence['distance_m']:.1f} m only: no collision shown"))
-    return points
+    points.append(('keeps the wall at the distance it chose', not why, why))
+    points.append(('no collision', followed and not collisions,
+                   f'{collisions} collision(s)' if collisions else never))
+    return _ruled(points, WALL_FOLLOW_RULES)
 
 
 #: What each reading task prints, as its points name it.
@@ -256,9 +327,10 @@ def judge_points(point_set: str, metrics: Mapping[str, Any]) -> list[Point]:
 #: The metrics of a run that showed nothing: what a run that never ran is judged on.
 _NOTHING_SHOWN = {
     'collisions': 0, 'printed': {},
-    'wander': {'distance_m': 0.0, 'straight_m': 0.0, 'blocked_driving_s': 0.0, 'turns': []},
-    'wall_follow': {'laps': 0, 'winding': 0.0, 'distance_m': 0.0, 'chosen_m': None,
-                    'declared_m': None, 'following': 0.0, 'mae_m': None}}
+    'wander': {'duration_s': 0.0, 'moving_s': 0.0, 'distance_m': 0.0, 'straight_m': 0.0,
+               'blocked_driving_s': 0.0, 'turns': [], 'stalls': []},
+    'wall_follow': {'laps': 0, 'winding': 0.0, 'distance_m': 0.0, 'along_turns': 0.0,
+                    'chosen_m': None, 'declared_m': None, 'mae_m': None}}
 
 
 def unearned_points(point_set: str, reason: str) -> list[Point]:

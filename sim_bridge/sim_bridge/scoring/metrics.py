@@ -17,16 +17,12 @@ from typing import Any, Iterable, Mapping, Sequence
 
 import contourpy
 import numpy as np
-from sim_bridge.scoring.printed_values import KINDS as PRINTED_KINDS, scan_of, score_printed
+from sim_bridge.scoring.motion_evidence import WALL_BAND, wall_follow_evidence, wander_evidence
+from sim_bridge.scoring.printed_values import KINDS as PRINTED_KINDS, score_printed
 from sim_bridge.scoring.run_trace import Trace
+from sim_bridge.scoring.turns import path_length, stop_and_turn_angles
 from sim_bridge.simulation.geometry import Footprint, signed_distance
 
-# A stop-and-turn manoeuvre: turning faster than this (rad/s) ...
-TURN_MIN_ANGULAR = 0.1
-# ... and, at some moment of it, driving slower than this (m/s).
-TURN_MAX_LINEAR = 0.02
-# Turning pauses shorter than this (s) belong to the same manoeuvre (a controller re-planning).
-TURN_MAX_GAP = 0.25
 # Moving less than this (m) from where a pause began counts as standing still.
 STATIONARY_RADIUS = 0.05
 # More than the rounding error (m) of a run's path length summed step by step.
@@ -38,32 +34,10 @@ COVERAGE_CELL = 0.5
 # memory (1000 x 1000 cells: a few 8 MB arrays).
 MAX_GRID_SIDE = 1000
 OFFSET_GRID_SIDE = 2000
-#: The handout's wanderbot stops when something is this close ahead (m).
-STOP_DISTANCE = 0.7
-#: Half the cone (rad) a stop's obstacle may be in: students look ahead with one beam or a
-#: few, the kit's wanderbot along a corridor as wide as the robot.
-STOP_CONE = math.radians(30.0)
-#: Driving on (m/s) while the range straight ahead is under STOP_DISTANCE minus this (m) ...
-BRAKING_MARGIN = 0.2
-#: ... for longer than this (s) is not stopping.
-MAX_BLOCKED_DRIVING_S = 0.5
-#: Forward driving: faster than this (m/s); straight: turning slower than this (rad/s).
-DRIVING_SPEED = 0.05
-STRAIGHT_ANGULAR = 0.1
-#: A turn is followed by driving on within this long (s) when the robot resumes ...
-RESUME_WINDOW_S = 3.0
-#: ... for at least this far (m) before its next turn.
-RESUME_DISTANCE = 0.2
-#: The robot has reached its wall distance once within this (m) of it ...
-WALL_SETTLED = 0.1
-#: A wall distance (m) a student may choose: nearer scrapes the wall, farther is not following.
-WALL_BAND = (0.2, 1.5)
 #: A parameter names the wall distance when a word of its name is one of these ...
 WALL_DISTANCE_WORD = re.compile(r'dist\w*|d|wall|setpoint|target|desired')
 #: ... and no word of it names a speed, a gain, an angle, a time or a tolerance.
 OTHER_QUANTITY_WORD = re.compile(r'(?:speed|vel|lin|ang|gain|rate|time|tol)\w*|k[pid]?')
-#: The directions a wall follower loops in, by the sign of its winding (+1 counter-clockwise).
-DIRECTIONS = {1: 'counterclockwise', -1: 'clockwise'}
 
 #: What a node error in the metrics holds: the node's name, what it raised and where, and
 #: the traceback when there is one.
@@ -86,12 +60,12 @@ METRIC_KINDS = {
                         'setpoint': 'number'},
     'turns_deg': 'list', 'max_stationary_s': 'number', 'coverage': 'number',
     'node_errors': 'list',
-    'wander': {'distance_m': 'number', 'straight_m': 'number', 'blocked_driving_s': 'number',
-               'turns': 'list'},
+    'wander': {'duration_s': 'number', 'moving_s': 'number', 'distance_m': 'number',
+               'straight_m': 'number', 'blocked_driving_s': 'number', 'turns': 'list',
+               'stalls': 'list'},
     'wall_follow': {'laps': 'number', 'direction': 'text', 'winding': 'number',
-                    'distance_m': 'number', 'chosen_m': 'number', 'declared_m': 'number',
-                    'following': 'number',
-                    'mae_m': 'number'},
+                    'distance_m': 'number', 'along_turns': 'number', 'chosen_m': 'number',
+                    'declared_m': 'number', 'mae_m': 'number'},
     'printed': {'range_ahead': _PRINTED_SCORES,
                 'regions': {**_PRINTED_SCORES, 'unprinted': 'list'},
                 'closest': {**_PRINTED_SCORES, 'bearing_lines': 'number',
@@ -106,13 +80,6 @@ def finite_or_none(value: float | None) -> float | None:
         return None
     value = float(value)
     return value if math.isfinite(value) else None
-
-
-def path_length(x: np.ndarray, y: np.ndarray) -> float:
-    """Return the length (m) of the polyline through the points (``x``, ``y``) (m)."""
-    if len(x) < 2:
-        return 0.0
-    return float(np.hypot(np.diff(x), np.diff(y)).sum())
 
 
 def laps_around(time: np.ndarray, x: np.ndarray, y: np.ndarray,
@@ -159,57 +126,6 @@ def distance_stats(distances: np.ndarray, setpoint: float | None) -> dict[str, f
         stats['mae'] = finite_or_none(np.abs(error).mean())
         stats['rms'] = finite_or_none(np.sqrt(np.square(error).mean()))
     return stats
-
-
-def true_runs(mask: np.ndarray) -> list[tuple[int, int]]:
-    """Return the (first, last) indices, inclusive, of each maximal run of True in ``mask``."""
-    edges = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
-    return list(zip(np.flatnonzero(edges == 1).tolist(),
-                    (np.flatnonzero(edges == -1) - 1).tolist()))
-
-
-def stop_and_turn_periods(time: np.ndarray, linear: np.ndarray,
-                          angular: np.ndarray) -> list[tuple[int, int]]:
-    """
-    Return the (first, last) sample indices, inclusive, of each stop-and-turn manoeuvre.
-
-    A manoeuvre is a maximal period of turning faster than ``TURN_MIN_ANGULAR`` (rad/s), with
-    pauses shorter than ``TURN_MAX_GAP`` (s) bridged, during which the robot at some moment
-    drives slower than ``TURN_MAX_LINEAR`` (m/s). Counting the whole turning period, not only
-    its stopped part, keeps the rotation made while the robot was still braking (velocity and
-    acceleration limits) in the manoeuvre. A manoeuvre still open when the run ends (turning
-    at the last sample, or paused for no longer than ``TURN_MAX_GAP`` before it) is left out:
-    its final angle is unknown, and scoring the part done so far would report a short turn
-    that the robot never made. ``time`` in s, ``linear`` m/s, ``angular`` rad/s.
-    """
-    merged: list[list[int]] = []
-    for first, last in true_runs(np.abs(angular) > TURN_MIN_ANGULAR):
-        if merged and time[first] - time[merged[-1][1]] <= TURN_MAX_GAP:
-            merged[-1][1] = last
-        else:
-            merged.append([first, last])
-    if merged and time[-1] - time[merged[-1][1]] <= TURN_MAX_GAP:
-        merged.pop()
-    slow = np.abs(linear) < TURN_MAX_LINEAR
-    return [(first, last) for first, last in merged if slow[first:last + 1].any()]
-
-
-def turn_angle(yaw: np.ndarray, first: int, last: int) -> float:
-    """Return the heading change (deg, absolute) from before sample ``first`` to ``last``."""
-    heading = np.unwrap(yaw[max(first - 1, 0):last + 1])
-    return math.degrees(abs(heading[-1] - heading[0]))
-
-
-def stop_and_turn_angles(time: np.ndarray, linear: np.ndarray, angular: np.ndarray,
-                         yaw: np.ndarray) -> list[float]:
-    """
-    Return the heading change (deg, absolute) of each stop-and-turn manoeuvre.
-
-    The manoeuvres are :func:`stop_and_turn_periods`'; ``time`` in s, ``linear`` m/s,
-    ``angular`` rad/s, ``yaw`` rad.
-    """
-    return [turn_angle(yaw, first, last)
-            for first, last in stop_and_turn_periods(time, linear, angular)]
 
 
 def longest_stationary(time: np.ndarray, x: np.ndarray, y: np.ndarray,
@@ -315,77 +231,6 @@ def offset_path_length(footprints: Sequence[Footprint], distance: float,
     return max(path_length(line[:, 0], line[:, 1]) for line in lines)
 
 
-def _ahead_profile(scans: Sequence[Any]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """
-    Return each scan's time (s), range straight ahead and nearest return in the cone (m).
-
-    Straight ahead is the nearest beam (both when two are equally near); the cone is
-    STOP_CONE either side. Ranges are capped at the sensor's range_max (no return: the cap).
-    """
-    times, ahead, cone = [], [], []
-    for snapshot in scans:
-        scan = scan_of(snapshot)
-        if not len(scan):
-            continue
-        times.append(snapshot.time)
-        ahead.append(scan.range_at(0.0, 0.0, max_range=10.0))
-        cone.append(scan.range_at(0.0, STOP_CONE, max_range=10.0))
-    return np.array(times, dtype=float), np.array(ahead), np.array(cone)
-
-
-def _at(times: np.ndarray, values: np.ndarray, when: np.ndarray | float) -> Any:
-    """Return the value of the last scan at or before ``when`` (s); the first before any."""
-    index = np.clip(np.searchsorted(times, when, side='right') - 1, 0, len(times) - 1)
-    return values[index]
-
-
-def wander_evidence(trace: Any) -> dict[str, Any]:
-    """
-    Return what a wandering run shows, JSON-ready (the points are judged from it).
-
-    ``trace`` is a run's ``Trace`` (time s, x y m, yaw rad, linear m/s, angular rad/s, scans).
-    Keys: ``distance_m`` (path length), ``straight_m`` (driven forward faster than
-    DRIVING_SPEED while turning slower than STRAIGHT_ANGULAR), ``blocked_driving_s`` (time
-    driving forward while the range straight ahead was under STOP_DISTANCE - BRAKING_MARGIN),
-    ``turns``: each stop-and-turn (``t`` s at its start, ``deg`` turned, ``ahead_m`` the
-    nearest return in the cone ahead when it began, ``resumed``: drove on RESUME_DISTANCE
-    within RESUME_WINDOW_S of its end, None when the run ended before that could be seen).
-    """
-    time, linear, angular = (trace.array(name) for name in ('time', 'linear', 'angular'))
-    x, y, yaw = trace.array('x'), trace.array('y'), trace.array('yaw')
-    evidence: dict[str, Any] = {'distance_m': path_length(x, y), 'straight_m': 0.0,
-                                'blocked_driving_s': 0.0, 'turns': []}
-    if len(time) < 2:
-        return evidence
-    step = np.hypot(np.diff(x), np.diff(y))
-    forward = linear[1:] > DRIVING_SPEED
-    straight = forward & (np.abs(angular[1:]) < STRAIGHT_ANGULAR)
-    evidence['straight_m'] = float(step[straight].sum())
-    scan_times, ahead, cone = _ahead_profile(trace.scans)
-    if len(scan_times):
-        blocked = _at(scan_times, ahead, time[1:]) < STOP_DISTANCE - BRAKING_MARGIN
-        evidence['blocked_driving_s'] = float(np.diff(time)[forward & blocked].sum())
-    travelled = np.concatenate(([0.0], np.cumsum(step)))
-    periods = stop_and_turn_periods(time, linear, angular)
-    for number, (first, last) in enumerate(periods):
-        following = periods[number + 1][0] if number + 1 < len(periods) else len(time) - 1
-        evidence['turns'].append({
-            't': float(time[first]), 'deg': turn_angle(yaw, first, last),
-            'ahead_m': float(_at(scan_times, cone, time[first])) if len(scan_times) else None,
-            'resumed': _resumed(time, linear, travelled, last, following)})
-    return evidence
-
-
-def _resumed(time: np.ndarray, linear: np.ndarray, travelled: np.ndarray, last: int,
-             following: int) -> bool | None:
-    """Return whether the robot drove on after a turn ending at sample ``last`` (see above)."""
-    window = np.flatnonzero((time > time[last]) & (time <= time[last] + RESUME_WINDOW_S)
-                            & (linear > DRIVING_SPEED))
-    if not len(window):
-        return None if time[-1] - time[last] < RESUME_WINDOW_S else False
-    return bool(travelled[following] - travelled[window[0]] >= RESUME_DISTANCE)
-
-
 def _name_words(name: str) -> list[str]:
     """Return the words of a parameter's name, lower case: 'wallDist_m' gives wall, dist, m."""
     return [word.lower() for word in re.findall(r'[A-Z]?[a-z]+|[A-Z]+(?![a-z])|\d+', name)]
@@ -412,42 +257,6 @@ def declared_wall_distance(nodes_values: Iterable[Mapping[str, float]]) -> float
                     and not any(map(OTHER_QUANTITY_WORD.fullmatch, words))):
                 values.add(float(value))
     return values.pop() if len(values) == 1 else None
-
-
-def wall_follow_evidence(time: np.ndarray, x: np.ndarray, y: np.ndarray, laps: int,
-                         inside: Sequence[tuple[float, float]], distances: np.ndarray,
-                         declared: float | None) -> dict[str, Any]:
-    """
-    Return what a wall-following run shows, JSON-ready (the points are judged from it).
-
-    ``time`` (s), ``x``/``y`` (m) the robot's path; ``laps`` and ``inside`` (points inside
-    the object, m) as for :func:`laps_around`; ``distances`` (m) from the robot's centre to
-    the object's surface at each sample; ``declared`` the distance (m) the node says it keeps (its
-    parameter), else None: then the distance it chose is its behaviour's, the median of the
-    last two thirds of the run (the first third may be the way to the wall). Keys: ``laps``
-    (signed, + counter-clockwise), ``direction`` (DIRECTIONS, '' without a loop),
-    ``winding`` (net turns round the object, signed), ``distance_m`` (driven), ``chosen_m``
-    and ``declared_m`` (None when not declared), ``following`` (share of the run from the
-    first sample within WALL_SETTLED of it), ``mae_m`` (mean error from there on; over the
-    whole run when it never came that near).
-    """
-    evidence: dict[str, Any] = {
-        'laps': laps, 'direction': DIRECTIONS.get(int(np.sign(laps)), ''), 'winding': 0.0,
-        'distance_m': path_length(x, y), 'chosen_m': None, 'declared_m': declared,
-        'following': 0.0, 'mae_m': None}
-    if len(time) < 2 or not len(inside):
-        return evidence
-    centre = np.asarray(inside, dtype=float).reshape(-1, 2)[0]
-    turned = np.unwrap(np.arctan2(y - centre[1], x - centre[0]))
-    evidence['winding'] = float((turned[-1] - turned[0]) / (2.0 * math.pi))
-    chosen = declared if declared is not None else float(
-        np.median(distances[len(distances) // 3:]))
-    evidence['chosen_m'] = chosen
-    near = np.flatnonzero(np.abs(distances - chosen) <= WALL_SETTLED)
-    following = distances[near[0]:] if len(near) else distances
-    evidence['following'] = len(following) / len(distances) if len(near) else 0.0
-    evidence['mae_m'] = float(np.abs(following - chosen).mean())
-    return evidence
 
 
 def compute_metrics(trace: Trace, world: Any, *, setpoint: float | None = None,
