@@ -104,3 +104,17 @@ def test_a_task_with_no_runs_in_the_batch_earns_nothing_of_its_marks():
                                          (2 / 3, '0.67'), (0.0, '0')])
 def test_marks_read_as_people_write_them(value, text):
     assert format_marks(value) == text
+
+
+def test_a_follower_earning_all_points_from_both_starts_is_marked_on_the_way_it_went():
+    """A left-wall follower loops from either start: its own direction is the one it passed."""
+    cw, ccw = (scenario(name, task=4, marks=3, marking='proportional', points='wall_follow',
+                        direction=direction)
+               for name, direction in (('box_cw', 'clockwise'), ('box_ccw', 'counterclockwise')))
+    earned = [{'point': point, 'earned': True, 'reason': '', 'rule': ''}
+              for point in ('loops the object in one direction',
+                            'keeps the wall at the distance it chose', 'no collision')]
+    runs = [{'scenario': 'box_cw', 'passed': False, 'points': earned},   # laps <= -1 fails
+            {'scenario': 'box_ccw', 'passed': True, 'points': earned}]
+    (task,) = task_marks([cw, ccw], runs)
+    assert (task.earned, task.direction) == (3.0, 'counterclockwise')

@@ -163,21 +163,24 @@ def marked_by_points(task: TaskMarks, members: list[Scenario],
     Return ``task`` marked by its scenarios' points over the run ``entries`` that count.
 
     With ``directions: one`` and starts set up for a direction, the runs that count are those
-    of the direction whose runs earn the larger share of the points (the first of
-    LOOP_DIRECTIONS on a tie), with those of scenarios set up for none.
+    of the direction whose runs earn the larger share of the points; on a tie, the direction
+    whose runs passed their criteria more often (the criteria of a direction's starts check its
+    loop direction: the way the student's node went), then the first of LOOP_DIRECTIONS; with
+    those of scenarios set up for none.
     """
     groups: dict[str | None, list[str]] = {None: [scenario.name for scenario in members]}
     if members[0].directions == 'one' and any(scenario.direction for scenario in members):
         groups = {direction: [scenario.name for scenario in members
                               if scenario.direction in (direction, None)]
                   for direction in LOOP_DIRECTIONS}
-    best: tuple[float, tuple[PointMarks, ...], str | None] | None = None
+    best: tuple[tuple[float, int], tuple[PointMarks, ...], str | None] | None = None
     for direction, names in groups.items():
-        points = point_marks(task.marks, members[0].points,
-                             [entry for entry in entries if entry['scenario'] in names])
-        earned = sum(point.earned for point in points)
-        if best is None or earned > best[0]:
-            best = (earned, points, direction)
+        counted = [entry for entry in entries if entry['scenario'] in names]
+        points = point_marks(task.marks, members[0].points, counted)
+        rank = (sum(point.earned for point in points),
+                sum(bool(entry['passed']) for entry in counted))
+        if best is None or rank > best[0]:
+            best = (rank, points, direction)
     return TaskMarks(task.task, task.scenarios, task.marks, task.marking, task.runs,
                      task.passed, best[1], best[2])
 
