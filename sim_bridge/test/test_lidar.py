@@ -244,11 +244,11 @@ def test_two_scenes_in_two_clients_do_not_see_each_other(scene):
 
 
 def test_pybullet_threads_split_a_dense_scan_without_changing_it():
-    from sim_bridge.simulation.simulator import Simulator
+    from sim_bridge.simulation.simulator import BulletOptions, Simulator
     scans = {}
     for threads in (1, 0, None):
         with Simulator('room', lidar_samples=1081, lidar_noise_stddev=0.0,
-                       ray_threads=threads) as sim:
+                       bullet=BulletOptions(ray_threads=threads)) as sim:
             scans[threads] = sim.scan().ranges
             assert sim._lidar.threads == (0 if threads is None else threads)
     assert np.array_equal(scans[1], scans[0]) and np.array_equal(scans[1], scans[None])

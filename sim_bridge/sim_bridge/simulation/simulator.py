@@ -60,6 +60,20 @@ class Collision:
     obstacle: str
 
 
+@dataclass(frozen=True)
+class BulletOptions:
+    """
+    How pybullet holds a simulator's scene, for measurements.
+
+    ``ray_threads`` is pybullet's numThreads for the lidar's rays (None: chosen by beam count,
+    see :class:`~.lidar.Lidar`); ``collision_meshes`` False gives pybullet primitives instead
+    of meshes (slower; for comparison).
+    """
+
+    ray_threads: int | None = None
+    collision_meshes: bool = True
+
+
 class Simulator:
     """
     A world with one robot: command it, step it, scan, and read its ground truth.
@@ -70,17 +84,14 @@ class Simulator:
     ``command_timeout`` (s, sim time): with no new command for longer than this the robot is
     told to stop (None: a command holds until the next); ``gui`` opens the pybullet window
     (one per process) with a camera following the robot, ``draw_rays`` draws the lidar's rays
-    there; ``ray_threads`` is pybullet's numThreads for the lidar (None: chosen by beam count,
-    see :class:`~.lidar.Lidar`); ``collision_meshes`` False gives pybullet
-    primitives instead of meshes (slower; for comparison).
+    there; ``bullet`` how pybullet holds the scene (:class:`BulletOptions`).
     """
 
     def __init__(self, world: World | str | os.PathLike, *, seed: int = 0,
                  lidar: LidarConfig | None = None, lidar_samples: int | None = None,
                  lidar_noise_stddev: float | None = None, limits: DriveLimits | None = None,
                  command_timeout: float | None = None, gui: bool = False,
-                 draw_rays: bool = False,
-                 ray_threads: int | None = None, collision_meshes: bool = True) -> None:
+                 draw_rays: bool = False, bullet: BulletOptions | None = None) -> None:
         if not isinstance(world, World):
             world = World.load(world)
         self.world = world
@@ -122,9 +133,11 @@ class Simulator:
                 ' with a GUI: is there a display, and no other pybullet window?' if gui else ''))
         self.physics_client = client
         self._finalizer = weakref.finalize(self, _disconnect, client)
+        bullet = bullet or BulletOptions()
         self.bodies = build_scene(client, world.shapes(), floor_size=world.floor_size,
-                                  meshes=collision_meshes, visuals=gui)
-        self._lidar = Lidar(client, config, np.random.default_rng(seed), threads=ray_threads)
+                                  meshes=bullet.collision_meshes, visuals=gui)
+        self._lidar = Lidar(client, config, np.random.default_rng(seed),
+                            threads=bullet.ray_threads)
         self.viewer = Viewer(client, world.robot.shapes, draw_rays) if gui else None
         if self.viewer is not None:
             self.viewer.show_robot(self._drive.pose)
