@@ -355,6 +355,17 @@ def test_start_error_is_one_line_exit_2_and_writes_nothing(args, mentions, tmp_p
     assert not out_dir.exists()
 
 
+def test_a_simulator_that_cannot_start_says_nothing_of_node_processes(tmp_path, run_main):
+    """No node process started: no warning about how node processes run (was 'runs ')."""
+    status, _, stderr = run_main('--world', 'wall_follow_box', '--node', 'scan_ahead',
+                                 '--param', 'sim_bridge:physics_rate=0.0', '--duration', '1',
+                                 '--out', str(tmp_path / 'out'))
+    assert status == 2
+    said = [line for line in stderr.splitlines() if line.startswith(('warning: ', 'error: '))]
+    assert len(said) == 1 and said[0].startswith('error: sim_bridge: ')
+    assert 'physics_rate' in said[0]
+
+
 def test_a_missing_node_file_is_the_only_line_said_and_nothing_starts():
     """No pybullet banner, no simulator log: the command says what is wrong, alone."""
     done = subprocess.run([sys.executable, '-m', 'sim_bridge.commands.run', '--world',
