@@ -80,3 +80,18 @@ def test_a_node_spun_in_a_thread_handles_every_scan_before_main_goes_on(tmp_path
     printed = [(line['t'], line['text']) for line in lines if line['level'] == 'STDOUT']
     assert result.metrics['node_errors'] == []
     assert printed == [(t / 2, f'handled {5 * t} scans') for t in range(1, 11)]
+
+
+def test_the_construct_template_polling_the_clock_in_main_drives_up_to_the_cube(tmp_path):
+    # main() polls time.time() with no sleep while a thread spins a MultiThreadedExecutor:
+    # sim time follows the wall clock while it does, each scan handled by the thread.
+    result = run_simulation('obstacles', [str(FIXTURES / 'busy_poll_template.py')],
+                            duration_s=8.0, out_dir=tmp_path, quiet=True, record=False,
+                            plot=False)
+    metrics = result.metrics
+    assert metrics['node_errors'] == [] and metrics['collisions'] == 0
+    assert metrics['sim_time_s'] >= 8.0
+    # The cube's face is 2.0 m ahead: it stops 0.6 m before it (0.25 m/s, one scan late).
+    assert 1.0 < metrics['distance_m'] < 1.85 and metrics['max_stationary_s'] > 1.0
+    assert any('sim time followed the wall clock' in note
+               for note in metrics['run_mode']['notes'])

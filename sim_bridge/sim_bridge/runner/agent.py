@@ -8,8 +8,9 @@ standard library, the frame codec and the student's code: never the simulator, t
 the grader.
 
 Wherever the student's code would block, control comes here instead (patched in this process
-only): an executor's wait with nothing ready, ``time.sleep``, ``Rate.sleep``;
-MultiThreadedExecutor runs single-threaded. The blocking point says ``idle`` to the trusted side
+only, sim_bridge.runner.node_patches; the runner's package docstring lists every patch): an
+executor's wait with nothing ready, ``time.sleep``, ``Rate.sleep``; MultiThreadedExecutor runs
+single-threaded. The blocking point says ``idle`` to the trusted side
 over the ``--out`` pipe, with the messages the nodes published since the last exchange (raw CDR,
 taken by a proxy node's raw subscriptions) and the next ROS time it must wake at (its nodes'
 first timer, a sleep's end, a wait's timeout), then reads ``advance``: the new sim time and the
@@ -19,9 +20,15 @@ simulated time, as on Gazebo at real-time factor 1. Around each callback the age
 ``sync`` frame naming the callback's node: the trusted side cuts the nodes' output (this
 process's stdout and stderr, pipes it reads) at those points. ROS discovery is off: the nodes
 hear only this process.
+
+main()'s own code that runs on and on (a loop polling ``time.time()``, a ``join`` of the thread
+that spins) reaches none of those points: sim time stands still for BUSY_MAIN_S of wall time,
+then a pacing thread exchanges in its stead, sim time following the wall clock (real-time
+factor 1), each message delivered at its time and handled by the threads that spin.
 """
 
 import argparse
+import contextlib
 import ctypes
 import faulthandler
 from importlib import import_module
@@ -30,26 +37,38 @@ import os
 import signal
 import sys
 import threading
-import time
+from time import monotonic_ns, sleep as wall_sleep  # the real ones, before the patches
 import traceback
 from typing import Any, Callable
 
 from sim_bridge.runner.frames import encode, FrameDecoder, Message, TRUSTED_KINDS, type_name
 from sim_bridge.runner.node_main import MAX_TRACEBACK_CHARS, prepare, start_failure
+from sim_bridge.runner.node_patches import install, NANOSECONDS_PER_SECOND
 
 #: ROS's own topics of every node: not forwarded (the run records the nodes' lines itself).
 OWN_TOPICS = ('/rosout', '/parameter_events')
 #: Messages the proxy keeps per topic between two exchanges.
 PROXY_DEPTH = 1000
-NANOSECONDS_PER_SECOND = 10 ** 9
 #: Wall seconds the main thread waits, after a step, for the nodes' other spinning threads to
 #: handle it; a thread that takes longer is no longer waited for (it runs at its own pace).
 THREAD_DRAIN_S = 2.0
 #: A spinning thread's count of steps handled while its code runs, and while it sleeps.
 BUSY, ASLEEP = -1, math.inf
-#: What a run says of a MultiThreadedExecutor, which the agent runs in lockstep.
-MULTITHREADED_NOTE = ('its MultiThreadedExecutor ran its callbacks one at a time, in lockstep '
-                      "with the simulator (their order is the executor's, every time)")
+#: Wall seconds main()'s own code may run without waiting, sleeping or running a callback
+#: before the run is stepped without it (see the module's docstring); the longest step then
+#: (s of sim time, so that main() sees each), and the wall seconds between two looks while
+#: it paces, and while it does not.
+BUSY_MAIN_S = 2.0
+PACE_STEP_S = 0.005
+PACE_TICK_S = 0.005
+LOOK_S = 0.1
+#: Most wall seconds the pacing thread waits, after a step, for a main() that polls the clock
+#: to read it (under load its thread may not run at once).
+SEE_S = 0.05
+#: What a run says of a main() that kept the main thread busy (see the module's docstring).
+PACED_NOTE = (f'its main() ran its own code for over {BUSY_MAIN_S:g} s of wall time without '
+              'waiting, sleeping or spinning: sim time followed the wall clock (real-time '
+              'factor 1) while it did')
 
 
 def message_class(name: str) -> type:
@@ -67,9 +86,21 @@ class Link:
         self.decoder = FrameDecoder(TRUSTED_KINDS)
         self.frames = []
         self.libc = ctypes.CDLL(None)
+        #: Held by the thread that sends a frame until it has its answer.
+        self.lock = threading.RLock()
+
+    def request(self, kind: str, messages=(), **fields: Any):
+        """Send a frame (see :meth:`send`) and return the trusted side's answer."""
+        with self.lock:
+            self.send(kind, messages, **fields)
+            return self.receive()
 
     def send(self, kind: str, messages=(), **fields: Any) -> None:
         """Write one frame, after what the nodes printed so far (flushed first)."""
+        with self.lock:
+            self._send(kind, messages, **fields)
+
+    def _send(self, kind: str, messages=(), **fields: Any) -> None:
         for stream in (sys.stdout, sys.stderr):
             try:
                 stream.flush()
@@ -94,8 +125,9 @@ class Lockstep:
     """
     The agent's state: sim time, the proxy node, the student's nodes, the frames to send.
 
-    One thread (the main thread, where ``main()`` runs) exchanges with the trusted side; other
-    threads' sleeps wait for sim time to pass.
+    One thread (the main thread, where ``main()`` runs) exchanges with the trusted side, or
+    the pacing thread while main()'s own code is busy (:meth:`pace`); other threads' sleeps
+    wait for sim time to pass.
     """
 
     def __init__(self, link: Link):
@@ -122,21 +154,35 @@ class Lockstep:
         #: Writes of the nodes' streams and loggers since the last sync, the last one's stream.
         self.printed = 0
         self.last_stream = ''
+        #: Held by the thread that exchanges, until the threads that spin handled the step.
+        self.stepping = threading.RLock()
+        #: The main thread's calls into the agent under way; the wall and sim time (ns) when
+        #: it last left one; when pacing began (main_left then, wall ns, sim ns: see
+        #: :meth:`pace`); the wall time (ns) the last step was delivered at.
+        self.main_inside = 0
+        self.main_left = (monotonic_ns(), 0)
+        self.paced_from: tuple[tuple[int, int], int, int] | None = None
+        self.step_wall_ns = monotonic_ns()
+        self.clock_lock = threading.Lock()
+        self.clock_last_ns = 0
+        #: Times main()'s own code read the clock; the count after the last paced step.
+        self.main_reads = 0
+        self.main_reads_seen = 0
 
     def sync(self, node: str) -> None:
         """
         Say that what the nodes printed since the last sync was printed by ``node``'s code.
 
         ('' for none: the process's one node if it has one.) Only when they printed: Python's
-        streams and rclpy's loggers count what they write (a C library's printf is cut at the
-        next sync, the time still right). The trusted side answers once it has cut the bytes
+        streams count what they write, rcutils' output handler the lines it prints
+        (node_patches.ConsoleCounter; a C library's printf is cut at the next sync, the time
+        still right). The trusted side answers once it has cut the bytes
         written before the sync, so no byte written after it is cut with them.
         """
         if self.printed:
             self.printed = 0
-            self.link.send('sync', node=node or self.only_node())
-            if self.link.receive().kind != 'ack':  # the bytes before it are cut: go on
-                self.stop()
+            if self.link.request('sync', node=node or self.only_node()).kind != 'ack':
+                self.stop()  # else the bytes before it are cut: go on
 
     def only_node(self) -> str:
         """Return the name of the process's one node, whose program main() is; else ''."""
@@ -161,26 +207,113 @@ class Lockstep:
 
     def exchange(self, wake_ns: int | None, context=None) -> None:
         """Report idle (next wake ``wake_ns``), take the trusted side's step, deliver it."""
-        self._start_proxy(context)
-        graph = self._graph()
-        fields = {'wake_ns': wake_ns, 'node': self.only_node() if self.printed else ''}
-        self.printed = 0
-        if graph != self.graph:
-            self.graph = fields['graph'] = graph
-        if self.notes != self.notes_sent:
-            self.notes_sent = fields['notes'] = list(self.notes)
-        self.link.send('idle', self._taken(), **fields)
-        frame = self.link.receive()
-        if frame.kind == 'stop':
-            self.stop()
-        with self.time_passed:
-            self.now_ns = max(self.now_ns, frame.integer('t_ns'))
-            self.time_passed.notify_all()
-        for message in frame.messages:
-            publisher = self._publisher(message)
-            if publisher is not None:
-                publisher.publish(message.data)
-        self._drain_threads()
+        with self.in_step(), self.stepping:
+            self._start_proxy(context)
+            graph = self._graph()
+            fields = {'wake_ns': wake_ns, 'node': self.only_node() if self.printed else ''}
+            self.printed = 0
+            if graph != self.graph:
+                self.graph = fields['graph'] = graph
+            if self.notes != self.notes_sent:
+                self.notes_sent = fields['notes'] = list(self.notes)
+            frame = self.link.request('idle', self._taken(), **fields)
+            if frame.kind == 'stop':
+                self.stop()
+            with self.time_passed:
+                self.now_ns = max(self.now_ns, frame.integer('t_ns'))
+                self.step_wall_ns = monotonic_ns()
+                self.time_passed.notify_all()
+            for message in frame.messages:
+                publisher = self._publisher(message)
+                if publisher is not None:
+                    publisher.publish(message.data)
+            self._drain_threads()
+
+    @contextlib.contextmanager
+    def in_step(self):
+        """Note that the main thread is in the agent's hands (a wait, a callback) in the block."""
+        if threading.current_thread() is not threading.main_thread():
+            yield
+            return
+        self.main_inside += 1
+        try:
+            yield
+        finally:
+            self.main_inside -= 1
+            self.main_left = (monotonic_ns(), self.now_ns)
+
+    def clock_ns(self) -> int:
+        """
+        Return the nodes' clock (ns): sim time, in a callback plus the wall time since its step.
+
+        main()'s own code reads sim time (a loop that polls it is paced: :meth:`pace`); a
+        callback, on any thread, reads sim time plus the wall time since its step was
+        delivered, so that a callback that waits on the clock ends. Never less than it last
+        returned: code that runs longer than the steps sees it stand until sim time catches up.
+        The nodes' wall clocks read their start plus this (node_patches.patch_clocks).
+        """
+        in_main_code = (threading.current_thread() is threading.main_thread()
+                        and not self.main_inside)
+        self.main_reads += in_main_code
+        with self.clock_lock:
+            reading = self.now_ns if in_main_code else (
+                self.now_ns + monotonic_ns() - self.step_wall_ns)
+            self.clock_last_ns = reading = max(reading, self.clock_last_ns)
+            return reading
+
+    def pace(self) -> None:
+        """
+        Step the run while main()'s own code keeps the main thread from the agent (a thread).
+
+        Once it has been BUSY_MAIN_S away (wall time) with nodes made, sim time follows the
+        wall clock from then on, never ahead of it: steps of PACE_STEP_S at most, or to the
+        nodes' next timer, each message delivered at its time; the threads that spin handle
+        it as ever. A main() that polls the clock gets to read it after each step (SEE_S of
+        wall time at most). Pacing ends with the nodes' context.
+        """
+        import rclpy
+        context = rclpy.utilities.get_default_context()
+        while True:
+            if self._paced_wake() is None:  # the lock untouched while main() is not busy
+                pacing = self.paced_from is not None and self.paced_from[0] == self.main_left
+                wall_sleep(PACE_TICK_S if pacing and not self.main_inside else LOOK_S)
+                continue
+            with self.stepping:
+                wake_ns = self._paced_wake()
+                if wake_ns is None or not context.ok():
+                    continue
+                if PACED_NOTE not in self.notes:
+                    self.notes.append(PACED_NOTE)
+                polled = self.main_reads != self.main_reads_seen  # since the last step
+                try:
+                    self.exchange(wake_ns)
+                except Exception:  # noqa: B902 main() shut the context down meanwhile
+                    if context.ok():
+                        raise
+                    return
+                self.main_reads_seen = self.main_reads
+            deadline_ns = monotonic_ns() + round(SEE_S * NANOSECONDS_PER_SECOND)
+            while polled and self.main_reads == self.main_reads_seen and (
+                    monotonic_ns() < deadline_ns):
+                wall_sleep(SEE_S / 100)
+
+    def _paced_wake(self) -> int | None:
+        """Return the sim time (ns) the pacing thread steps to now, or None (see pace)."""
+        from sim_bridge.runner.stepping import next_timer_ns
+        left = self.main_left
+        wall_ns = monotonic_ns()
+        if (self.main_inside or not self.nodes
+                or wall_ns - left[0] < BUSY_MAIN_S * NANOSECONDS_PER_SECOND):
+            return None
+        if self.paced_from is None or self.paced_from[0] != left:
+            self.paced_from = (left, wall_ns, self.now_ns)  # sim time follows the wall from now
+        _, from_wall_ns, from_sim_ns = self.paced_from
+        paced_ns = from_sim_ns + wall_ns - from_wall_ns
+        if paced_ns <= self.now_ns:
+            return None
+        timer_ns = next_timer_ns(self.nodes, after_ns=self.now_ns)
+        return min(paced_ns, self.now_ns + round(PACE_STEP_S * NANOSECONDS_PER_SECOND),
+                   *([] if timer_ns is None else [timer_ns]))
 
     def _drain_threads(self) -> None:
         """
@@ -236,6 +369,22 @@ class Lockstep:
                 self.time_passed.notify_all()
                 self.time_passed.wait_for(lambda: self.steps > seen or (
                     deadline is not None and self.now_ns >= deadline))
+
+    def hand_over(self) -> None:
+        """
+        Send what the nodes published since the last exchange, before saying the process ended.
+
+        As their process would: a message published just before main() returns, or raises,
+        is delivered.
+        """
+        try:
+            messages = self._taken()
+        except Exception:  # noqa: B902 its context is gone, with what it held
+            return
+        if messages:
+            with self.stepping:
+                if self.link.request('idle', messages, wake_ns=self.now_ns).kind == 'stop':
+                    self.stop()
 
     def stop(self) -> None:
         """End this process at the run's end, naming the threads the nodes left running."""
@@ -361,132 +510,6 @@ def thread_warnings() -> list[str]:
     return warnings
 
 
-class CountedStream:
-    """A text stream whose writes are counted for the sync frames (see Lockstep.sync)."""
-
-    def __init__(self, stream, lockstep: Lockstep, name: str):
-        self._stream = stream
-        self._lockstep = lockstep
-        self._name = name
-
-    def write(self, text: str) -> int:
-        self._lockstep.note_write(self._name)
-        return self._stream.write(text)
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self._stream, name)
-
-
-class TracedCallback:
-    """An executor's task, run between two sync frames; its node noted if it raises."""
-
-    def __init__(self, task, lockstep: Lockstep, node: str, place: str):
-        self.task = task
-        self.lockstep = lockstep
-        self.node = node
-        self.place = place
-
-    def __call__(self) -> None:
-        lockstep = self.lockstep
-        lockstep.sync('')
-        lockstep.running = (self.node, self.place)
-        try:
-            self.task()
-        except BaseException:  # noqa: B902 sys.exit(), KeyboardInterrupt: not kept by the task
-            lockstep.failed_in = (self.node, self.place)
-            raise
-        finally:
-            lockstep.running = None
-            if self.task.exception() is not None:
-                lockstep.failed_in = (self.node, self.place)
-            lockstep.sync(self.node)
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self.task, name)
-
-
-def install(lockstep: Lockstep) -> None:
-    """Patch rclpy's blocking points and the sleeps of this process to go through ``lockstep``."""
-    import rclpy
-    from rclpy import executors, timer
-    from rclpy.impl.rcutils_logger import RcutilsLogger
-    from rclpy.node import Node
-    from sim_bridge.runner.stepping import callback_place, next_timer_ns
-    original_wait = executors.Executor.wait_for_ready_callbacks
-    original_init = Node.__init__
-
-    def track(node, *args, **kwargs) -> None:
-        original_init(node, *args, **kwargs)
-        if not getattr(node, '_lab_proxy', False):
-            lockstep.nodes.append(node)
-
-    def stepped_wait(executor, timeout_sec=None, nodes=None, condition=lambda: False):
-        if threading.current_thread() is not threading.main_thread():
-            return lockstep.thread_wait(original_wait, executor, timeout_sec, nodes, condition)
-        timeout = getattr(timeout_sec, 'timeout', timeout_sec)
-        deadline = (None if timeout is None or timeout < 0
-                    else lockstep.now_ns + round(timeout * NANOSECONDS_PER_SECOND))
-        while True:
-            executor.wake()  # its guard ready: a wait with nothing else ready returns at once
-            try:
-                task, entity, node = original_wait(executor, 0, nodes, condition)
-            except executors.TimeoutException:
-                if getattr(executor, '_lab_ran', False):
-                    executor._lab_ran = False  # a callback ran: more may be ready now
-                    continue
-                if deadline is not None and lockstep.now_ns >= deadline:
-                    raise
-                wake = next_timer_ns(nodes or executor.get_nodes())
-                if deadline is not None:
-                    wake = min(deadline if wake is None else wake,
-                               max(deadline, lockstep.now_ns + 1))
-                lockstep.exchange(wake, executor.context)
-                continue
-            executor._lab_ran = True
-            return (TracedCallback(task, lockstep, node.get_name(), callback_place(entity)),
-                    entity, node)
-
-    def stepped_sleep(seconds: float) -> None:
-        if seconds < 0:
-            raise ValueError('sleep length must be non-negative')
-        lockstep.sleep_until(lockstep.now_ns + max(1, round(seconds * NANOSECONDS_PER_SECOND)))
-
-    def rate_sleep(rate) -> None:
-        period = rate._timer.timer_period_ns
-        due = getattr(rate, '_lab_next_ns', lockstep.now_ns) + period
-        rate._lab_next_ns = due if due > lockstep.now_ns else lockstep.now_ns + period
-        lockstep.sleep_until(rate._lab_next_ns)
-
-    class LockstepMultiThreadedExecutor(executors.SingleThreadedExecutor):
-        """MultiThreadedExecutor in lockstep: its callbacks run one at a time, in order."""
-
-        def __init__(self, num_threads=None, *, context=None):
-            super().__init__(context=context)
-            if MULTITHREADED_NOTE not in lockstep.notes:
-                lockstep.notes.append(MULTITHREADED_NOTE)
-
-    original_log = RcutilsLogger.log
-
-    def counted_log(logger, *args, **kwargs):
-        lockstep.note_write('STDERR')  # rcutils' console output
-        return original_log(logger, *args, **kwargs)
-
-    Node.__init__ = track
-    RcutilsLogger.log = counted_log
-    sys.stdout = CountedStream(sys.stdout, lockstep, 'STDOUT')
-    sys.stderr = CountedStream(sys.stderr, lockstep, 'STDERR')
-    executors.Executor.wait_for_ready_callbacks = stepped_wait
-    executors.MultiThreadedExecutor = LockstepMultiThreadedExecutor
-    timer.Rate.sleep = rate_sleep
-    time.sleep = stepped_sleep
-
-    def note_shutdown() -> None:
-        lockstep.shutdown_where = lockstep.code.stack_origin(traceback.extract_stack()[:-1])
-        lockstep.shutdown_in = lockstep.running
-    lockstep.note_shutdown = note_shutdown  # the context keeps a weak reference to methods
-    rclpy.utilities.get_default_context().on_shutdown(note_shutdown)
-
-
 def run(target: str, ros_args: list[str], link: Link) -> None:
     """Run TARGET's main() in lockstep; say on ``link`` how it ended."""
     from rclpy.exceptions import InvalidParameterTypeException
@@ -498,6 +521,7 @@ def run(target: str, ros_args: list[str], link: Link) -> None:
     signal.signal(signal.SIGUSR1, lockstep.report_stuck)
     sys.argv = [path or target, *ros_args]
     link.send('hello', pid=os.getpid())
+    threading.Thread(target=lockstep.pace, name='lab_pacer', daemon=True).start()
     try:
         start, path = prepare(target)
     except BaseException as error:  # noqa: B902 SystemExit at import, a syntax error
@@ -505,11 +529,13 @@ def run(target: str, ros_args: list[str], link: Link) -> None:
         return
     try:
         start()
+        lockstep.hand_over()
     except InvalidParameterTypeException as error:
         link.send('ended', status='start', error=str(error), parameter=True)
     except BaseException as error:  # noqa: B902 the node's process would have died of it
         node, place = lockstep.failed_in or lockstep.running or (lockstep.only_node(),
                                                                  'its main()')
+        lockstep.hand_over()
         link.send('ended', status='error', node=node, place=place,
                   memory=isinstance(error, MemoryError),
                   error=describe(error, code)[:MAX_TRACEBACK_CHARS],

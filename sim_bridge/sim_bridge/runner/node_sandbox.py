@@ -22,8 +22,9 @@ from sim_bridge.runner.sandbox import ADDRESS_SPACE_SLACK_BYTES, KIT_PACKAGE, Sa
     SandboxError, SandboxLimits
 from sim_bridge.runner.targets import split_target
 
-#: What of the trusted side's environment a node process gets (its DDS domain, its checks).
-PASSED_VARIABLES = ('ROS_DOMAIN_ID', 'ROS_PYTHON_CHECK_FIELDS')
+#: What of the trusted side's environment a node process gets (its DDS domain, its checks,
+#: the console format the trusted side reads its log lines by).
+PASSED_VARIABLES = ('ROS_DOMAIN_ID', 'ROS_PYTHON_CHECK_FIELDS', 'RCUTILS_CONSOLE_OUTPUT_FORMAT')
 #: Least memory (bytes) a node process's run gets, whatever limit the grader has; what it
 #: gets when the grader has none.
 LEAST_MEMORY_BYTES = 256 * 2 ** 20

@@ -188,12 +188,13 @@ def spin_after_publishing(executor: SteppedExecutor, topics: Collection[str]) ->
     return count if only_sinks else count + spin_until_idle(executor)
 
 
-def next_timer_ns(nodes: Iterable[Node]) -> int | None:
+def next_timer_ns(nodes: Iterable[Node], after_ns: int | None = None) -> int | None:
     """
     Return the ROS time (ns) at which the first of the nodes' ROS-time timers is next due.
 
     None when no node has an active timer on ROS time (timers on the system or steady clock
-    follow the wall clock, which stepping does not move).
+    follow the wall clock, which stepping does not move); with ``after_ns``, timers due at
+    or before it (ns) are left out.
     """
     due = None
     for node in nodes:
@@ -204,5 +205,6 @@ def next_timer_ns(nodes: Iterable[Node]) -> int | None:
             if remaining is None:
                 continue
             at = timer.clock.now().nanoseconds + max(remaining, 0)
-            due = at if due is None else min(due, at)
+            if after_ns is None or at > after_ns:
+                due = at if due is None else min(due, at)
     return due
