@@ -356,6 +356,35 @@ def test_start_error_is_one_line_exit_2_and_writes_nothing(args, mentions, tmp_p
     assert not out_dir.exists()
 
 
+def test_a_simulator_that_cannot_start_says_nothing_of_node_processes(tmp_path, run_main):
+    """No node process started: no warning about how node processes run (was 'runs ')."""
+    status, _, stderr = run_main('--world', 'wall_follow_box', '--node', 'scan_ahead',
+                                 '--param', 'sim_bridge:physics_rate=0.0', '--duration', '1',
+                                 '--out', str(tmp_path / 'out'))
+    assert status == 2
+    said = [line for line in stderr.splitlines() if line.startswith(('warning: ', 'error: '))]
+    assert len(said) == 1 and said[0].startswith('error: sim_bridge: ')
+    assert 'physics_rate' in said[0]
+
+
+def test_a_robot_without_a_lidar_is_one_start_error_naming_the_model(tmp_path, run_main):
+    """Not a crash line with the kit's source (was 'ValueError: ... at simulator.py:89: ...')."""
+    model = tmp_path / 'blind_robot'
+    model.mkdir()
+    lab_robot = Path(__file__).parents[2] / 'models' / 'lab_robot' / 'model.sdf'
+    (model / 'model.sdf').write_text(
+        lab_robot.read_text().split('<sensor name=')[0] + '</link></model></sdf>')
+    status, stdout, stderr = run_main('--world', 'obstacles', '--robot', str(model), '--node',
+                                      'scan_ahead', '--duration', '1',
+                                      '--out', str(tmp_path / 'out'))
+    assert (status, stdout) == (2, '')
+    said = [line for line in stderr.splitlines() if line.startswith(('warning: ', 'error: '))]
+    assert len(said) == 1 and said[0].startswith('error: robot model ')
+    assert f"({model / 'model.sdf'}) has no lidar <sensor>" in said[0]
+    assert '.py:' not in said[0] and 'Traceback' not in stderr
+    assert not (tmp_path / 'out').exists()
+
+
 def test_a_missing_node_file_is_the_only_line_said_and_nothing_starts():
     """No pybullet banner, no simulator log: the command says what is wrong, alone."""
     done = subprocess.run([sys.executable, '-m', 'sim_bridge.commands.run', '--world',

@@ -177,8 +177,12 @@ def say_isolation(isolation: str) -> None:
 
 
 def isolation_warning(isolation: str) -> str | None:
-    """Return the reports' warning for runs not fully sandboxed, or None."""
-    if isolation.startswith('bubblewrap'):
+    """
+    Return the reports' warning for runs not fully sandboxed, or None.
+
+    None too when ``isolation`` is '': no node process started (the simulator could not start).
+    """
+    if not isolation or isolation.startswith('bubblewrap'):
         return None
     if isolation.startswith('NOT sandboxed: '):
         return f'runs NOT sandboxed: {isolation.partition(": ")[2]}'

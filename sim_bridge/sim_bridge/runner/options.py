@@ -19,6 +19,7 @@ from sim_bridge.common.paths import find_world
 from sim_bridge.common.values import described
 from sim_bridge.ros.drive import check_obstacles, DriveError, parse_drive, Segment
 from sim_bridge.runner.targets import missing_node_file, node_command, target_name
+from sim_bridge.simulation.sdf_lidar import LIDAR_SENSOR_TYPES
 from sim_bridge.simulation.world import World, WorldError
 import yaml
 
@@ -218,9 +219,14 @@ def load_world(world: str, robot: str | None = None,
     # Without a robot the start is checked and set by start_pose, whose error names it.
     pose = None if start is None or isinstance(start, str) or robot is None else start
     try:
-        return World.load(find_world(world), robot=robot, robot_pose=pose)
+        loaded = World.load(find_world(world), robot=robot, robot_pose=pose)
     except (FileNotFoundError, WorldError) as error:
         raise RunError(str(error)) from None
+    if loaded.robot.lidar is None:  # the bridge simulates the robot's own lidar, no other
+        raise RunError(f"robot model '{loaded.robot_model}' ({loaded.robot.path}) has no lidar "
+                       f"<sensor> (type {', '.join(LIDAR_SENSOR_TYPES)}): a run scans with the "
+                       "robot's own")
+    return loaded
 
 
 def start_pose(world: World, start: Sequence[float] | str | None) -> list[float] | None:
