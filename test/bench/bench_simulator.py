@@ -185,12 +185,16 @@ def bench_real_time(world: World) -> None:
     circling = (0.25, 0.5)
     pushing = (1.0, 0.0)
     rows = [(36, 500, 'circling (used: numThreads=1)', circling, {}),
-            (36, 500, 'circling, numThreads=0', circling, {'bullet': BulletOptions(ray_threads=0)}),
-            (36, 500, 'circling, pybullet primitives', circling, {'bullet': BulletOptions(collision_meshes=False)}),
+            (36, 500, 'circling, numThreads=0', circling,
+             {'bullet': BulletOptions(ray_threads=0)}),
+            (36, 500, 'circling, pybullet primitives', circling,
+             {'bullet': BulletOptions(collision_meshes=False)}),
             (36, 500, 'pushing against a wall', pushing, {}),
             (1081, 100, 'circling (used: numThreads=0)', circling, {}),
-            (1081, 100, 'circling, numThreads=1', circling, {'bullet': BulletOptions(ray_threads=1)}),
-            (1081, 100, 'circling, pybullet primitives', circling, {'bullet': BulletOptions(collision_meshes=False)})]
+            (1081, 100, 'circling, numThreads=1', circling,
+             {'bullet': BulletOptions(ray_threads=1)}),
+            (1081, 100, 'circling, pybullet primitives', circling,
+             {'bullet': BulletOptions(collision_meshes=False)})]
     for beams, goal, label, command, options in rows:
         factor, step, scan, hits = max(real_time_factor(world, beams, 10.0, command, **options)
                                        for _ in range(3))

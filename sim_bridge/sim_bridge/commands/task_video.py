@@ -35,7 +35,7 @@ from sim_bridge.grading.scenario import load_scenario, Scenario
 from sim_bridge.live.lab_tasks import (
     HANDOUT_NUMBERS, LOOP_SCENARIOS, TASK_SCENARIOS, video_name)
 from sim_bridge.media.video import failure_line, render_video, VideoError
-from sim_bridge.scoring.metrics import DIRECTIONS
+from sim_bridge.scoring.motion_evidence import DIRECTIONS
 
 #: The longest video (s) a TA watches without ``--speed``: a longer run is sped up to fit.
 MAX_VIDEO_S = 120.0
