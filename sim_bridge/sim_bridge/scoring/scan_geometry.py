@@ -95,7 +95,7 @@ class RecordedScan:
         return float(values.min()) if len(values) else cap
 
     def closest(self) -> tuple[float, float] | None:
-        """Return (range m, bearing rad) of the nearest valid return (the lowest beam of equals)."""
+        """Return (range m, bearing rad) of the nearest valid return, the lowest of equal beams."""
         ranges = self.ranges
         with np.errstate(invalid='ignore'):
             valid = np.isfinite(ranges) & (ranges >= self.range_min) & (ranges <= self.range_max)
