@@ -1,6 +1,11 @@
 """
 Start the simulator with the world of a lab task, and the task's scan_pkg node.
 
+The node is ``ros2 run scan_pkg <task's node>``: the scan_pkg installed in the sourced
+workspace, a student's own (``ros2 pkg create`` as the handout says, console scripts named
+after the tasks' nodes) or the kit's reference one; with scan_pkg's ``params/<node>.yaml``
+when that package ships one (a student's has none).
+
 ``ros2 launch sim_bridge lab.launch.py task:=wall_follow`` (tasks: see sim_bridge.live.lab_tasks);
 ``world:=...`` overrides the task's world, ``robot:=NAME`` and ``robot_pose:='[x, y, yaw]'`` its
 robot (the lab robot in every task's world; see sim.launch.py), ``gui:=true`` opens the pybullet

@@ -11,11 +11,20 @@ and stays pinned, scan_around drops the last beam from the left region, the wall
 measures the wall once (and circles away from the object for good). A careful student's wall
 follower (clockwise, 0.7 m, ``examples/careful_wall_follow.py``) and wanderbot (stops within
 0.7 m, turns 110-170 degrees, ``examples/careful_wanderbot.py``) get full marks.
+
+The handout's own workspace: its ``scan_pkg`` made as ``ros2 pkg create --build-type
+ament_python scan_pkg`` makes it, holding the four answers and their console scripts, built by
+colcon beside a copy of sim_bridge (the kit's scan_pkg absent from the workspace); the kit's
+runner runs the student's installed console script on simulated time.
 """
 
 import json
+import os
 from pathlib import Path
 import re
+import shutil
+import subprocess
+import sys
 
 import pytest
 
@@ -76,6 +85,92 @@ def marks(tmp_path_factory):
         for student in ('handout', 'careful')}
 
 
+#: ``ros2 pkg create --build-type ament_python scan_pkg --dependencies rclpy geometry_msgs
+#: sensor_msgs`` (Jazzy's template): package.xml, setup.cfg, setup.py (with the handout's console
+#: scripts added), resource/scan_pkg and scan_pkg/__init__.py.
+STUDENT_PACKAGE_XML = """<?xml version="1.0"?>
+<?xml-model href="http://download.ros.org/schema/package_format3.xsd" \
+schematypens="http://www.w3.org/2001/XMLSchema"?>
+<package format="3">
+  <name>scan_pkg</name>
+  <version>0.0.0</version>
+  <description>TODO: Package description</description>
+  <maintainer email="student@todo.todo">student</maintainer>
+  <license>TODO: License declaration</license>
+
+  <depend>rclpy</depend>
+  <depend>geometry_msgs</depend>
+  <depend>sensor_msgs</depend>
+
+  <test_depend>ament_copyright</test_depend>
+  <test_depend>ament_flake8</test_depend>
+  <test_depend>ament_pep257</test_depend>
+  <test_depend>python3-pytest</test_depend>
+
+  <export>
+    <build_type>ament_python</build_type>
+  </export>
+</package>
+"""
+STUDENT_SETUP_CFG = """[develop]
+script_dir=$base/lib/scan_pkg
+[install]
+install_scripts=$base/lib/scan_pkg
+"""
+STUDENT_SETUP_PY = """from setuptools import find_packages, setup
+
+package_name = 'scan_pkg'
+
+setup(
+    name=package_name,
+    version='0.0.0',
+    packages=find_packages(exclude=['test']),
+    data_files=[
+        ('share/ament_index/resource_index/packages',
+            ['resource/' + package_name]),
+        ('share/' + package_name, ['package.xml']),
+    ],
+    install_requires=['setuptools'],
+    zip_safe=True,
+    maintainer='student',
+    maintainer_email='student@todo.todo',
+    description='TODO: Package description',
+    license='TODO: License declaration',
+    tests_require=['pytest'],
+    entry_points={
+        'console_scripts': [
+            'scan_ahead = scan_pkg.scan_ahead:main',
+            'wanderbot = scan_pkg.wanderbot:main',
+            'scan_around = scan_pkg.scan_around:main',
+            'wall_follow = scan_pkg.wall_follow:main',
+        ],
+    },
+)
+"""
+COLCON = Path(sys.executable).parent / 'colcon'
+#: ``python -m sim_bridge.run`` in a Python without the kit's scan_pkg, as in the student's
+#: workspace: an editable install of it (this venv's) would lend its modules to any scan_pkg.
+RUN_WITHOUT_KITS_SCAN_PKG = (
+    'import runpy, sys\n'
+    "kits = '__editable___scan_pkg'\n"
+    'sys.meta_path[:] = [finder for finder in sys.meta_path\n'
+    "                    if not getattr(finder, '__module__', '').startswith(kits)]\n"
+    "runpy.run_module('sim_bridge.run', run_name='__main__', alter_sys=True)\n")
+
+
+def make_student_package(folder: Path) -> None:
+    """Write the handout's scan_pkg in ``folder`` as ros2 pkg create and the handout make it."""
+    (folder / 'resource').mkdir(parents=True)
+    (folder / 'resource' / 'scan_pkg').write_text('')
+    (folder / 'scan_pkg').mkdir()
+    (folder / 'scan_pkg' / '__init__.py').write_text('')
+    for name, text in (('package.xml', STUDENT_PACKAGE_XML), ('setup.cfg', STUDENT_SETUP_CFG),
+                       ('setup.py', STUDENT_SETUP_PY)):
+        (folder / name).write_text(text)
+    for name, code in handout_answers().items():
+        (folder / 'scan_pkg' / name).write_text(code.replace('\u00a0', ' '), encoding='utf-8')
+
+
 def lost(task):
     return {point['point']: point['why'] for point in task['points'] if point['lost']}
 
@@ -128,3 +223,38 @@ def test_a_careful_one_direction_follower_at_0_7_m_gets_full_marks(marks):
 def test_a_careful_wanderbot_that_stops_turns_and_never_collides_gets_full_marks(marks):
     task = marks['careful']['2']
     assert task['marks'] == 3.0, lost(task)
+
+
+@pytest.mark.skipif(not COLCON.is_file(), reason='colcon is not installed beside this Python')
+def test_the_handouts_scan_pkg_builds_beside_sim_bridge_and_its_own_node_runs(tmp_path):
+    # The student's workspace: src/sim_bridge (the kit's) and src/scan_pkg (their own).
+    shutil.copytree(WORKSPACE / 'sim_bridge', tmp_path / 'src' / 'sim_bridge',
+                    ignore=shutil.ignore_patterns('__pycache__', '*.egg-info'))
+    make_student_package(tmp_path / 'src' / 'scan_pkg')
+    build = subprocess.run(
+        [str(COLCON), '--log-base', 'log', 'build', '--build-base', 'build', '--install-base',
+         'install'], cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    assert build.returncode == 0, build.stdout + build.stderr
+    install = tmp_path / 'install'
+    # What sourcing install/setup.bash puts first: the workspace's packages, the student's
+    # scan_pkg (taking the kit's name) with them.
+    [student] = install.glob('scan_pkg/lib/python*/site-packages')
+    [kit] = install.glob('sim_bridge/lib/python*/site-packages')
+    python_path = [str(student), str(kit), *filter(None, [os.environ.get('PYTHONPATH')])]
+    prefixes = [str(install / 'scan_pkg'), str(install / 'sim_bridge')]
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(python_path),
+               AMENT_PREFIX_PATH=os.pathsep.join(prefixes))
+    out = tmp_path / 'out'
+    run = subprocess.run(
+        [sys.executable, '-c', RUN_WITHOUT_KITS_SCAN_PKG, '--world', 'obstacles', '--node',
+         'scan_ahead',
+         '--duration', '2', '--out', str(out), '--no-record', '--no-plot', '--quiet'],
+        cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert json.loads((out / 'metrics.json').read_text())['node_errors'] == []
+    texts = [json.loads(line).get('text', '') for line in
+             (out / 'log.jsonl').read_text().splitlines()]
+    ranges = [text for text in texts if text.startswith('Range ahead: ')]
+    # The handout's own words (str() of the reading), not the kit's answer ('1.23 m').
+    assert ranges and all(re.fullmatch(r'Range ahead: \d+\.\d{3,}', text) for text in ranges), \
+        texts[:5]

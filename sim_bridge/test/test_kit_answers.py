@@ -2,7 +2,8 @@
 No run of a student's node reads an answer of the kit, in any sandbox mode.
 
 The answers: the kit's reference nodes (the modules of scan_pkg's console scripts), the
-controllers they run (``scan_pkg.behaviors``) and the worked examples (``examples/``), in any
+controllers they run (``scan_pkg.behaviors``), the worked examples (``examples/``) and the
+grader's own scan geometry (``sim_bridge/scoring/scan_geometry.py``), in any
 copy (a build folder, a venv) and as bytecode. fixtures/hostile/answer_hunt.py is the hostile
 student: a node file that walks / and names every file it can read holding one, matched by
 contents. It runs in bubblewrap, and with the dedicated uid alone (PARTLY sandboxed: as root
@@ -21,9 +22,10 @@ import tempfile
 import pytest
 
 from sim_bridge.runner import sandbox as sandbox_module
-from sim_bridge.runner.kit_answers import reference_node_sources
+from sim_bridge.runner.kit_answers import GRADER_KEYS, reference_node_sources
 from sim_bridge.runner.node_sandbox import NodeSandbox
 from sim_bridge.runner.sandbox import is_within, isolation_mode, IsolationMode, SandboxLimits
+from sim_bridge.runner.sandbox_view import KIT_PACKAGE
 
 HOSTILE = Path(__file__).resolve().parent / 'fixtures' / 'hostile'
 REPOSITORY = Path(__file__).resolve().parents[2]
@@ -32,8 +34,9 @@ HUNT_TIMEOUT_S = 300.0
 
 
 def answer_sources(kit: Path) -> list[Path]:
-    """Return the kit's answers: reference nodes, their controllers, the worked examples."""
-    sources = [*map(Path, reference_node_sources()), *sorted((kit / 'examples').glob('*.py'))]
+    """Return the kit's answers: reference nodes, controllers, examples, the grader's key."""
+    sources = [*map(Path, reference_node_sources()), *sorted((kit / 'examples').glob('*.py')),
+               *(KIT_PACKAGE / name for name in GRADER_KEYS)]
     assert len(sources) >= 10, sources  # the five nodes, the controllers, the examples
     return sources
 

@@ -129,6 +129,21 @@ def test_every_task_runs_its_console_scripts_module(task):
     assert f'world:={LAB_TASKS[task].world}' in bridge.cmd
 
 
+def test_a_students_own_node_file_is_the_tasks_node_run_as_written(tmp_path):
+    # ./lab live wall_follow --node ~/ros2_ws/src/scan_pkg/scan_pkg/wall_follow.py
+    mine = tmp_path / 'scan_pkg' / 'wall_follow.py'
+    mine.parent.mkdir()
+    mine.write_text('print("mine")\n')
+    _, node = live.task_specs('wall_follow', params={'wall_follow': {'distance': '0.6'}},
+                              python='python3', node_file=mine)
+    # Not the kit's module nor its params file (the kit's nodes' parameters).
+    assert node == processes.ProcessSpec('wall_follow.py', (
+        'python3', str(mine), '--ros-args', '-p', 'use_sim_time:=true', '-p', 'distance:=0.6'))
+    assert live.shown_command(node).startswith('python3 wall_follow.py --ros-args')
+    with pytest.raises(FileNotFoundError, match='--node .*no_such.py: no such file'):
+        live.task_specs('wall_follow', node_file=tmp_path / 'no_such.py')
+
+
 def test_bad_tasks_and_parameters_are_refused_before_anything_starts(capsys):
     with pytest.raises(ValueError, match="unknown task 'fly'"):
         live.task_specs('fly')
@@ -145,7 +160,8 @@ def test_bad_tasks_and_parameters_are_refused_before_anything_starts(capsys):
     assert live_command.main(['wall_follow', '--robot', 'no_such_bot']) == 2
     assert live_command.main(['wall_follow', '--param', 'distance=0.6']) == 2
     assert live_command.main(['wall_follow', '--param', 'wanderbot:speed=1.0']) == 2
-    assert 'error: ' in capsys.readouterr().err
+    assert live_command.main(['wall_follow', '--node', 'no_such_node.py']) == 2
+    assert 'error: --node no_such_node.py: no such file' in capsys.readouterr().err
     for argv in (['fly'], ['wall_follow', '--rtf', '0'], ['wall_follow', '--duration', 'nan'],
                  ['wall_follow', '--robot-pose', '1', '2']):
         with pytest.raises(SystemExit) as exit_info:
@@ -495,6 +511,30 @@ def test_ctrl_c_stops_the_node_then_the_simulator_cleanly():
         '[INFO] [scan_ahead-2]', '[INFO] [scan_ahead-2]', '[INFO] [sim_bridge-1]',
         '[INFO] [sim_bridge-1]']
     assert 'finished cleanly' in signals[1] and 'finished cleanly' in signals[3]
+
+
+def test_a_students_own_node_file_runs_live_in_place_of_the_kits(tmp_path):
+    # A node of the student's own package, as the handout has them write it: its own words.
+    mine = tmp_path / 'scan_pkg' / 'scan_ahead.py'
+    mine.parent.mkdir()
+    mine.write_text(
+        'import rclpy\nfrom rclpy.node import Node\nfrom sensor_msgs.msg import LaserScan\n\n\n'
+        'class Mine(Node):\n    def __init__(self):\n        super().__init__("my_scan_ahead")\n'
+        '        self.create_subscription(LaserScan, "scan", self.on_scan, 10)\n\n'
+        '    def on_scan(self, msg):\n'
+        '        self.get_logger().info(f"mine: {len(msg.ranges)} beams")\n\n\n'
+        'def main():\n    rclpy.init()\n    rclpy.spin(Mine())\n\n\n'
+        'if __name__ == "__main__":\n    main()\n')
+    process = start_live(['scan_ahead', '--node', str(mine)], live_env())
+    reader = LineReader(process)
+    try:
+        assert reader.wait_for(lambda line: line.startswith('[scan_ahead.py-2] [INFO] [')
+                               and '[my_scan_ahead]: mine: 36 beams' in line), reader.lines
+        process.send_signal(signal.SIGINT)
+        process.wait(timeout=TIMEOUT_S)  # a KeyboardInterrupt of the node's own is its exit 1
+    finally:
+        process.kill()
+    assert not any('Range ahead' in line for line in reader.join())  # the kit's words
 
 
 def test_a_node_with_a_bad_parameter_ends_the_run_naming_it():

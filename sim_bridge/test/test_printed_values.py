@@ -11,6 +11,7 @@ from sim_bridge.scoring.printed_text import read_closest, read_range_ahead, read
 from sim_bridge.scoring.printed_values import (
     closest_truth, excerpt, judge_printed, range_ahead_truth, region_truths, score_printed)
 from sim_bridge.scoring.run_trace import ScanSnapshot
+from sim_bridge.scoring.scan_geometry import RecordedScan
 
 # The lab's scanner: 36 beams from -1.57 to +1.57 rad; beams 17 and 18 are the two nearest
 # straight ahead (+-2.6 deg), beam 0 points right (-90 deg), beam 35 left (+90 deg).
@@ -26,7 +27,13 @@ def snapshot(ranges, time=0.0):
 
 
 def scan(ranges):
+    """Return the scan as the kit's nodes read it (what they print is made from it)."""
     return Scan(ranges, ANGLE_MIN, INCREMENT, RANGE_MIN, RANGE_MAX)
+
+
+def recorded(ranges):
+    """Return the scan as the grader reads it (the truth printed values are judged by)."""
+    return RecordedScan.of(snapshot(ranges))
 
 
 def line(t, text, node='reader', level='INFO'):
@@ -146,17 +153,17 @@ def test_the_truth_ahead_is_any_beam_within_one_increment():
     ranges = [5.0] * BEAMS
     ranges[17], ranges[18] = 1.2, 1.4
     ranges[16] = ranges[19] = 0.5  # 7.7 deg off: not ahead
-    assert range_ahead_truth(scan(ranges)) == pytest.approx((1.2, 1.4))
+    assert range_ahead_truth(recorded(ranges)) == pytest.approx((1.2, 1.4))
     ranges[17] = INF
     ranges[18] = 20.0
-    assert range_ahead_truth(scan(ranges)) == (10.0, 10.0)
+    assert range_ahead_truth(recorded(ranges)) == (10.0, 10.0)
 
 
 def test_a_beam_on_a_shared_edge_is_in_either_region_and_the_last_beam_in_left():
     ranges = [5.0] * BEAMS
     ranges[21] = 1.0  # +17.99 deg: front or front-left
     ranges[35] = 0.5  # +89.95 deg: left only
-    truths = region_truths(scan(ranges))
+    truths = region_truths(recorded(ranges))
     assert truths['front'] == (1.0, 5.0)
     assert truths['front_left'] == (1.0, 5.0)
     assert truths['left'] == (0.5, 0.5)
@@ -295,7 +302,7 @@ def test_a_wrong_bearing_fails_a_closest_criterion_that_checks_it():
     ranges = [5.0] * BEAMS
     ranges[10] = 0.9  # -1.57 + 10 * increment: -38.6 deg
     snap = snapshot(ranges)
-    assert closest_truth(scan(snap.ranges))[0] == pytest.approx(0.9)
+    assert closest_truth(recorded(snap.ranges))[0] == pytest.approx(0.9)
     scored = score_printed('closest', [snap], [line(0.0, 'Closest: 0.90 m at 38.6 deg')])
     assert scored['worst_error_m'] < 1e-6
     passed, why = judge_printed('closest', scored, max_error_m=0.05, min_matched_fraction=0.9,

@@ -65,6 +65,13 @@ def test_a_node_file_cannot_import_the_reference_nodes(pried):
     assert found['scan_pkg.report'].startswith('GOT'), found  # the kit's library: students'
 
 
+def test_a_node_file_cannot_import_the_graders_own_scan_geometry(pried):
+    # sim_bridge is readable in a run (its agent lives there): the regions it judges by are not.
+    found, _ = pried
+    refused = ('ImportError', 'ModuleNotFoundError', 'PermissionError')
+    assert found['grader geometry'] in refused, found
+
+
 def test_the_secret_is_in_no_output_file(pried):
     _, out_dir = pried
     holding = [path for path in out_dir.rglob('*')

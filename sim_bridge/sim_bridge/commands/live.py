@@ -1,8 +1,8 @@
 """
 Run a lab task live: the simulator and the task's node as two ROS 2 processes, as launch does.
 
-``python -m sim_bridge.commands.live TASK [--world W] [--robot NAME [--robot-pose X Y YAW]]
-[--duration S] [--gui] [--rtf F]`` (``./lab live``)
+``python -m sim_bridge.commands.live TASK [--node FILE] [--world W] [--robot NAME [--robot-pose
+X Y YAW]] [--duration S] [--gui] [--rtf F]`` (``./lab live``)
 starts what ``ros2 launch sim_bridge lab.launch.py task:=TASK`` starts on a ROS 2 machine, on a
 machine that has only Python (launch and launch_ros are not on PyPI):
 
@@ -12,7 +12,10 @@ machine that has only Python (launch and launch_ros are not on PyPI):
   own steady-clock timer, publishing /scan, /odom and /clock;
 - ``<node>-2``: the task's scan_pkg node (the console script's module, ``python -m
   scan_pkg.<node>``) with ``--ros-args --params-file <params/<node>.yaml> -p
-  use_sim_time:=true`` (the params file where scan_pkg ships one).
+  use_sim_time:=true`` (the params file where scan_pkg ships one); with ``--node FILE``, the
+  student's own node file instead (``<FILE's name>-2``: ``python FILE --ros-args -p
+  use_sim_time:=true``), such as ``~/ros2_ws/src/scan_pkg/scan_pkg/wall_follow.py``, run
+  as ``ros2 run`` runs it: as the student, not sandboxed (nothing is graded).
 
 The task table (node and world of each task) is sim_bridge.live.lab_tasks, the one the launch file
 reads. The two processes talk over DDS like any two ROS 2 processes: each gets this
@@ -53,6 +56,10 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         prog='./lab live', description=__doc__.strip().splitlines()[0],
         epilog='Stop with Ctrl-C: the node first, then the simulator.')
     parser.add_argument('task', choices=list(LAB_TASKS), help='lab task')
+    parser.add_argument('--node', type=Path, metavar='FILE',
+                        help="your own node file to run as the task's node, e.g. "
+                             '~/ros2_ws/src/scan_pkg/scan_pkg/wall_follow.py (default: the '
+                             "kit's scan_pkg node)")
     parser.add_argument('--world', help="world name or path instead of the task's")
     parser.add_argument('--robot', metavar='NAME',
                         help="robot model to spawn instead of the world's (a model folder, "
@@ -89,7 +96,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             paths.find_model(args.robot)
         specs = task_specs(args.task, world=args.world, gui=args.gui,
                            real_time_factor=args.rtf, robot=args.robot,
-                           robot_pose=args.robot_pose, params=params)
+                           robot_pose=args.robot_pose, params=params, node_file=args.node)
     except (ValueError, FileNotFoundError) as error:
         print(f'error: {error}', file=sys.stderr)
         return 2

@@ -1,6 +1,8 @@
 """
 A lab task's processes: the simulator and the task's scan_pkg node, as the launch file starts them.
 
+The task's node is the installed console script's, or a node file of the student's own.
+
 The task table is sim_bridge.live.lab_tasks (the one lab.launch.py reads); running the
 processes is sim_bridge.runner.processes'; the command is sim_bridge.commands.live.
 May import common, runner and below.
@@ -103,37 +105,48 @@ def bridge_spec(world: str, *, gui: bool = False, real_time_factor: float = 1.0,
 
 
 def node_spec(executable: str, *, params: Mapping[str, str] | None = None,
-              python: str = sys.executable) -> ProcessSpec:
+              python: str = sys.executable, node_file: Path | None = None) -> ProcessSpec:
     """
     Return a scan_pkg node's process, as lab.launch.py starts it, with ``params`` overrides.
 
     ``--ros-args --params-file params/<executable>.yaml`` (when scan_pkg ships one)
-    ``-p use_sim_time:=true``, then ``-p name:=value`` for each of ``params``.
+    ``-p use_sim_time:=true``, then ``-p name:=value`` for each of ``params``. With
+    ``node_file`` (a student's own node, such as their scan_pkg's ``wall_follow.py``), that
+    file run as written (``python3 FILE``, launch's name its file name), without the kit's
+    params file, which is its own nodes'.
     """
-    cmd = [*python_command(*node_module(executable), python=python), '--ros-args']
-    params_file = package_params_file('scan_pkg', executable + '.yaml')
-    if params_file is not None:
-        cmd += ['--params-file', str(params_file)]
+    if node_file is not None:
+        cmd = [python, str(node_file.resolve()), '--ros-args']
+    else:
+        cmd = [*python_command(*node_module(executable), python=python), '--ros-args']
+        params_file = package_params_file('scan_pkg', executable + '.yaml')
+        if params_file is not None:
+            cmd += ['--params-file', str(params_file)]
     cmd += ros_overrides({'use_sim_time': 'true', **(params or {})})
-    return ProcessSpec(executable, tuple(cmd))
+    return ProcessSpec(node_file.name if node_file is not None else executable, tuple(cmd))
 
 
 def task_specs(task: str, *, world: str | None = None, gui: bool = False,
                real_time_factor: float = 1.0, robot: str | None = None,
                robot_pose: Sequence[float] | None = None,
                params: Mapping[str, Mapping[str, str]] | None = None,
-               python: str = sys.executable) -> list[ProcessSpec]:
+               python: str = sys.executable, node_file: Path | None = None
+               ) -> list[ProcessSpec]:
     """
     Return the processes of lab task ``task``: the simulator, then the task's node.
 
     ``world`` replaces the task's world, ``robot`` (a model name) the world's robot (the lab
     robot in every task's world), ``robot_pose`` (x m, y m, yaw rad) its start; ``params``
-    maps a node name (``sim_bridge`` or the task's node) to its parameter overrides.
-    ValueError for an unknown task or for ``params`` naming another node.
+    maps a node name (``sim_bridge`` or the task's node) to its parameter overrides;
+    ``node_file`` runs that file as the task's node (see :func:`node_spec`). ValueError for an
+    unknown task or for ``params`` naming another node; FileNotFoundError for a ``node_file``
+    that is not a file.
     """
     if task not in LAB_TASKS:
         raise ValueError(f"unknown task '{task}': choose one of {', '.join(LAB_TASKS)}")
     lab_task = LAB_TASKS[task]
+    if node_file is not None and not node_file.is_file():
+        raise FileNotFoundError(f'--node {node_file}: no such file')
     params = dict(params or {})
     unknown = set(params) - {BRIDGE_EXECUTABLE, lab_task.node}
     if unknown:
@@ -142,7 +155,8 @@ def task_specs(task: str, *, world: str | None = None, gui: bool = False,
     return [bridge_spec(world or lab_task.world, gui=gui, real_time_factor=real_time_factor,
                         robot=robot, robot_pose=robot_pose,
                         params=params.get(BRIDGE_EXECUTABLE), python=python),
-            node_spec(lab_task.node, params=params.get(lab_task.node), python=python)]
+            node_spec(lab_task.node, params=params.get(lab_task.node), python=python,
+                      node_file=node_file)]
 
 
 def shown_command(spec: ProcessSpec) -> str:

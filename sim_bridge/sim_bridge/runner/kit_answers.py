@@ -2,7 +2,9 @@
 What of the kit holds answers, in every copy a run could read: what a student's run never reads.
 
 The answers are the kit's reference nodes (the modules of scan_pkg's console scripts), the
-controllers they run (``scan_pkg.behaviors``) and the worked examples (``examples/``). A
+controllers they run (``scan_pkg.behaviors``) and the worked examples (``examples/``); and the
+grader's own answer key in sim_bridge (GRADER_KEYS, :func:`grader_key_files`), which every run
+sees empty, the kit's own nodes' too (none of them reads it). A
 copy of them lies wherever the kit was built or installed: a venv's site folder (an
 autograder's), setuptools' ``build/lib`` and ``*.egg-info`` beside a package that ``pip
 install FOLDER`` built, colcon's ``build/`` and ``install/``, git's history, Python's bytecode
@@ -30,6 +32,34 @@ TOP_ANSWER_FOLDERS = ('examples', 'build', '.git')
 PACKAGE_ANSWER_FOLDERS = ('build', '*.egg-info')
 #: Folders never searched for copies of scan_pkg (closed whole, or no Python package).
 UNSEARCHED_FOLDERS = ('.git', 'node_modules', '__pycache__')
+#: The grader's answer key, in the sim_bridge package: the scan geometry (the lab's regions)
+#: printed values are judged by. sim_bridge is readable in a run (its agent lives there).
+GRADER_KEYS = ('scoring/scan_geometry.py',)
+
+
+def bytecode_of(source: Path) -> list[str]:
+    """Return the bytecode files Python cached of ``source`` (``__pycache__/NAME.*.pyc``)."""
+    return [str(path) for path in (source.parent / '__pycache__').glob(f'{source.stem}.*.pyc')]
+
+
+def grader_key_files() -> list[str]:
+    """
+    Return the files of the grader's answer key (GRADER_KEYS), to be hidden from every run.
+
+    In the sim_bridge package this process runs and in any other copy on Python's path or in
+    its site folders (an installed copy beside a source checkout), with their bytecode (real
+    paths).
+    """
+    import site
+    entries = dict.fromkeys([*sys.path, *site.getsitepackages()])
+    packages = [KIT_PACKAGE, *(Path(entry or '.') / 'sim_bridge' for entry in entries)]
+    files = []
+    for package in dict.fromkeys(Path(os.path.realpath(folder)) for folder in packages):
+        for name in GRADER_KEYS:
+            source = package / name
+            if source.is_file():
+                files += [str(source), *bytecode_of(source)]
+    return files
 
 
 def reference_node_files() -> list[str]:
@@ -53,7 +83,7 @@ def reference_node_files() -> list[str]:
                 source = copy / name
                 if os.path.exists(source):
                     files.append(str(source))
-                files += map(str, (source.parent / '__pycache__').glob(f'{source.stem}.*.pyc'))
+                files += bytecode_of(source)
     return list(dict.fromkeys(files))
 
 

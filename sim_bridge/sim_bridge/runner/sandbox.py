@@ -43,6 +43,7 @@ import threading
 from typing import Iterator, Mapping, Sequence
 
 from sim_bridge.common.run_environment import NO_SHARED_MEMORY
+from sim_bridge.runner.kit_answers import grader_key_files
 from sim_bridge.runner.sandbox_host import (
     ANSWERS_GID, close_to_runs, END_TIMEOUT_S, grader_folder, kill_uid, read_lines, RunCgroup,
     SandboxError, SCRATCH_PREFIX, uid_processes, UidLease, unreachable_by_others)
@@ -300,7 +301,7 @@ class Sandbox:
                 self.lease = UidLease()
                 self.uid = self.lease.uid
             if self.mode.kind == 'uid':
-                close_to_runs(self.hidden_files)
+                close_to_runs([*self.hidden_files, *grader_key_files()])
             copy_student_files(student_files, self.scratch, limits.scratch_bytes)
             memory = self.limit_memory()
         except BaseException:
@@ -407,7 +408,8 @@ class Sandbox:
         hidden = [] if self.reference_nodes else hidden_package_folders([*roots, *self.readable])
         for folder in hidden:
             arguments += ['--tmpfs', folder, '--remount-ro', folder]
-        arguments += hidden_mounts(self.hidden_files, [*roots, *self.readable])
+        arguments += hidden_mounts([*self.hidden_files, *grader_key_files()],
+                                   [*roots, *self.readable])
         return arguments + ['--ro-bind', str(self.scratch), FILES_MOUNT, '--size', size,
                             '--tmpfs', str(self.scratch), '--info-fd', str(info_fd)]
 

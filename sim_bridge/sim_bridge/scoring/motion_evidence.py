@@ -65,8 +65,8 @@ def _ahead_profile(scans: Sequence[Any]) -> tuple[np.ndarray, np.ndarray, np.nda
         if not len(scan):
             continue
         times.append(snapshot.time)
-        ahead.append(scan.range_at(0.0, 0.0, max_range=10.0))
-        cone.append(scan.range_at(0.0, STOP_CONE, max_range=10.0))
+        ahead.append(scan.range_ahead(0.0, 10.0))
+        cone.append(scan.range_ahead(STOP_CONE, 10.0))
     return np.array(times, dtype=float), np.array(ahead), np.array(cone)
 
 

@@ -9,14 +9,15 @@ node caps, m) with every beam's capped reading of its scan, and with every regio
 the one source that holds for more values than any other, and for at least MOST of them,
 is named.
 
-Pure: numpy and scan_pkg's scan geometry, no rclpy.
+Pure: numpy and the grader's scan geometry, no rclpy.
 """
 
 import math
 from typing import Callable, Sequence
 
 import numpy as np
-from scan_pkg.laser import REGION_NAMES, Scan
+
+from sim_bridge.scoring.scan_geometry import RecordedScan as Scan, REGION_NAMES
 
 #: The share of a label's printed values a beam or region must match to be named.
 MOST = 0.9

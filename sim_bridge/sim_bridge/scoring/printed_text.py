@@ -12,7 +12,7 @@ Reading is linear in a line's length and bounded: a line is read up to its first
 characters (the lab's 36 ranges printed in full take about 800), and a label is looked for in
 the LABEL_CHARS characters before its number.
 
-Pure: the standard library and scan_pkg's region names, no rclpy.
+Pure: the standard library and the grader's region names, no rclpy.
 """
 
 from dataclasses import dataclass
@@ -20,7 +20,7 @@ import math
 import re
 from typing import Sequence
 
-from scan_pkg.laser import REGION_NAMES
+from sim_bridge.scoring.scan_geometry import REGION_NAMES
 
 #: Characters of a printed line that are read: what follows is not.
 LINE_CHARS = 2000

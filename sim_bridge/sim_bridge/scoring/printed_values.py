@@ -10,7 +10,8 @@ the runner's own nodes' are not what a node prints. Numbers are read from free-f
 students write it (:mod:`sim_bridge.scoring.printed_text`); a scan that no line gives a value
 for counts as missed.
 
-Truth, as ``scan_pkg`` computes it (:mod:`scan_pkg.laser`): readings are capped at the lab's
+Truth, as the grader's own geometry computes it (:mod:`sim_bridge.scoring.scan_geometry`,
+the lab's conventions that scan_pkg's nodes follow too): readings are capped at the lab's
 ``max_range`` (10 m: +inf and longer readings become 10 m, -inf and readings below range_min
 become range_min, NaN is ignored), and a printed value is capped the same way (so "inf" for no
 return is right, and so are "nan", "none", "out of range", "no obstacle" and "nothing", read
@@ -30,7 +31,7 @@ lab's definition leaves a choice, every reasonable choice is right:
   obstacle readings." or a printed inf) is right. Its bearing, when printed, is compared
   modulo 2 pi.
 
-Pure: numpy and scan_pkg's scan geometry, no rclpy.
+Pure: numpy and the grader's scan geometry, no rclpy.
 """
 
 import bisect
@@ -39,17 +40,19 @@ import math
 from typing import Any, Callable, Iterable, Mapping, Sequence
 
 import numpy as np
-from scan_pkg.laser import (
-    ANGLE_TOLERANCE, normalize_angle, REGION_CENTRES, REGION_HALF_WIDTH, REGION_NAMES, Scan)
+
 from sim_bridge.scoring.printed_match import matching_source
 from sim_bridge.scoring.printed_text import Number, read_closest, read_range_ahead, read_regions
+from sim_bridge.scoring.scan_geometry import (
+    ANGLE_TOLERANCE, bearing_difference, RecordedScan as Scan, REGION_CENTRES, REGION_HALF_WIDTH,
+    REGION_NAMES)
 
 #: The printed values a run can be scored on, by the name metrics and scenarios use.
 KINDS = ('range_ahead', 'regions', 'closest')
 #: What each kind is called in a report.
 KIND_TITLES = {'range_ahead': 'range ahead', 'regions': 'region minima',
                'closest': 'closest obstacle'}
-#: The lab's cap (m) for no return and readings beyond it (scan_pkg's ``max_range`` default).
+#: The lab's cap (m) for no return and readings beyond it (the lab's nodes' ``max_range`` default).
 LAB_MAX_RANGE = 10.0
 #: The shortest lidar range (m) of a lab robot (TurtleBot3's LDS): a node's own cap is at
 #: least this, or its lidar's range_max when that is shorter; a smaller value is never a cap.
@@ -74,8 +77,7 @@ IGNORED_LEVELS = frozenset({'STDERR'})
 
 def scan_of(snapshot: Any) -> Scan:
     """Return the :class:`Scan` of a recorded scan (a ``run_trace.ScanSnapshot``)."""
-    return Scan(snapshot.ranges, snapshot.angle_min, snapshot.angle_increment,
-                snapshot.range_min, snapshot.range_max)
+    return Scan.of(snapshot)
 
 
 def _bounds(values: np.ndarray, cap: float) -> tuple[float, float] | None:
@@ -96,13 +98,9 @@ def range_ahead_truth(scan: Scan, cap: float = LAB_MAX_RANGE) -> tuple[float, fl
     """
     if not len(scan):
         return None
-    bearings = np.abs(_normalized(scan.angles()))
+    bearings = np.abs(scan.bearings())
     near = bearings <= abs(scan.angle_increment) + ANGLE_TOLERANCE
     return _bounds(scan.capped(cap)[near], cap)
-
-
-def _normalized(angles: np.ndarray) -> np.ndarray:
-    return np.mod(angles + math.pi, 2.0 * math.pi) - math.pi
 
 
 def region_truths(scan: Scan,
@@ -113,7 +111,7 @@ def region_truths(scan: Scan,
     A beam within EDGE_SLACK increments of the edge shared by two bands may be in either:
     the lowest right minimum counts it in both, the highest in neither.
     """
-    bearings = _normalized(scan.angles())
+    bearings = scan.bearings()
     ranges = scan.capped(cap)
     slack = EDGE_SLACK * abs(scan.angle_increment) + ANGLE_TOLERANCE
     shared = np.zeros(len(ranges), dtype=bool)
@@ -182,7 +180,7 @@ def _compare(what: str, printed: Number, truth: tuple[float, float], cap: Cap,
 
 
 def _bearing_error(printed: float, truth: float) -> float:
-    return abs(normalize_angle(printed - truth))
+    return bearing_difference(printed, truth)
 
 
 def _lines_per_scan(kind: str, lines: Iterable[Mapping[str, Any]], times: Sequence[float],
