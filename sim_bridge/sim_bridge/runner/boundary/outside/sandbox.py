@@ -43,10 +43,10 @@ import threading
 from typing import Iterator, Mapping, Sequence
 
 from sim_bridge.common.run_environment import NO_SHARED_MEMORY
-from sim_bridge.runner.sandbox_host import (
+from sim_bridge.runner.boundary.outside.sandbox_host import (
     ANSWERS_GID, close_to_runs, END_TIMEOUT_S, grader_folder, kill_uid, read_lines, RunCgroup,
     SandboxError, SCRATCH_PREFIX, uid_processes, UidLease, unreachable_by_others)
-from sim_bridge.runner.sandbox_view import (
+from sim_bridge.runner.boundary.outside.sandbox_view import (
     hidden_mounts, hidden_package_folders, is_within, KIT_PACKAGE, parent_folders, python_roots,
     system_mounts, SYSTEM_PATHS)
 
@@ -270,7 +270,8 @@ class Sandbox:
     read and import (the kit's scan_pkg, from where the grader imports it);
     ``reference_nodes``: the kit's reference nodes are not hidden there (a run of the kit's
     own nodes); ``hidden_files`` are files and folders the run sees empty (the kit's answers:
-    sim_bridge.runner.kit_answers), or, without namespaces, cannot read (:func:`close_to_runs`).
+    sim_bridge.runner.boundary.outside.kit_answers), or, without namespaces, cannot read
+    (:func:`close_to_runs`).
     :attr:`scratch` is the host folder with the copy; in a bwrap run, the run's working folder
     at that same path is a tmpfs of ``limits.scratch_bytes`` seeded from it (what the run
     writes stays in the sandbox).

@@ -1,16 +1,16 @@
 """
 Run a student's node file in its own process, in lockstep with the run's trusted simulator.
 
-``python -m sim_bridge.runner.agent --in FD --out FD -- TARGET [--ros-args ...]`` runs TARGET's
-``main()`` as ``ros2 run`` would (its ``__main__`` block, its console script, or a Node
-subclass spun by rclpy), with the command line its process would get. It imports rclpy, the
+``python -m sim_bridge.runner.boundary.inside.agent --in FD --out FD -- TARGET [--ros-args ...]``
+runs TARGET's ``main()`` as ``ros2 run`` would (its ``__main__`` block, its console script, or
+a Node subclass spun by rclpy), with the command line its process would get. It imports rclpy, the
 standard library, the frame codec and the student's code: never the simulator, the scenario or
 the grader.
 
 Wherever the student's code would block, control comes here instead (patched in this process
-only, sim_bridge.runner.node_patches; the runner's package docstring lists every patch): an
-executor's wait with nothing ready, ``time.sleep``, ``Rate.sleep``; MultiThreadedExecutor runs
-single-threaded. The blocking point says ``idle`` to the trusted side
+only, sim_bridge.runner.boundary.inside.node_patches; the runner's package docstring lists every
+patch): an executor's wait with nothing ready, ``time.sleep``, ``Rate.sleep``;
+MultiThreadedExecutor runs single-threaded. The blocking point says ``idle`` to the trusted side
 over the ``--out`` pipe, with the messages the nodes published since the last exchange (raw CDR,
 taken by a proxy node's raw subscriptions) and the next ROS time it must wake at (its nodes'
 first timer, a sleep's end, a wait's timeout), then reads ``advance``: the new sim time and the
@@ -41,9 +41,10 @@ from time import monotonic_ns, sleep as wall_sleep  # the real ones, before the 
 import traceback
 from typing import Any, Callable
 
-from sim_bridge.runner.frames import encode, FrameDecoder, Message, TRUSTED_KINDS, type_name
-from sim_bridge.runner.node_main import MAX_TRACEBACK_CHARS, prepare, start_failure
-from sim_bridge.runner.node_patches import install, NANOSECONDS_PER_SECOND
+from sim_bridge.runner.boundary.inside.node_main import MAX_TRACEBACK_CHARS, prepare, start_failure
+from sim_bridge.runner.boundary.inside.node_patches import install, NANOSECONDS_PER_SECOND
+from sim_bridge.runner.boundary.wire.frames import (
+    encode, FrameDecoder, Message, TRUSTED_KINDS, type_name)
 
 #: ROS's own topics of every node: not forwarded (the run records the nodes' lines itself).
 OWN_TOPICS = ('/rosout', '/parameter_events')
@@ -552,15 +553,16 @@ def main(argv: list[str] | None = None) -> int:
     split = argv.index('--ros-args') if '--ros-args' in argv else len(argv)
     if '--' in argv[:split]:  # what follows is the target and its arguments, as given
         split = argv.index('--') + 2
-    parser = argparse.ArgumentParser(prog='python -m sim_bridge.runner.agent')
+    parser = argparse.ArgumentParser(prog='python -m sim_bridge.runner.boundary.inside.agent')
     parser.add_argument('--in', dest='in_fd', type=int, required=True)
     parser.add_argument('--out', dest='out_fd', type=int, required=True)
     parser.add_argument('target')
     args = parser.parse_args(argv[:split])
     os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'OFF'
     sys.stdout.reconfigure(line_buffering=True)
-    # A node stuck in its code: the trusted side asks where (sim_bridge.runner.boundary); in C
-    # code, where Python's handler cannot run, faulthandler says (SIGUSR2).
+    # A node stuck in its code: the trusted side asks where
+    # (sim_bridge.runner.boundary.outside.link); in C code, where Python's handler cannot run,
+    # faulthandler says (SIGUSR2).
     faulthandler.register(signal.SIGUSR2, all_threads=False)
     faulthandler.enable()  # a crash's stack, as the trusted side reads it from stderr
     run(args.target, argv[split:], Link(args.in_fd, args.out_fd))

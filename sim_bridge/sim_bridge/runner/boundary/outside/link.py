@@ -2,15 +2,15 @@
 The trust boundary: each student node file in a process of its own, in lockstep over pipes.
 
 The simulator and the runner's nodes run here (sim_bridge.runner.stepped_run); each target
-node file runs in a process of its own (sim_bridge.runner.agent).
+node file runs in a process of its own (sim_bridge.runner.boundary.inside.agent).
 
 Nothing of the node's process runs here and nothing it sends is code: frames
-(sim_bridge.runner.frames) carrying the CDR bytes of its nodes' messages, the ROS time it wakes
-at, and what its nodes are (names, topics, parameter names); and its printed text, read from
-its stdout and stderr. Each message is checked before it is published here: its topic's name,
-its type one of the installed message packages of INTERFACE_PACKAGES, its bytes deserialized as
-that type, its size within the caps of sim_bridge.runner.boundary_checks (as the graph's).
-Anything else fails that run, with a one-line reason, and nothing else.
+(sim_bridge.runner.boundary.wire.frames) carrying the CDR bytes of its nodes' messages, the ROS
+time it wakes at, and what its nodes are (names, topics, parameter names); and its printed text,
+read from its stdout and stderr. Each message is checked before it is published here: its topic's
+name, its type one of the installed message packages of INTERFACE_PACKAGES, its bytes deserialized
+as that type, its size within the caps of sim_bridge.runner.boundary.outside.boundary_checks (as
+the graph's). Anything else fails that run, with a one-line reason, and nothing else.
 
 Lockstep: the simulator steps physics; after a step that published something a node process
 subscribes to, or reached the ROS time it wakes at, the run sends it ``advance`` (the sim time
@@ -27,14 +27,14 @@ import sys
 import time
 from typing import Any, Callable, Iterable, Sequence
 
-from sim_bridge.runner.boundary_checks import (
+from sim_bridge.runner.boundary.outside.boundary_checks import (
     allowed_class, checked_graph, MAX_TOPICS, message_refusal, Refused)
-from sim_bridge.runner.frames import (
+from sim_bridge.runner.boundary.outside.node_sandbox import NodeSandbox
+from sim_bridge.runner.boundary.outside.sandbox import Sandbox
+from sim_bridge.runner.boundary.wire.frames import (
     AGENT_KINDS, encode, Frame, FrameDecoder, FrameError, Message, type_name)
 from sim_bridge.runner.hints import topic_type_hint
 from sim_bridge.runner.node_output import StreamLines
-from sim_bridge.runner.node_sandbox import NodeSandbox
-from sim_bridge.runner.sandbox import Sandbox
 from sim_bridge.runner.targets import is_library_frame
 
 #: ROS's own topics of every node: they stay in the node's process.
@@ -188,9 +188,9 @@ class Agent:
         """
         Say which node's code the process is stuck in, and where; then end the process.
 
-        Asked with SIGUSR1 (sim_bridge.runner.agent answers with a stuck frame); code in C, where
-        Python's handler cannot run, is asked with SIGUSR2 (Python's faulthandler prints the
-        stack on stderr). Each gets STACK_DUMP_S.
+        Asked with SIGUSR1 (sim_bridge.runner.boundary.inside.agent answers with a stuck frame);
+        code in C, where Python's handler cannot run, is asked with SIGUSR2 (Python's faulthandler
+        prints the stack on stderr). Each gets STACK_DUMP_S.
         """
         self.lines.cut(self.clock_ns(), '')
         before = len(self.lines.tail)
@@ -488,7 +488,7 @@ class Agent:
 def agent_command(target: str, in_fd: int, out_fd: int,
                   node_arguments: Sequence[str]) -> list[str]:
     """Return the command line of the process that runs TARGET with ``node_arguments``."""
-    return [sys.executable, '-m', 'sim_bridge.runner.agent', '--in', str(in_fd),
+    return [sys.executable, '-m', 'sim_bridge.runner.boundary.inside.agent', '--in', str(in_fd),
             '--out', str(out_fd), '--', str(target), *node_arguments]
 
 
