@@ -24,7 +24,8 @@ from sim_bridge.runner.boundary.outside import sandbox as sandbox_module
 from sim_bridge.runner.boundary.outside.kit_answers import reference_node_sources
 from sim_bridge.runner.boundary.outside.node_sandbox import NodeSandbox
 from sim_bridge.runner.boundary.outside.sandbox import (
-    is_within, isolation_mode, IsolationMode, SandboxLimits)
+    isolation_mode, IsolationMode, SandboxLimits)
+from sim_bridge.runner.boundary.outside.sandbox_view import is_within
 
 HOSTILE = Path(__file__).resolve().parent / 'fixtures' / 'hostile'
 REPOSITORY = Path(__file__).resolve().parents[2]

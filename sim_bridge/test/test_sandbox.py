@@ -24,10 +24,11 @@ import pytest
 from sim_bridge.runner.boundary.outside import sandbox as sandbox_module, sandbox_host
 from sim_bridge.runner.boundary.outside.node_sandbox import isolation_line, NodeSandbox
 from sim_bridge.runner.boundary.outside.sandbox import (
-    clean_environment, isolation_mode, IsolationMode, KIT_PACKAGE, python_roots, Sandbox,
-    SandboxLimits)
+    isolation_mode, IsolationMode, python_roots, Sandbox, SandboxLimits)
 from sim_bridge.runner.boundary.outside.sandbox_host import (
     grader_folder, lease_folder, lock_exclusive, remove_leftover_scratch, uid_processes)
+from sim_bridge.runner.boundary.outside.sandbox_view import KIT_PACKAGE
+from sim_bridge.runner.boundary.outside.scratch import clean_environment
 
 HOSTILE = Path(__file__).resolve().parent / 'fixtures' / 'hostile'
 REPOSITORY = KIT_PACKAGE.parents[1]

@@ -22,7 +22,8 @@ import sys
 import time
 
 from sim_bridge.runner.boundary.outside import sandbox_host
-from sim_bridge.runner.boundary.outside.sandbox import clean_environment, Sandbox, SandboxLimits
+from sim_bridge.runner.boundary.outside.sandbox import Sandbox, SandboxLimits
+from sim_bridge.runner.boundary.outside.scratch import clean_environment
 
 HERE = Path(__file__).parent
 FIXTURES = HERE.parent.parent / 'sim_bridge' / 'test' / 'fixtures'
