@@ -16,7 +16,8 @@ from mcap.reader import make_reader
 import pytest
 from rcl_interfaces.msg import Log
 from rclpy.serialization import deserialize_message, serialize_message
-from sim_bridge.runner import boundary, outputs, stepped_run, stepping
+from sim_bridge.runner import outputs, stepped_run, stepping
+from sim_bridge.runner.boundary.outside import link
 from sim_bridge.runner.run import run_simulation
 
 FIXTURES = Path(__file__).parent / 'fixtures'
@@ -24,7 +25,7 @@ HOSTILE = FIXTURES / 'hostile'
 #: Modules of the trusted side: none may be loaded in a node's process.
 TRUSTED_MODULES = ('sim_bridge.simulation', 'sim_bridge.scoring', 'sim_bridge.grading',
                    'sim_bridge.ros', 'sim_bridge.runner.run', 'sim_bridge.runner.stepped_run',
-                   'sim_bridge.runner.boundary', 'pybullet', 'scan_pkg')
+                   'sim_bridge.runner.boundary.outside', 'pybullet', 'scan_pkg')
 
 
 def run(tmp_path, node, duration_s=3.0, **kwargs):
@@ -82,7 +83,7 @@ def test_bytes_after_a_message_never_reach_the_runners_side_or_the_bag(tmp_path)
 
 
 def test_a_callback_that_never_returns_ends_its_run_with_the_line(tmp_path, monkeypatch):
-    monkeypatch.setattr(boundary, 'EXCHANGE_TIMEOUT_S', 2.0)
+    monkeypatch.setattr(link, 'EXCHANGE_TIMEOUT_S', 2.0)
     metrics = run(tmp_path, HOSTILE / 'stuck.py', record=False)
     [error] = metrics['node_errors']
     assert error['error'] == ("no reply for 2 s: node 'stuck' did not return from its timer "
@@ -90,7 +91,7 @@ def test_a_callback_that_never_returns_ends_its_run_with_the_line(tmp_path, monk
 
 
 def test_a_flood_of_output_is_capped(tmp_path, monkeypatch):
-    monkeypatch.setattr(boundary, 'OUTPUT_CAP_BYTES', 2 ** 20)
+    monkeypatch.setattr(link, 'OUTPUT_CAP_BYTES', 2 ** 20)
     metrics = run(tmp_path, HOSTILE / 'flood.py', duration_s=1.0, record=False,
                   params={'flood': {'mib': 1}})  # 10 MiB printed; each line kept twice
     assert (tmp_path / 'log.jsonl').stat().st_size < 3 * 2 ** 20
@@ -119,7 +120,7 @@ def test_the_runners_executor_spins_only_for_what_the_node_process_sent(tmp_path
     # No node of the runner's hears the scans and /clock (the node process's taps are not on
     # its executor): a step that sent them makes no wait there, only the node's commands do.
     counts = {'spins': 0, 'answered': 0, 'after_publishing': 0}
-    spin, exchange = stepped_run.spin_until_idle, boundary.Agent.exchange
+    spin, exchange = stepped_run.spin_until_idle, link.Agent.exchange
     after_publishing = stepped_run.spin_after_publishing
 
     def counted_spin(executor):
@@ -137,7 +138,7 @@ def test_the_runners_executor_spins_only_for_what_the_node_process_sent(tmp_path
         return published
     monkeypatch.setattr(stepped_run, 'spin_until_idle', counted_spin)
     monkeypatch.setattr(stepped_run, 'spin_after_publishing', counted_after_publishing)
-    monkeypatch.setattr(boundary.Agent, 'exchange', counted_exchange)
+    monkeypatch.setattr(link.Agent, 'exchange', counted_exchange)
     metrics = run(tmp_path, FIXTURES / 'spin_once_loop.py', duration_s=2.0)
     assert metrics['node_errors'] == [] and counts['answered'] >= 10
     assert counts['after_publishing'] == counts['answered']
@@ -167,7 +168,7 @@ def test_the_recording_is_written_while_the_node_process_handles_its_step(
         tmp_path, monkeypatch):
     # The bag's writes are the trusted side's work the node's turn can hide (a second CPU).
     state = {'handling': False, 'written_then': 0, 'written': 0}
-    exchange, write = boundary.Agent.exchange, outputs.BagRecorder.write
+    exchange, write = link.Agent.exchange, outputs.BagRecorder.write
 
     def noted_exchange(agent, *args):
         state['handling'] = True
@@ -180,7 +181,7 @@ def test_the_recording_is_written_while_the_node_process_handles_its_step(
         state['written'] += 1
         state['written_then'] += state['handling']
         return write(bag, *args)
-    monkeypatch.setattr(boundary.Agent, 'exchange', noted_exchange)
+    monkeypatch.setattr(link.Agent, 'exchange', noted_exchange)
     monkeypatch.setattr(outputs.BagRecorder, 'write', noted_write)
     metrics = run(tmp_path, FIXTURES / 'spin_once_loop.py', duration_s=2.0)
     assert metrics['node_errors'] == [] and state['written'] > 100
@@ -237,6 +238,7 @@ def test_lines_are_stamped_with_the_sim_time_and_node_of_the_code_that_wrote_the
 
 
 def test_the_agent_is_a_module_of_its_own(tmp_path):
-    result = subprocess.run([sys.executable, '-m', 'sim_bridge.runner.agent', '--help'],
+    agent = 'sim_bridge.runner.boundary.inside.agent'
+    result = subprocess.run([sys.executable, '-m', agent, '--help'],
                             capture_output=True, text=True, timeout=60)
     assert result.returncode == 0 and '--in' in result.stdout

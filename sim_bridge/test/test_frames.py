@@ -4,7 +4,7 @@ import struct
 
 from hypothesis import given, settings, strategies as st
 import pytest
-from sim_bridge.runner.frames import (
+from sim_bridge.runner.boundary.wire.frames import (
     encode, Frame, FrameDecoder, FrameError, MAX_HEADER_BYTES, Message, PREFIX)
 
 KINDS = ('advance', 'idle', 'sync')

@@ -32,7 +32,7 @@ from sim_bridge.grading.batch import BatchProgress, grade_runs
 from sim_bridge.grading.class_batch import CSV_NAME
 from sim_bridge.grading.runs import GradeJob, RESULT_NAME, reuse_notes
 from sim_bridge.grading.scenario import scenario_from_dict
-from sim_bridge.runner import sandbox_host
+from sim_bridge.runner.boundary.outside import sandbox_host
 
 FIXTURES = Path(__file__).resolve().parent / 'fixtures'
 MOVER = FIXTURES / 'function_node.py'

@@ -22,7 +22,7 @@ import pytest
 
 from sim_bridge.commands import autograder as autograder_command, grade
 from sim_bridge.grading.runs import run_scenario
-from sim_bridge.runner.sandbox import NO_NAMESPACES_VARIABLE
+from sim_bridge.runner.boundary.outside.sandbox import NO_NAMESPACES_VARIABLE
 
 WORKSPACE = Path(__file__).resolve().parents[2]
 FIXTURES = Path(__file__).resolve().parent / 'fixtures'
@@ -356,8 +356,8 @@ PYTHON3_STUB = ('#!/bin/sh\n[ "$1 $2" = "-m venv" ] || exec /usr/bin/python3 "$@
 #: runs as a submission's, with the answers to look for; prints what it printed.
 HUNT_AS_GRADER = """
 import subprocess, sys, tempfile
-from sim_bridge.runner.node_sandbox import NodeSandbox
-from sim_bridge.runner.sandbox import SandboxLimits
+from sim_bridge.runner.boundary.outside.node_sandbox import NodeSandbox
+from sim_bridge.runner.boundary.outside.sandbox import SandboxLimits
 where = NodeSandbox(sys.argv[1], SandboxLimits())
 with where.sandbox as box, tempfile.TemporaryFile() as output:
     box.popen([sys.executable, where.target, sys.argv[2]], where.environment(), stdout=output,

@@ -28,8 +28,8 @@ from sim_bridge.grading.isolated_child import process_exists
 from sim_bridge.grading.limits import Limits
 from sim_bridge.grading.runs import GradeJob, RESULT_NAME
 from sim_bridge.grading.scenario import scenario_from_dict
-from sim_bridge.runner import sandbox_host
-from sim_bridge.runner.sandbox import isolation_mode
+from sim_bridge.runner.boundary.outside import sandbox_host
+from sim_bridge.runner.boundary.outside.sandbox import isolation_mode
 
 FIXTURES = Path(__file__).resolve().parent / 'fixtures'
 MISBEHAVING = FIXTURES / 'misbehaving_node.py'

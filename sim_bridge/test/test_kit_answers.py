@@ -21,11 +21,12 @@ import tempfile
 
 import pytest
 
-from sim_bridge.runner import sandbox as sandbox_module
-from sim_bridge.runner.kit_answers import GRADER_KEYS, reference_node_sources
-from sim_bridge.runner.node_sandbox import NodeSandbox
-from sim_bridge.runner.sandbox import is_within, isolation_mode, IsolationMode, SandboxLimits
-from sim_bridge.runner.sandbox_view import KIT_PACKAGE
+from sim_bridge.runner.boundary.outside import sandbox as sandbox_module
+from sim_bridge.runner.boundary.outside.kit_answers import GRADER_KEYS, reference_node_sources
+from sim_bridge.runner.boundary.outside.node_sandbox import NodeSandbox
+from sim_bridge.runner.boundary.outside.sandbox import (
+    isolation_mode, IsolationMode, SandboxLimits)
+from sim_bridge.runner.boundary.outside.sandbox_view import is_within, KIT_PACKAGE
 
 HOSTILE = Path(__file__).resolve().parent / 'fixtures' / 'hostile'
 REPOSITORY = Path(__file__).resolve().parents[2]

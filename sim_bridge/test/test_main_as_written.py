@@ -2,8 +2,9 @@
 A node file runs as ``python3 FILE`` would run it: its own main(), in a process of its own.
 
 Every style (a spin_once loop, a node made in a function, a sleeping callback, several nodes) is
-stepped with the simulator (sim_bridge.runner.agent): checked for doing what its author meant.
-Which Node class a file of several runs is read from its source (sim_bridge.runner.node_styles).
+stepped with the simulator (sim_bridge.runner.boundary.inside.agent): checked for doing what its
+author meant. Which Node class a file of several runs is read from its source
+(sim_bridge.runner.node_styles).
 """
 
 import json
@@ -18,7 +19,7 @@ import pytest
 from rosbags.rosbag2 import Reader
 from sim_bridge.commands.run import main
 from sim_bridge.common.errors import RunError
-from sim_bridge.runner.node_main import prepare
+from sim_bridge.runner.boundary.inside.node_main import prepare
 from sim_bridge.runner.node_styles import node_class
 from sim_bridge.runner.options import gui_problem
 from sim_bridge.runner.run import run_simulation, STEPPED_REASON

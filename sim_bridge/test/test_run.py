@@ -26,7 +26,7 @@ from rosbags.typesys import get_typestore, Stores
 from sim_bridge.commands.run import main
 from sim_bridge.common.errors import RunError, UserInterrupt
 from sim_bridge.grading.scenario import scenario_from_dict
-from sim_bridge.runner.node_sandbox import node_limits
+from sim_bridge.runner.boundary.outside.node_sandbox import node_limits
 from sim_bridge.runner.run import run_simulation
 from sim_bridge.simulation.geometry import signed_distance
 from sim_bridge.simulation.world import World
@@ -397,7 +397,7 @@ def test_a_missing_node_file_is_the_only_line_said_and_nothing_starts():
 def test_a_machine_no_node_can_run_on_is_one_start_error_not_a_traceback(
         tmp_path, monkeypatch, run_main):
     """A Python the sandbox's uid cannot reach (PARTLY sandboxed, /root closed): one line."""
-    from sim_bridge.runner.sandbox import Sandbox, SandboxError
+    from sim_bridge.runner.boundary.outside.sandbox import Sandbox, SandboxError
 
     def closed(sandbox, program):
         raise SandboxError(f'PARTLY sandboxed: uid 1 (no namespaces) cannot reach {program}')
@@ -860,7 +860,8 @@ def test_gui_off_run_never_sleeps(monkeypatch, tmp_path):
     real_sleep = time.sleep
 
     def no_sleep(seconds):
-        if sys._getframe(1).f_globals['__name__'] == 'sim_bridge.runner.sandbox_host':
+        caller = sys._getframe(1).f_globals['__name__']
+        if caller == 'sim_bridge.runner.boundary.outside.sandbox_host':
             return real_sleep(seconds)  # the sandbox's sweep of a run's ended processes
         raise AssertionError(f'time.sleep({seconds}) in a gui-off run')
 

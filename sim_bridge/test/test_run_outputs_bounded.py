@@ -13,7 +13,8 @@ from pathlib import Path
 
 import pytest
 from sim_bridge.common.errors import RunError
-from sim_bridge.runner import boundary, outputs, record
+from sim_bridge.runner import outputs, record
+from sim_bridge.runner.boundary.outside import link
 from sim_bridge.runner.run import run_simulation
 
 HOSTILE = Path(__file__).parent / 'fixtures' / 'hostile'
@@ -85,7 +86,7 @@ def test_a_disk_full_for_every_output_is_one_line(tmp_path, monkeypatch):
 def test_a_flood_of_control_characters_keeps_the_log_file_within_its_cap(
         tmp_path, monkeypatch):
     # Each byte is kept printable (an escape) and twice (text, line): ~10 bytes of log.jsonl.
-    monkeypatch.setattr(boundary, 'OUTPUT_CAP_BYTES', 2 ** 20)
+    monkeypatch.setattr(link, 'OUTPUT_CAP_BYTES', 2 ** 20)
     monkeypatch.setattr(outputs, 'LOG_CAP_BYTES', 2 ** 21)
     metrics = run(tmp_path, HOSTILE / 'control_flood.py', duration_s=1.0, record=False)
     assert (tmp_path / 'log.jsonl').stat().st_size <= 2 ** 21

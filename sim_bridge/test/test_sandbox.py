@@ -21,13 +21,14 @@ import time
 
 import pytest
 
-from sim_bridge.runner import sandbox as sandbox_module, sandbox_host
-from sim_bridge.runner.node_sandbox import isolation_line, NodeSandbox
-from sim_bridge.runner.sandbox import (
-    clean_environment, isolation_mode, IsolationMode, KIT_PACKAGE, python_roots, Sandbox,
-    SandboxLimits)
-from sim_bridge.runner.sandbox_host import (
+from sim_bridge.runner.boundary.outside import sandbox as sandbox_module, sandbox_host
+from sim_bridge.runner.boundary.outside.node_sandbox import isolation_line, NodeSandbox
+from sim_bridge.runner.boundary.outside.sandbox import (
+    isolation_mode, IsolationMode, python_roots, Sandbox, SandboxLimits)
+from sim_bridge.runner.boundary.outside.sandbox_host import (
     grader_folder, lease_folder, lock_exclusive, remove_leftover_scratch, uid_processes)
+from sim_bridge.runner.boundary.outside.sandbox_view import KIT_PACKAGE
+from sim_bridge.runner.boundary.outside.scratch import clean_environment
 
 HOSTILE = Path(__file__).resolve().parent / 'fixtures' / 'hostile'
 REPOSITORY = KIT_PACKAGE.parents[1]
@@ -186,7 +187,7 @@ def test_every_copy_of_the_kits_library_a_run_can_read_holds_no_answers(tmp_path
 AS_USER = """
 import json, os, subprocess, sys, tempfile
 from pathlib import Path
-from sim_bridge.runner.sandbox import Sandbox, SandboxLimits
+from sim_bridge.runner.boundary.outside.sandbox import Sandbox, SandboxLimits
 hostile, grader = Path(sys.argv[1]), sys.argv[2]
 for name, args in (('fork_bomb', []), ('network', ['1']), ('signals', [grader, '1'])):
     with Sandbox({name + '.py': hostile / (name + '.py')}, SandboxLimits(pids=24)) as box, \\
@@ -385,7 +386,7 @@ print(len(got))
 #: outputs (JSON).
 SQUAT_BESIDE = """
 import json, os, subprocess, sys
-from sim_bridge.runner.sandbox import Sandbox
+from sim_bridge.runner.boundary.outside.sandbox import Sandbox
 hostile, publish = sys.argv[1], sys.argv[2]
 trusted = ('from sim_bridge.common.run_environment import run_environment\\n'
            'with run_environment():\\n    exec(compile(%r, "neighbour", "exec"))' % publish)

@@ -17,10 +17,11 @@ import tempfile
 import pytest
 from sim_bridge.grading.class_batch import ClassBatch
 from sim_bridge.grading.scenario import scenario_from_dict
-from sim_bridge.runner import sandbox as sandbox_module
-from sim_bridge.runner.node_sandbox import NodeSandbox
+from sim_bridge.runner.boundary.outside import sandbox as sandbox_module
+from sim_bridge.runner.boundary.outside.node_sandbox import NodeSandbox
+from sim_bridge.runner.boundary.outside.sandbox import (
+    isolation_mode, NO_NAMESPACES_VARIABLE, SandboxLimits)
 from sim_bridge.runner.run import run_simulation
-from sim_bridge.runner.sandbox import isolation_mode, NO_NAMESPACES_VARIABLE, SandboxLimits
 
 HOSTILE = Path(__file__).resolve().parent / 'fixtures' / 'hostile'
 KIT_NODES = Path(__file__).resolve().parents[2] / 'scan_pkg' / 'scan_pkg'

@@ -10,8 +10,8 @@ from pathlib import Path
 import re
 
 import pytest
-from sim_bridge.runner import boundary_checks
-from sim_bridge.runner.boundary_checks import checked_graph, Refused
+from sim_bridge.runner.boundary.outside import boundary_checks
+from sim_bridge.runner.boundary.outside.boundary_checks import checked_graph, Refused
 from sim_bridge.runner.run import run_simulation
 
 FIXTURES = Path(__file__).parent / 'fixtures'

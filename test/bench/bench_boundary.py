@@ -1,5 +1,5 @@
 """
-How fast runs go through the trust boundary (sim_bridge.runner.boundary): figures side by side.
+How fast runs go through the trust boundary (runner.boundary.outside.link): figures side by side.
 
 ``python test/bench/bench_boundary.py [--duration S] [--case NAME ...] [--before CHECKOUT]``
 runs, recorded, each node in its own process in lockstep with the simulator: the lab's
@@ -25,7 +25,7 @@ import threading
 import time
 
 from sim_bridge.common.run_environment import keep_dds_in_process
-from sim_bridge.runner import boundary
+from sim_bridge.runner.boundary.outside import link
 from sim_bridge.runner.run import run_simulation
 
 HERE = Path(__file__).parent
@@ -82,7 +82,7 @@ class Meter:
         self.peak_pss_kib = 0
         self.done = threading.Event()
         self.sampler = threading.Thread(target=self.sample, daemon=True)
-        self.originals = boundary.Agent.exchange, boundary.Agent.close
+        self.originals = link.Agent.exchange, link.Agent.close
         exchange, close = self.originals
         meter = self
 
@@ -97,8 +97,8 @@ class Meter:
         def measured_close(agent):
             meter.node_cpu_s += cpu_s(agent.box.node_pid(agent.process.pid))
             return close(agent)
-        boundary.Agent.exchange = timed_exchange
-        boundary.Agent.close = measured_close
+        link.Agent.exchange = timed_exchange
+        link.Agent.close = measured_close
 
     def sample(self) -> None:
         """Read the whole tree's PSS every MEMORY_PERIOD_S until the run ends; keep the peak."""
@@ -113,7 +113,7 @@ class Meter:
     def __exit__(self, *exc_info) -> None:
         self.done.set()
         self.sampler.join()
-        boundary.Agent.exchange, boundary.Agent.close = self.originals
+        link.Agent.exchange, link.Agent.close = self.originals
 
 
 def before(checkout: Path, name: str, duration_s: float) -> float | None:

@@ -6,9 +6,9 @@ runs get control groups) runs an honest node (a spin_once loop, ``--duration`` s
 in a process of its own, as a grader's ``--jobs 2`` would, alone and then beside a neighbour's
 sandbox running fixtures/hostile/busy_crowd.py (a new session, then ``--loops`` busy loops),
 each both with the runs' cpu control groups and without them (the cpu controller hidden from
-sim_bridge.runner.sandbox_host, as on a kernel without it): every case once per round, rounds
-interleaved, so that all the figures come from one sitting. On a machine with other load, the
-bench first moves itself into a cpu group of its own of ``--weight`` shares (cgroup v1: a
+sim_bridge.runner.boundary.outside.sandbox_host, as on a kernel without it): every case once per
+round, rounds interleaved, so that all the figures come from one sitting. On a machine with other
+load, the bench first moves itself into a cpu group of its own of ``--weight`` shares (cgroup v1: a
 weight of several ordinary processes), as if the machine were the grader's alone; the runs'
 groups are made below it. Not a test: figures to compare, on the machine of the day.
 """
@@ -21,15 +21,16 @@ import subprocess
 import sys
 import time
 
-from sim_bridge.runner import sandbox_host
-from sim_bridge.runner.sandbox import clean_environment, Sandbox, SandboxLimits
+from sim_bridge.runner.boundary.outside import sandbox_host
+from sim_bridge.runner.boundary.outside.sandbox import Sandbox, SandboxLimits
+from sim_bridge.runner.boundary.outside.scratch import clean_environment
 
 HERE = Path(__file__).parent
 FIXTURES = HERE.parent.parent / 'sim_bridge' / 'test' / 'fixtures'
 #: The honest run, in a process of its own: its wall time (s) is what it prints last.
 HONEST = """
 import sys, time
-from sim_bridge.runner import sandbox_host
+from sim_bridge.runner.boundary.outside import sandbox_host
 if sys.argv[3] == 'off':
     found = sandbox_host.v1_folder
     sandbox_host.v1_folder = lambda name: None if name == 'cpu' else found(name)

@@ -40,7 +40,7 @@ from sim_bridge.grading.runs import (
     GradeJob, PAGE_NAME, REPORT_NAME, reuse_notes, RunReport, write_outputs, write_report)
 from sim_bridge.grading.scenario import load_scenarios, Scenario, with_node_overrides
 from sim_bridge.media.video import render_video, VIDEO_NAME, VideoError
-from sim_bridge.runner.node_sandbox import (
+from sim_bridge.runner.boundary.outside.node_sandbox import (
     isolation_line, isolation_warning, node_limits, say_isolation)
 from sim_bridge.runner.options import started_world
 from sim_bridge.simulation.world import World, WorldError

@@ -29,7 +29,7 @@ from sim_bridge.grading.isolate import Child
 from sim_bridge.grading.limits import Job, Limits
 from sim_bridge.grading.runs import GradeJob, RESULT_NAME, RunReport
 from sim_bridge.grading.scenario import ScenarioRun
-from sim_bridge.runner.node_sandbox import is_kit_file, student_files
+from sim_bridge.runner.boundary.outside.node_sandbox import is_kit_file, student_files
 from sim_bridge.runner.targets import split_target
 from sim_bridge.simulation.world import World, WorldError
 
@@ -166,8 +166,8 @@ def fingerprint(job: GradeJob, options: dict[str, Any], limits: Limits) -> str:
     The scenario's settings, the runner options and limits, and the contents of the scenario,
     world and model files (or, for a world that does not load, why) and of all a run reads of
     a submission (a student's node file and its own modules beside it, by name: see
-    :func:`sim_bridge.runner.node_sandbox.student_files`): a run is resumed only when none of
-    them changed since it ran.
+    :func:`sim_bridge.runner.boundary.outside.node_sandbox.student_files`): a run is resumed only
+    when none of them changed since it ran.
     """
     scenario = job.run.scenario
     digest = hashlib.sha256(json.dumps({

@@ -29,8 +29,8 @@ from sim_bridge.grading.runs import (
 from sim_bridge.grading.scenario import Scenario
 from sim_bridge.grading.submission_files import (
     find_node_files, MAX_FILE_BYTES, missing_text)
-from sim_bridge.runner import sandbox
-from sim_bridge.runner.sandbox_host import close_to_runs
+from sim_bridge.runner.boundary.outside import sandbox
+from sim_bridge.runner.boundary.outside.sandbox_host import close_to_runs
 from sim_bridge.runner.targets import target_name
 
 CSV_NAME = 'class.csv'

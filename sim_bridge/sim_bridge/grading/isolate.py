@@ -10,9 +10,9 @@ of its beginning and ``LOG_TAIL_BYTES`` of its end, see :class:`CappedLog`), bec
 subreaper of everything below it and forks the run itself. The run (:func:`run_job`) works in
 a scratch directory with a trimmed environment (:func:`trimmed_environment`) and a bounded
 address space; it runs the scenario with :func:`sim_bridge.grading.runs.run_scenario` (each node
-file in a sandboxed process of its own, sim_bridge.runner.node_sandbox), sending its progress in
-simulated seconds and, when it ends, the run's report over a pipe. It then ends at once,
-whatever threads a node left running (they are named in the report's
+file in a sandboxed process of its own, sim_bridge.runner.boundary.outside.node_sandbox), sending
+its progress in simulated seconds and, when it ends, the run's report over a pipe. It then ends at
+once, whatever threads a node left running (they are named in the report's
 ``metrics['warnings']``). However the run ends, the supervisor then kills
 every process it started (a process in a session of its own or a double fork included: as a
 subreaper, the supervisor inherits them) and exits with the run's status.
@@ -34,10 +34,10 @@ still has not ended a while after that is killed (SIGKILL): the batch never wait
 Nothing outlives the grader: the supervisor gets SIGTERM when the fork server dies, which it
 does when the grader dies, however (SIGKILL included); the run is killed with its supervisor.
 The runs' scratch folders are in the grader's scratch parent
-(:func:`sim_bridge.runner.sandbox_host.grader_folder`), whose lock the grader holds as long as
-it lives: a grader removes only the parents whose lock it can take, those of graders that have
-ended, whatever their process ids now name (a reused pid, another pid namespace on a shared
-machine).
+(:func:`sim_bridge.runner.boundary.outside.sandbox_host.grader_folder`), whose lock the grader
+holds as long as it lives: a grader removes only the parents whose lock it can take, those of
+graders that have ended, whatever their process ids now name (a reused pid, another pid namespace
+on a shared machine).
 """
 
 import fcntl
@@ -57,8 +57,8 @@ from typing import Any
 from sim_bridge.grading.isolated_child import fork_server, process_stats, run_child
 from sim_bridge.grading.limits import Job
 from sim_bridge.grading.runs import LOG_NAME
-from sim_bridge.runner.sandbox import NO_NAMESPACES_VARIABLE
-from sim_bridge.runner.sandbox_host import grader_folder, remove_leftover_scratch
+from sim_bridge.runner.boundary.outside.sandbox import NO_NAMESPACES_VARIABLE
+from sim_bridge.runner.boundary.outside.sandbox_host import grader_folder, remove_leftover_scratch
 
 #: Wall seconds a stopped run gets to write its outputs, a SIGABRT for its stack dump, and its
 #: supervisor to end it before it is killed.
@@ -388,7 +388,7 @@ class Child:
         Kill what is left of the process group, close the pipes, remove the scratch folders.
 
         The run's own, and the sandboxes' parent its killed child could not remove (its lock
-        ended with it: sim_bridge.runner.sandbox_host.remove_leftover_scratch).
+        ended with it: sim_bridge.runner.boundary.outside.sandbox_host.remove_leftover_scratch).
         """
         self.signal(signal.SIGKILL)  # a supervisor that did not end when asked
         self.process.join()

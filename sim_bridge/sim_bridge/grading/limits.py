@@ -3,9 +3,10 @@ What a graded run may use, and the job it runs: the limits (time, stall, memory)
 
 The defaults are the grader's command line's (sim_bridge.commands.grade);
 sim_bridge.grading.isolate enforces them. The memory limit is what a run's nodes may use
-(the sandbox's memory of their process tree, :func:`sim_bridge.runner.node_sandbox.node_limits`);
-each process of the run may reserve ADDRESS_SPACE_SLACK_BYTES of address space beyond it, as
-an rclpy process does (thread stacks, arenas), the run's own (the simulator) included.
+(the sandbox's memory of their process tree,
+:func:`sim_bridge.runner.boundary.outside.node_sandbox.node_limits`); each process of the run may
+reserve ADDRESS_SPACE_SLACK_BYTES of address space beyond it, as an rclpy process does (thread
+stacks, arenas), the run's own (the simulator) included.
 """
 
 from dataclasses import dataclass, field
@@ -14,8 +15,8 @@ import resource
 from typing import Any
 
 from sim_bridge.grading.scenario import ScenarioRun
-from sim_bridge.runner.node_sandbox import LEAST_MEMORY_BYTES
-from sim_bridge.runner.sandbox import ADDRESS_SPACE_SLACK_BYTES
+from sim_bridge.runner.boundary.outside.node_sandbox import LEAST_MEMORY_BYTES
+from sim_bridge.runner.boundary.outside.sandbox import ADDRESS_SPACE_SLACK_BYTES
 
 
 #: Wall seconds a run may take: BUDGET_BASE_S (start-up, writing outputs) plus this many per

@@ -2,12 +2,15 @@
 The runner: nodes run against the simulator.
 
 Runs nodes against the simulator: options, stepping on simulated time, targets and node
-styles, node output, recording, hints, the stepped run and the process run.
+styles, node output, recording, hints, the stepped run and the process run. The trust boundary
+has a wing of its own, ``boundary``: what runs inside a node's sandboxed process, what runs
+outside it, and the wire between (its docstring says what each may import).
 
 May import common, simulation, ros, scoring and media; never grading, live or commands.
 
-A node file runs in a process of its own under the agent (``agent``), which changes these, in
-that process only (``node_patches``), and nothing else a node can observe. Each is checked by
+A node file runs in a process of its own under the agent (``boundary.inside.agent``), which
+changes these, in that process only (``boundary.inside.node_patches``), and nothing else a node
+can observe. Each is checked by
 sim_bridge/test/test_agent_differential.py: the same node file under plain rclpy at real time
 and stepped prints the same lines (text, severity, logger, caller's file, line and function,
 ``once``/``throttle_duration_sec``/``skip_first``) and publishes the same messages, in order

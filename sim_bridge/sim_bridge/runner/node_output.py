@@ -23,9 +23,9 @@ is missed (a logger of no node, ``RCUTILS_LOGGING_USE_STDOUT``, a C library's pr
 text is what the terminal showed; the format is rcutils' own, ``RCUTILS_CONSOLE_OUTPUT_FORMAT``
 or its default, read back by :func:`console_pattern`.
 
-A run's nodes write in processes of their own (sim_bridge.runner.agent), whose stdout and
-stderr (file descriptors 1 and 2: rcutils' console output and a C library's printf too) are
-pipes the runner reads: :class:`StreamLines` copies what arrives to the terminal (unless quiet)
+A run's nodes write in processes of their own (sim_bridge.runner.boundary.inside.agent), whose
+stdout and stderr (file descriptors 1 and 2: rcutils' console output and a C library's printf too)
+are pipes the runner reads: :class:`StreamLines` copies what arrives to the terminal (unless quiet)
 and cuts it into lines at the node process's sync points (around each callback), each line
 stamped with the sim time and node of the code that wrote its first byte.
 """
@@ -248,11 +248,11 @@ class StreamLines:
     What a node process wrote on its stdout and stderr, cut into lines on the trusted side.
 
     The bytes arrive from the process's pipes (:meth:`take`); :meth:`cut` (at the sync frames
-    of sim_bridge.runner.agent) turns what arrived so far into lines stamped with the sim time and
-    node given: a line's stamp is that of the cut that saw its first byte. Whole lines are
-    shown on this process's terminal as they are cut (when ``quiet``, all but the loggers'
-    lines, as ``--disable-stdout-logs`` would). At most ``cap_bytes`` are kept; the rest are
-    shown, counted, not kept. ``tail`` keeps the last lines (their first 1000 characters), to
+    of sim_bridge.runner.boundary.inside.agent) turns what arrived so far into lines stamped with
+    the sim time and node given: a line's stamp is that of the cut that saw its first byte. Whole
+    lines are shown on this process's terminal as they are cut (when ``quiet``, all but the
+    loggers' lines, as ``--disable-stdout-logs`` would). At most ``cap_bytes`` are kept; the rest
+    are shown, counted, not kept. ``tail`` keeps the last lines (their first 1000 characters), to
     read a traceback or a crash's stack from.
     """
 

@@ -5,8 +5,8 @@ A run's outputs: what it observed, its recording, and the files it writes when i
 in the run's output folder, opened and closed alike by every run (and a live recording).
 
 Each is bounded: the recording's messages at BAG_CAP_BYTES, the nodes' output at
-sim_bridge.runner.boundary.OUTPUT_CAP_BYTES (and node_output.MAX_LINES lines), kept on /rosout in
-the bag and in ``log.jsonl``, itself LOG_CAP_BYTES at most (a line is kept printable and
+sim_bridge.runner.boundary.outside.link.OUTPUT_CAP_BYTES (and node_output.MAX_LINES lines), kept on
+/rosout in the bag and in ``log.jsonl``, itself LOG_CAP_BYTES at most (a line is kept printable and
 twice: escapes make it longer). A run whose recording reaches its cap, or whose disk is full, ends
 with one line (OutputsFull, RunError), and no other run with it.
 """

@@ -2,9 +2,10 @@
 Run unmodified rclpy nodes against the simulator, on simulated time.
 
 ``python -m sim_bridge.run --world wall_follow_box --node wall_follow --duration 60`` runs the
-SimBridge node here and each named node in a process of its own (sim_bridge.runner.agent), in
-lockstep (sim_bridge.runner.stepped_run): as if each had been started with ``ros2 run ...
---ros-args --params-file <out>/params.yaml -p use_sim_time:=true``; then writes
+SimBridge node here and each named node in a process of its own
+(sim_bridge.runner.boundary.inside.agent), in lockstep (sim_bridge.runner.stepped_run): as if each
+had been started with ``ros2 run ... --ros-args --params-file <out>/params.yaml -p
+use_sim_time:=true``; then writes
 ``metrics.json``, ``trajectory.png`` and a rosbag2 recording ``run/`` (MCAP) to ``--out``.
 """
 
@@ -17,8 +18,8 @@ from typing import Any, Callable, Sequence
 
 from sim_bridge.common.run_environment import run_environment
 from sim_bridge.common.text import json_safe
+from sim_bridge.runner.boundary.outside.node_sandbox import isolation_warning
 from sim_bridge.runner.node_output import terminal_colours, to_terminal
-from sim_bridge.runner.node_sandbox import isolation_warning
 from sim_bridge.runner.options import (
     node_commands, prepare_run, PreparedRun, RunResult, RunSpec, write_params_files)
 from sim_bridge.runner.outputs import RunOutputs, Scoring

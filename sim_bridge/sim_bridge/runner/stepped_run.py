@@ -3,10 +3,10 @@ A stepped run's trusted side: the simulator and the runner's nodes, the targets'
 
 The SimBridge node, the recorder and the teleop run here on real rclpy, stepped (every ready
 callback runs before physics advances, see sim_bridge.runner.stepping); each target node file
-runs in a process of its own (sim_bridge.runner.agent) in lockstep with them
-(sim_bridge.runner.boundary), with the command line its process would get (``--ros-args
---params-file <params.yaml> -p use_sim_time:=true -r FROM:=TO ...``). This process never
-imports a target's code.
+runs in a process of its own (sim_bridge.runner.boundary.inside.agent) in lockstep with them
+(sim_bridge.runner.boundary.outside.link), with the command line its process would get
+(``--ros-args --params-file <params.yaml> -p use_sim_time:=true -r FROM:=TO ...``). This process
+never imports a target's code.
 """
 
 from contextlib import contextmanager
@@ -15,14 +15,14 @@ import traceback
 from typing import Any, Callable, Iterable, Iterator, Sequence
 
 from sim_bridge.common.errors import OutputsFull, RunError, RunStopped
-from sim_bridge.runner import boundary
-from sim_bridge.runner.boundary import Agent, AgentFailure, AgentStartError, Lockstep
+from sim_bridge.runner.boundary.outside import link
+from sim_bridge.runner.boundary.outside.link import Agent, AgentFailure, AgentStartError, Lockstep
+from sim_bridge.runner.boundary.outside.node_sandbox import node_limits, NodeSandbox, say_isolation
+from sim_bridge.runner.boundary.outside.sandbox_host import SandboxError
 from sim_bridge.runner.node_output import NodeLog, StreamLines, to_terminal
-from sim_bridge.runner.node_sandbox import node_limits, NodeSandbox, say_isolation
 from sim_bridge.runner.options import BRIDGE_NODE, Params
 from sim_bridge.runner.ros_graph import (
     NO_TYPE_DESCRIPTION_SERVICE, parameter_warnings, runner_node, unconnected_topics)
-from sim_bridge.runner.sandbox_host import SandboxError
 from sim_bridge.runner.stepping import (
     describe, next_timer_ns, spin_after_publishing, spin_until_idle, SteppedExecutor)
 from sim_bridge.runner.targets import target_name
@@ -37,8 +37,9 @@ class GraphView:
     """
     The ROS graph as the runner's warnings read it: the bridge's ends, the processes' nodes.
 
-    The node processes' nodes are known from what they said they are (sim_bridge.runner.agent); the
-    counts are this process's graph, where the boundary's taps and publishers stand for them.
+    The node processes' nodes are known from what they said they are
+    (sim_bridge.runner.boundary.inside.agent); the counts are this process's graph, where the
+    boundary's taps and publishers stand for them.
     """
 
     def __init__(self, bridge, agents: Sequence[Agent]):
@@ -74,7 +75,8 @@ class LockstepRun:
         self.rclpy = rclpy
         self.quiet = quiet
         self.params_file = params_file
-        #: How the node processes are isolated (sim_bridge.runner.sandbox), once one started.
+        #: How the node processes are isolated (sim_bridge.runner.boundary.outside.sandbox), once
+        #: one started.
         self.isolation = ''
         self.node_arguments = ['--ros-args', '--params-file', str(params_file),
                                '-p', 'use_sim_time:=true',
@@ -115,7 +117,7 @@ class LockstepRun:
     @contextmanager
     def capture_output(self, log: NodeLog) -> Iterator[StreamLines]:
         """Keep what the node processes write in the block in ``log``, at the sim time of it."""
-        self.lines = StreamLines(log, quiet=self.quiet, cap_bytes=boundary.OUTPUT_CAP_BYTES)
+        self.lines = StreamLines(log, quiet=self.quiet, cap_bytes=link.OUTPUT_CAP_BYTES)
         try:
             yield self.lines
         finally:
@@ -184,7 +186,7 @@ class LockstepRun:
         return {'notes': notes} if notes else {}
 
     def target_nodes(self) -> list[dict]:
-        """Return what the target processes said their nodes are (sim_bridge.runner.agent)."""
+        """Return what the target processes said their nodes are (boundary.inside.agent)."""
         return [entry for agent in self.agents for entry in agent.graph]
 
     def parameter_warnings(self, params: Params) -> list[str]:

@@ -12,7 +12,7 @@ The kit's nodes keep their own, richer :mod:`scan_pkg.laser` (a range at any bea
 windows per geometry, a node's input refused field by field) rather than sharing this one: a
 student's node may import scan_pkg's library in its sandbox, whereas this module is an answer
 key (its bands are what task 3 prints) hidden from every node's run
-(sim_bridge.runner.node_sandbox.grader_files), so the library a node reads cannot be built on it.
+(sim_bridge.runner.boundary.outside.node_sandbox.grader_files), so the library a node reads cannot be built on it.
 
 Conventions as REP-103 and REP-117 state them, and scan_pkg.laser follows: beam ``i`` looks at
 ``angle_min + i * angle_increment`` (rad, CCW from straight ahead); a reading is valid when

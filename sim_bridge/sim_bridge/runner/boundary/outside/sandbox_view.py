@@ -1,5 +1,5 @@
 """
-What a run sees of the machine's files in its sandbox (sim_bridge.runner.sandbox).
+What a run sees of the machine's files in its sandbox (sim_bridge.runner.boundary.outside.sandbox).
 
 With namespaces (bubblewrap), a run's root is empty but for what is mounted: the system
 folders (SYSTEM_PATHS) and the few files of /etc a Python needs (ETC_PATHS), read-only; the
@@ -21,7 +21,7 @@ ETC_PATHS = ('/etc/ld.so.cache', '/etc/ld.so.conf', '/etc/ld.so.conf.d', '/etc/l
 #: Top folders of the system installation, read-only (symlinks mirrored on merged-/usr).
 SYSTEM_PATHS = ('/usr', '/bin', '/sbin', '/lib', '/lib32', '/lib64')
 #: The kit's sim_bridge package, which runs see read-only (the stepping agent lives there).
-KIT_PACKAGE = Path(__file__).resolve().parents[1]
+KIT_PACKAGE = Path(__file__).resolve().parents[3]
 #: Packages of the kit a run must not import (the reference nodes).
 HIDDEN_PACKAGES = ('scan_pkg',)
 

@@ -1,11 +1,11 @@
 """
-Where a node process runs: a Sandbox (sim_bridge.runner.sandbox) of its own, for every TARGET.
+Where a node process runs: a Sandbox (boundary.outside.sandbox) of its own, for every TARGET.
 
 A student's node file is copied, with the Python files beside it (its own modules), into the
 sandbox's scratch folder, and runs from that copy, with the kit's scan_pkg library (its
 ``report``, ``laser``, ``cmd_vel`` helpers) readable but none of its answers, in any copy
-(sim_bridge.runner.kit_answers: hidden in the sandbox's namespaces, closed to its uid without
-them); the kit's own targets (a console script or
+(sim_bridge.runner.boundary.outside.kit_answers: hidden in the sandbox's namespaces, closed to its
+uid without them); the kit's own targets (a console script or
 module such as ``wall_follow``, a file inside the kit) run sandboxed too, with the kit's
 reference nodes readable. What the process prints names the copy: :class:`NodeSandbox`
 maps it back to the student's own folder before anyone sees it.
@@ -17,11 +17,11 @@ import resource
 import sys
 from typing import Mapping
 
-from sim_bridge.runner.kit_answers import (
+from sim_bridge.runner.boundary.outside.kit_answers import (
     answer_folders, library_copies, library_folders, reference_node_files)
-from sim_bridge.runner.sandbox import ADDRESS_SPACE_SLACK_BYTES, Sandbox, SandboxError, \
-    SandboxLimits
-from sim_bridge.runner.sandbox_view import KIT_PACKAGE, python_roots
+from sim_bridge.runner.boundary.outside.sandbox import (
+    ADDRESS_SPACE_SLACK_BYTES, Sandbox, SandboxError, SandboxLimits)
+from sim_bridge.runner.boundary.outside.sandbox_view import KIT_PACKAGE, python_roots
 from sim_bridge.runner.targets import split_target
 
 #: What of the trusted side's environment a node process gets (its DDS domain, its checks,
@@ -34,7 +34,7 @@ DEFAULT_MEMORY_BYTES = 2 * 2 ** 30
 #: Most processes between the one a sandbox starts and the node process (bwrap, its init).
 MAX_WRAPPERS = 4
 #: How the node process's command line goes on after its Python (boundary.agent_command).
-AGENT_ARGV = [b'-m', b'sim_bridge.runner.agent']
+AGENT_ARGV = [b'-m', b'sim_bridge.runner.boundary.inside.agent']
 #: The folder of a student's files in a run's scratch: shown as the student's own.
 COPY_FOLDER = 'node'
 #: A node process's wall time (s): this, plus a wall second per simulated second (the

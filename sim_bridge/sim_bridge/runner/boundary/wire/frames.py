@@ -1,5 +1,5 @@
 """
-The frames a run's trusted side and its node agent (sim_bridge.runner.agent) exchange over a pipe.
+The frames a run's trusted side and its node agent (boundary.inside.agent) exchange over a pipe.
 
 Data only, never code: no pickle, no eval. A frame is an 8-byte prefix (the lengths of its
 header and of its payload, big-endian), a header of UTF-8 JSON (an object with a ``kind`` and
@@ -33,7 +33,8 @@ MAX_TOPIC_CHARS = 256
 TYPE_NAME = re.compile(r'[a-z][a-z0-9_]*/msg/[A-Z][A-Za-z0-9]*')
 
 
-#: The frames a node process (sim_bridge.runner.agent) sends, and those the trusted side sends it.
+#: The frames a node process (sim_bridge.runner.boundary.inside.agent) sends, and those the
+#: trusted side sends it.
 AGENT_KINDS = ('hello', 'sync', 'idle', 'stuck', 'ended')
 TRUSTED_KINDS = ('advance', 'ack', 'stop')
 

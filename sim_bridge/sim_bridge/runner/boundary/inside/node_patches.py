@@ -1,5 +1,5 @@
 """
-What the agent changes in a node's process (sim_bridge.runner.agent), and nothing else.
+What the agent changes in a node's process (boundary.inside.agent), and nothing else.
 
 Each patch is listed in the runner's package docstring (sim_bridge.runner) with what it keeps
 as under ``ros2 run``; sim_bridge/test/test_agent_differential.py runs the same node files under

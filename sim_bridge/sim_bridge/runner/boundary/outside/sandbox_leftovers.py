@@ -1,10 +1,11 @@
 """
 What a run's dedicated uid leaves on the machine: swept when the run ends and before a lease.
 
-Without namespaces (PARTLY sandboxed, sim_bridge.runner.sandbox) a run's uid writes where any
-user may: the temp folders, ``/dev/shm`` (Fast DDS's shared-memory segments, their locks and
-semaphores), POSIX message queues and lock folders; and it makes System V IPC objects. None of
-that ends with its processes, and the uid is leased again to later runs (another student's).
+Without namespaces (PARTLY sandboxed, sim_bridge.runner.boundary.outside.sandbox) a run's uid
+writes where any user may: the temp folders, ``/dev/shm`` (Fast DDS's shared-memory segments, their
+locks and semaphores), POSIX message queues and lock folders; and it makes System V IPC objects.
+None of that ends with its processes, and the uid is leased again to later runs (another
+student's).
 :func:`sweep_uid` removes everything the uid owns there (with namespaces a run's /tmp and
 /dev/shm are its own and end with it, and the sweep finds nothing).
 """

@@ -1,10 +1,10 @@
 """
-What the machine gives each sandbox (sim_bridge.runner.sandbox): an identity, groups, a folder.
+What the machine gives each sandbox (boundary.outside.sandbox): an identity, groups, a folder.
 
 - :class:`UidLease`: a dedicated uid (and gid) per concurrent run when the grader is root,
   leased machine-wide with a lock file in a root-only folder; :func:`kill_uid` ends every
   process of it, and what it left where any user writes goes before the uid is leased again
-  (sim_bridge.runner.sandbox_leftovers).
+  (sim_bridge.runner.boundary.outside.sandbox_leftovers).
 - :class:`RunCgroup`: the memory, pids and cpu control groups of a run's whole tree (root only).
 - :func:`unreachable_by_others` and :func:`close_to_runs`: what a run without namespaces (its
   uid alone) can read of the host's files, and the kit's answers made unreadable to it.
@@ -25,7 +25,7 @@ import tempfile
 import time
 from typing import Mapping, Sequence
 
-from sim_bridge.runner.sandbox_leftovers import sweep_uid
+from sim_bridge.runner.boundary.outside.sandbox_leftovers import sweep_uid
 
 #: Dedicated uids (and gids of the same number) for runs of a grader running as root.
 UID_BASE = 60100

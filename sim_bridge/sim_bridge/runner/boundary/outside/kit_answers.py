@@ -10,8 +10,8 @@ autograder's), setuptools' ``build/lib`` and ``*.egg-info`` beside a package tha
 install FOLDER`` built, colcon's ``build/`` and ``install/``, git's history, Python's bytecode
 caches. :func:`reference_node_files` lists the answer files (sources and bytecode) of every copy
 of scan_pkg; :func:`answer_folders` the folders of the kit that hold nothing a run needs, to be
-closed whole. A run's sandbox (sim_bridge.runner.sandbox) hides both: empty in its namespaces,
-unreadable to its uid without them.
+closed whole. A run's sandbox (sim_bridge.runner.boundary.outside.sandbox) hides both: empty in its
+namespaces, unreadable to its uid without them.
 """
 
 import functools
@@ -22,7 +22,7 @@ from pathlib import Path
 import sys
 from typing import Sequence
 
-from sim_bridge.runner.sandbox_view import is_within, KIT_PACKAGE
+from sim_bridge.runner.boundary.outside.sandbox_view import is_within, KIT_PACKAGE
 
 #: Folders at the kit's top closed whole: the worked examples, colcon's build folder (copies
 #: of the packages) and git's history.

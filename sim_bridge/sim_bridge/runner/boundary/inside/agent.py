@@ -1,16 +1,16 @@
 """
 Run a student's node file in its own process, in lockstep with the run's trusted simulator.
 
-``python -m sim_bridge.runner.agent --in FD --out FD -- TARGET [--ros-args ...]`` runs TARGET's
-``main()`` as ``ros2 run`` would (its ``__main__`` block, its console script, or a Node
-subclass spun by rclpy), with the command line its process would get. It imports rclpy, the
+``python -m sim_bridge.runner.boundary.inside.agent --in FD --out FD -- TARGET [--ros-args ...]``
+runs TARGET's ``main()`` as ``ros2 run`` would (its ``__main__`` block, its console script, or
+a Node subclass spun by rclpy), with the command line its process would get. It imports rclpy, the
 standard library, the frame codec and the student's code: never the simulator, the scenario or
 the grader.
 
 Wherever the student's code would block, control comes here instead (patched in this process
-only, sim_bridge.runner.node_patches; the runner's package docstring lists every patch): an
-executor's wait with nothing ready, ``time.sleep``, ``Rate.sleep``; MultiThreadedExecutor runs
-single-threaded. The blocking point says ``idle`` to the trusted side
+only, sim_bridge.runner.boundary.inside.node_patches; the runner's package docstring lists every
+patch): an executor's wait with nothing ready, ``time.sleep``, ``Rate.sleep``;
+MultiThreadedExecutor runs single-threaded. The blocking point says ``idle`` to the trusted side
 over the ``--out`` pipe, with the messages the nodes published since the last exchange (raw CDR,
 taken by a proxy node's raw subscriptions) and the next ROS time it must wake at (its nodes'
 first timer, a sleep's end, a wait's timeout), then reads ``advance``: the new sim time and the
@@ -29,9 +29,7 @@ factor 1), each message delivered at its time and handled by the threads that sp
 
 import argparse
 import contextlib
-import ctypes
 import faulthandler
-from importlib import import_module
 import math
 import os
 import signal
@@ -41,14 +39,11 @@ from time import monotonic_ns, sleep as wall_sleep  # the real ones, before the 
 import traceback
 from typing import Any, Callable
 
-from sim_bridge.runner.frames import encode, FrameDecoder, Message, TRUSTED_KINDS, type_name
-from sim_bridge.runner.node_main import MAX_TRACEBACK_CHARS, prepare, start_failure
-from sim_bridge.runner.node_patches import install, NANOSECONDS_PER_SECOND
+from sim_bridge.runner.boundary.inside.channel import Link
+from sim_bridge.runner.boundary.inside.node_main import MAX_TRACEBACK_CHARS, prepare, start_failure
+from sim_bridge.runner.boundary.inside.node_patches import install, NANOSECONDS_PER_SECOND
+from sim_bridge.runner.boundary.inside.proxy import ProxyNode
 
-#: ROS's own topics of every node: not forwarded (the run records the nodes' lines itself).
-OWN_TOPICS = ('/rosout', '/parameter_events')
-#: Messages the proxy keeps per topic between two exchanges.
-PROXY_DEPTH = 1000
 #: Wall seconds the main thread waits, after a step, for the nodes' other spinning threads to
 #: handle it; a thread that takes longer is no longer waited for (it runs at its own pace).
 THREAD_DRAIN_S = 2.0
@@ -71,57 +66,7 @@ PACED_NOTE = (f'its main() ran its own code for over {BUSY_MAIN_S:g} s of wall t
               'factor 1) while it did')
 
 
-def message_class(name: str) -> type:
-    """Return the message class of a ROS type name (``package/msg/Type``)."""
-    package, _, kind = name.split('/')
-    return getattr(import_module(f'{package}.msg'), kind)
-
-
-class Link:
-    """The agent's end of the pipes: frames out on ``out_fd``, in on ``in_fd``."""
-
-    def __init__(self, in_fd: int, out_fd: int):
-        self.in_fd = in_fd
-        self.out_fd = out_fd
-        self.decoder = FrameDecoder(TRUSTED_KINDS)
-        self.frames = []
-        self.libc = ctypes.CDLL(None)
-        #: Held by the thread that sends a frame until it has its answer.
-        self.lock = threading.RLock()
-
-    def request(self, kind: str, messages=(), **fields: Any):
-        """Send a frame (see :meth:`send`) and return the trusted side's answer."""
-        with self.lock:
-            self.send(kind, messages, **fields)
-            return self.receive()
-
-    def send(self, kind: str, messages=(), **fields: Any) -> None:
-        """Write one frame, after what the nodes printed so far (flushed first)."""
-        with self.lock:
-            self._send(kind, messages, **fields)
-
-    def _send(self, kind: str, messages=(), **fields: Any) -> None:
-        for stream in (sys.stdout, sys.stderr):
-            try:
-                stream.flush()
-            except (OSError, ValueError, AttributeError):  # closed or replaced by a node
-                pass
-        self.libc.fflush(None)  # C's stdio: rcutils' logger, a library's printf
-        data = encode(kind, messages, **fields)
-        while data:
-            data = data[os.write(self.out_fd, data):]
-
-    def receive(self):
-        """Return the next frame from the trusted side; end this process when it is gone."""
-        while not self.frames:
-            data = os.read(self.in_fd, 2 ** 20)
-            if not data:
-                os._exit(0)  # the trusted side ended the run
-            self.frames += self.decoder.feed(data)
-        return self.frames.pop(0)
-
-
-class Lockstep:
+class Lockstep(ProxyNode):
     """
     The agent's state: sim time, the proxy node, the student's nodes, the frames to send.
 
@@ -413,80 +358,6 @@ class Lockstep:
         while self.now_ns < deadline_ns:
             self.exchange(deadline_ns, context)
 
-    def _start_proxy(self, context) -> None:
-        import rclpy
-        if self.proxy is not None:
-            return
-        context = context or rclpy.utilities.get_default_context()
-        if not context.ok():
-            return
-        from rclpy.node import Node
-        self.proxy = Node.__new__(Node)
-        self.proxy._lab_proxy = True
-        Node.__init__(self.proxy, '_lab_agent_proxy', context=context,
-                      use_global_arguments=False, start_parameter_services=False,
-                      enable_rosout=False)
-
-    def _graph(self) -> list:
-        """Return what the student's nodes are: names, topics, types, parameters."""
-        shape = [(id(node), *(len(getattr(node, name, ())) for name in (
-            '_publishers', '_subscriptions', '_parameters'))) for node in self.nodes]
-        if shape == self.shape:  # the same nodes with as many entities: the same graph
-            return self.graph
-        self.shape = shape
-        graph = []
-        for node in self.nodes:
-            try:
-                graph.append({
-                    'name': node.get_name(), 'namespace': node.get_namespace(),
-                    'publishes': sorted({(p.topic_name, type_name(p.msg_type))
-                                         for p in node.publishers}),
-                    'subscribes': sorted({(s.topic_name, type_name(s.msg_type))
-                                          for s in node.subscriptions}),
-                    'parameters': sorted(node._parameters),
-                    'values': {name: parameter.value for name, parameter
-                               in node._parameters.items()
-                               if type(parameter.value) in (int, float)}})
-            except Exception:  # noqa: B902 a destroyed node
-                continue
-        return [{**entry, 'publishes': [list(t) for t in entry['publishes']],
-                 'subscribes': [list(t) for t in entry['subscribes']]} for entry in graph]
-
-    def _taken(self) -> list[Message]:
-        """Return the messages the nodes published since the last exchange, in order."""
-        if self.proxy is None:
-            return []
-        from rclpy.qos import QoSProfile, ReliabilityPolicy
-        for entry in self.graph or ():
-            for topic, name in entry['publishes']:
-                if topic not in self.taps and topic not in OWN_TOPICS:
-                    self.taps[topic] = self.proxy.create_subscription(
-                        message_class(name), topic, lambda _: None,
-                        QoSProfile(depth=PROXY_DEPTH, reliability=ReliabilityPolicy.BEST_EFFORT),
-                        raw=True)
-        taken = []
-        for topic, tap in self.taps.items():
-            while (got := tap.handle.take_message(tap.msg_type, True)) is not None:
-                data, info = got
-                taken.append((info['source_timestamp'], Message(
-                    topic, type_name(tap.msg_type), data)))
-        taken.sort(key=lambda item: item[0])
-        return [message for _, message in taken]
-
-    def _publisher(self, message: Message):
-        if self.proxy is None:
-            return None
-        if message.topic not in self.publishers:
-            from rclpy.qos import DurabilityPolicy, QoSProfile
-            latched = any(info.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL
-                          for info in self.proxy.get_subscriptions_info_by_topic(message.topic))
-            self.publishers[message.topic] = self.proxy.create_publisher(
-                message_class(message.type_name), message.topic, QoSProfile(
-                    depth=PROXY_DEPTH if not latched else 1,
-                    durability=DurabilityPolicy.TRANSIENT_LOCAL if latched
-                    else DurabilityPolicy.VOLATILE))
-        return self.publishers[message.topic]
-
 
 def thread_warnings() -> list[str]:
     """
@@ -552,15 +423,16 @@ def main(argv: list[str] | None = None) -> int:
     split = argv.index('--ros-args') if '--ros-args' in argv else len(argv)
     if '--' in argv[:split]:  # what follows is the target and its arguments, as given
         split = argv.index('--') + 2
-    parser = argparse.ArgumentParser(prog='python -m sim_bridge.runner.agent')
+    parser = argparse.ArgumentParser(prog='python -m sim_bridge.runner.boundary.inside.agent')
     parser.add_argument('--in', dest='in_fd', type=int, required=True)
     parser.add_argument('--out', dest='out_fd', type=int, required=True)
     parser.add_argument('target')
     args = parser.parse_args(argv[:split])
     os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'OFF'
     sys.stdout.reconfigure(line_buffering=True)
-    # A node stuck in its code: the trusted side asks where (sim_bridge.runner.boundary); in C
-    # code, where Python's handler cannot run, faulthandler says (SIGUSR2).
+    # A node stuck in its code: the trusted side asks where
+    # (sim_bridge.runner.boundary.outside.link); in C code, where Python's handler cannot run,
+    # faulthandler says (SIGUSR2).
     faulthandler.register(signal.SIGUSR2, all_threads=False)
     faulthandler.enable()  # a crash's stack, as the trusted side reads it from stderr
     run(args.target, argv[split:], Link(args.in_fd, args.out_fd))

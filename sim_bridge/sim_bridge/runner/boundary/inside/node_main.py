@@ -3,7 +3,8 @@ Start a TARGET in the node's process as ``ros2 run`` or ``python3`` would (for t
 
 Its module code runs, then its ``__main__`` block or ``main()``; a console script its entry
 point; a file of Node classes alone (or ``FILE:Class``) the class, spun by a canonical main.
-Imported only in a node's process (sim_bridge.runner.agent), never on the trusted side.
+Imported only in a node's process (sim_bridge.runner.boundary.inside.agent), never on the trusted
+side.
 """
 
 import ast

@@ -2,15 +2,15 @@
 The trust boundary: each student node file in a process of its own, in lockstep over pipes.
 
 The simulator and the runner's nodes run here (sim_bridge.runner.stepped_run); each target
-node file runs in a process of its own (sim_bridge.runner.agent).
+node file runs in a process of its own (sim_bridge.runner.boundary.inside.agent).
 
 Nothing of the node's process runs here and nothing it sends is code: frames
-(sim_bridge.runner.frames) carrying the CDR bytes of its nodes' messages, the ROS time it wakes
-at, and what its nodes are (names, topics, parameter names); and its printed text, read from
-its stdout and stderr. Each message is checked before it is published here: its topic's name,
-its type one of the installed message packages of INTERFACE_PACKAGES, its bytes deserialized as
-that type, its size within the caps of sim_bridge.runner.boundary_checks (as the graph's).
-Anything else fails that run, with a one-line reason, and nothing else.
+(sim_bridge.runner.boundary.wire.frames) carrying the CDR bytes of its nodes' messages, the ROS
+time it wakes at, and what its nodes are (names, topics, parameter names); and its printed text,
+read from its stdout and stderr. Each message is checked before it is published here: its topic's
+name, its type one of the installed message packages of INTERFACE_PACKAGES, its bytes deserialized
+as that type, its size within the caps of sim_bridge.runner.boundary.outside.boundary_checks (as
+the graph's). Anything else fails that run, with a one-line reason, and nothing else.
 
 Lockstep: the simulator steps physics; after a step that published something a node process
 subscribes to, or reached the ROS time it wakes at, the run sends it ``advance`` (the sim time
@@ -25,20 +25,17 @@ import signal
 import subprocess
 import sys
 import time
-from typing import Any, Callable, Iterable, Sequence
+from typing import Any, Callable, Sequence
 
-from sim_bridge.runner.boundary_checks import (
-    allowed_class, checked_graph, MAX_TOPICS, message_refusal, Refused)
-from sim_bridge.runner.frames import (
-    AGENT_KINDS, encode, Frame, FrameDecoder, FrameError, Message, type_name)
-from sim_bridge.runner.hints import topic_type_hint
+from sim_bridge.runner.boundary.outside.boundary_checks import checked_graph, Refused
+from sim_bridge.runner.boundary.outside.node_sandbox import NodeSandbox
+from sim_bridge.runner.boundary.outside.sandbox import Sandbox
+from sim_bridge.runner.boundary.outside.topics import TopicEnds
+from sim_bridge.runner.boundary.wire.frames import (
+    AGENT_KINDS, encode, Frame, FrameDecoder, FrameError, Message)
 from sim_bridge.runner.node_output import StreamLines
-from sim_bridge.runner.node_sandbox import NodeSandbox
-from sim_bridge.runner.sandbox import Sandbox
 from sim_bridge.runner.targets import is_library_frame
 
-#: ROS's own topics of every node: they stay in the node's process.
-OWN_TOPICS = ('/rosout', '/parameter_events')
 #: Wall seconds a node process may take to start (Python, rclpy, its imports, constructors).
 START_TIMEOUT_S = 60.0
 #: Wall seconds a node process may take to handle one step before the run fails.
@@ -96,7 +93,7 @@ def start_process(sandbox: Sandbox, argv: Sequence[str], env: dict[str, str],
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
 
 
-class Agent:
+class Agent(TopicEnds):
     """
     One node process seen from the trusted side: its pipes, its graph, its taps and publishers.
 
@@ -188,9 +185,9 @@ class Agent:
         """
         Say which node's code the process is stuck in, and where; then end the process.
 
-        Asked with SIGUSR1 (sim_bridge.runner.agent answers with a stuck frame); code in C, where
-        Python's handler cannot run, is asked with SIGUSR2 (Python's faulthandler prints the
-        stack on stderr). Each gets STACK_DUMP_S.
+        Asked with SIGUSR1 (sim_bridge.runner.boundary.inside.agent answers with a stuck frame);
+        code in C, where Python's handler cannot run, is asked with SIGUSR2 (Python's faulthandler
+        prints the stack on stderr). Each gets STACK_DUMP_S.
         """
         self.lines.cut(self.clock_ns(), '')
         before = len(self.lines.tail)
@@ -336,107 +333,6 @@ class Agent:
         except (TypeError, KeyError, ValueError, AttributeError):
             raise self.failure('sent a malformed graph') from None
 
-    def update_taps(self) -> None:
-        """Subscribe here (raw) to each topic the process's nodes subscribe to."""
-        from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-        for entry in self.graph:
-            for topic, name in entry['subscribes']:
-                msg_type = allowed_class(name)
-                if topic in self.taps or topic in OWN_TOPICS or msg_type is None:
-                    continue
-                publishers = self.node.get_publishers_info_by_topic(topic)
-                latched = publishers and all(
-                    info.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL
-                    for info in publishers)
-                qos = (QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL)
-                       if latched else
-                       QoSProfile(depth=1000, reliability=ReliabilityPolicy.BEST_EFFORT))
-                self.taps[topic] = self.created(
-                    topic, name, lambda: self.node.create_subscription(
-                        msg_type, topic, lambda _: None, qos, raw=True))
-
-    def update_publishers(self) -> None:
-        """
-        Publish here each topic the process's nodes publish, as soon as their graph says so.
-
-        So that the trusted side's graph shows their publishers before their first message:
-        the bridge subscribes to the command topic with the type they publish it as.
-        """
-        for entry in self.graph:
-            for topic, name in entry['publishes']:
-                msg_type = allowed_class(name)
-                if topic in self.publishers or topic in OWN_TOPICS or msg_type is None:
-                    continue
-                self.publishers[topic] = (self.created(
-                    topic, name, lambda: self.node.create_publisher(msg_type, topic, 1000)),
-                    msg_type)
-
-    def created(self, topic: str, name: str, create: Callable[[], Any]) -> Any:
-        """
-        Return what ``create()`` makes for ``topic`` (of type ``name``): a tap or a publisher.
-
-        Its failure when the process has MAX_TOPICS already, or when rcl refuses it (a second
-        type on a topic of the run): a node's error, never the trusted side's.
-        """
-        if len(self.taps) + len(self.publishers) >= MAX_TOPICS:
-            raise self.failure(f'uses {topic} beyond the cap of {MAX_TOPICS} topics per process')
-        try:
-            return create()
-        except Exception as error:  # noqa: B902 rclpy's RCLError: a second type
-            raise self.failure(f'uses {topic} as {name} '
-                               f'({topic_type_hint(error) or error})') from None
-
-    def taken(self, topics: Iterable[str] | None = None) -> list[Message]:
-        """Take the messages published here for the process since the last exchange."""
-        taken = []
-        for topic, tap in self.taps.items():
-            if topics is not None and topic not in topics:
-                continue
-            while (got := tap.handle.take_message(tap.msg_type, True)) is not None:
-                data, info = got
-                message = Message(topic, type_name(tap.msg_type), data)
-                taken.append((info['source_timestamp'], message))
-        taken.sort(key=lambda item: item[0])
-        return [message for _, message in taken]
-
-    def republish(self, messages: Sequence[Message]) -> None:
-        """
-        Publish here what the process's nodes published, each checked; fail if one is bad.
-
-        Checked: its type is the one the topic is published as here, and its bytes deserialize
-        as that type. What is published is the message rclpy read from them, never the bytes
-        (bytes after a message of an unbounded type would go on to the bag).
-        """
-        from rclpy.serialization import deserialize_message
-        for message in messages:
-            if message.topic in OWN_TOPICS:
-                continue
-            known = self.publishers.get(message.topic)
-            if known is None:
-                msg_type = allowed_class(message.type_name)
-                if msg_type is None:
-                    continue  # a type of no package the run knows: it stays in its process
-                known = self.publishers[message.topic] = (self.created(
-                    message.topic, message.type_name,
-                    lambda: self.node.create_publisher(msg_type, message.topic, 1000)),
-                    msg_type)
-            publisher, msg_type = known
-            if type_name(msg_type) != message.type_name:
-                raise self.failure(f'sent {message.topic} as {message.type_name}, a type it '
-                                   'did not publish it as')
-            refusal = message_refusal(message.topic, message.type_name, message.data)
-            try:
-                msg = None if refusal else deserialize_message(message.data, msg_type)
-            except Exception as error:  # noqa: B902 whatever rclpy raises on bad bytes
-                raise self.failure(f'sent bytes that are not a {message.type_name} on '
-                                   f'{message.topic} ({type(error).__name__})') from None
-            refusal = refusal or message_refusal(message.topic, message.type_name,
-                                                 message.data, msg)
-            if refusal:
-                raise self.failure(refusal)
-            publisher.publish(msg)
-        self.taken({m.topic for m in messages})  # not back to where they came from
-
     def kill(self) -> None:
         """End the process, and every process of its session and of its sandbox."""
         try:
@@ -488,7 +384,7 @@ class Agent:
 def agent_command(target: str, in_fd: int, out_fd: int,
                   node_arguments: Sequence[str]) -> list[str]:
     """Return the command line of the process that runs TARGET with ``node_arguments``."""
-    return [sys.executable, '-m', 'sim_bridge.runner.agent', '--in', str(in_fd),
+    return [sys.executable, '-m', 'sim_bridge.runner.boundary.inside.agent', '--in', str(in_fd),
             '--out', str(out_fd), '--', str(target), *node_arguments]
 
 

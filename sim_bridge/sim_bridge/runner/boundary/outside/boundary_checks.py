@@ -5,7 +5,7 @@ What a node process says it is (its graph: nodes, their topics and parameters) m
 trusted side create publishers and subscriptions; what it publishes is republished and
 recorded. Each is bounded here, before anything is created or recorded: a graph or a message
 over a cap is refused with one line naming the node (or topic) and the cap, as a
-:class:`Refused`; the boundary fails that run with it (sim_bridge.runner.boundary).
+:class:`Refused`; the boundary fails that run with it (sim_bridge.runner.boundary.outside.link).
 
 Caps (a lab's nodes use a handful of topics and parameters, messages of a few kB):
 
@@ -19,7 +19,7 @@ Caps (a lab's nodes use a handful of topics and parameters, messages of a few kB
 import math
 from typing import Any
 
-from sim_bridge.runner.frames import valid_topic, valid_type
+from sim_bridge.runner.boundary.wire.frames import valid_topic, valid_type
 
 #: The message packages whose types may cross the boundary: the ones a lab's nodes use.
 INTERFACE_PACKAGES = frozenset((
