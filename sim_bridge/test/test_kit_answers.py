@@ -3,7 +3,7 @@ No run of a student's node reads an answer of the kit, in any sandbox mode.
 
 The answers: the kit's reference nodes (the modules of scan_pkg's console scripts), the
 controllers they run (``scan_pkg.behaviors``), the worked examples (``examples/``) and the
-grader's own scan geometry (``sim_bridge/scoring/scan_geometry.py``), in any
+grader's own scan geometry (``sim_bridge/scoring/scan_geometry.py``; in bubblewrap only), in any
 copy (a build folder, a venv) and as bytecode. fixtures/hostile/answer_hunt.py is the hostile
 student: a node file that walks / and names every file it can read holding one, matched by
 contents. It runs in bubblewrap, and with the dedicated uid alone (PARTLY sandboxed: as root
@@ -34,21 +34,22 @@ REPOSITORY = Path(__file__).resolve().parents[2]
 HUNT_TIMEOUT_S = 300.0
 
 
-def answer_sources(kit: Path) -> list[Path]:
+def answer_sources(kit: Path, grader_key: bool = True) -> list[Path]:
     """Return the kit's answers: reference nodes, controllers, examples, the grader's key."""
     sources = [*map(Path, reference_node_sources()), *sorted((kit / 'examples').glob('*.py')),
-               *(KIT_PACKAGE / name for name in GRADER_KEYS)]
+               *(KIT_PACKAGE / name for name in GRADER_KEYS if grader_key)]
     assert len(sources) >= 10, sources  # the five nodes, the controllers, the examples
     return sources
 
 
-def hunt(tmp_path: Path, python: str, answer_hunt, kit: Path = REPOSITORY) -> dict:
+def hunt(tmp_path: Path, python: str, answer_hunt, kit: Path = REPOSITORY,
+         grader_key: bool = True) -> dict:
     """Run the hostile node as a student's node file in its sandbox; return what it found."""
     student = tmp_path / 'student'
     student.mkdir()
     shutil.copy(HOSTILE / 'answer_hunt.py', student / 'answer_hunt.py')
     library = kit / 'scan_pkg' / 'scan_pkg' / 'report.py'
-    looked_for = json.dumps(answer_hunt.wanted(answer_sources(kit), [library]))
+    looked_for = json.dumps(answer_hunt.wanted(answer_sources(kit, grader_key), [library]))
     where = NodeSandbox(str(student / 'answer_hunt.py'), SandboxLimits())
     with where.sandbox as box, tempfile.TemporaryFile() as output:
         status = box.popen([python, where.target, looked_for], where.environment(),
@@ -74,6 +75,7 @@ def test_partly_sandboxed_no_file_of_the_kit_a_run_can_read_holds_an_answer(
     monkeypatch.setattr(sandbox_module, 'LAUNCHER_PYTHON', shared_python)
     monkeypatch.setattr(sandbox_module, 'isolation_mode',
                         lambda: IsolationMode('uid', 'namespaces turned off by the test'))
-    found = hunt(tmp_path, shared_python, answer_hunt)
+    # The grader's key stays readable without namespaces (kit_answers): the grader reads it.
+    found = hunt(tmp_path, shared_python, answer_hunt, grader_key=False)
     # The run sees the whole machine: other checkouts of the kit are other people's files.
     assert [path for path in found['answers'] if is_within(path, [str(REPOSITORY)])] == []

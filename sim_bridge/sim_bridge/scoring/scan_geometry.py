@@ -11,8 +11,9 @@ the range straight ahead and the nearest valid return, and the bands of the lab'
 The kit's nodes keep their own, richer :mod:`scan_pkg.laser` (a range at any bearing, cached
 windows per geometry, a node's input refused field by field) rather than sharing this one: a
 student's node may import scan_pkg's library in its sandbox, whereas this module is an answer
-key (its bands are what task 3 prints) hidden from every node's run
-(sim_bridge.runner.boundary.outside.node_sandbox.grader_files), so the library a node reads cannot be built on it.
+key (its bands are what task 3 prints) hidden from every node's run in bubblewrap
+(sim_bridge.runner.boundary.outside.kit_answers), so the library a node reads cannot be built
+on it.
 
 Conventions as REP-103 and REP-117 state them, and scan_pkg.laser follows: beam ``i`` looks at
 ``angle_min + i * angle_increment`` (rad, CCW from straight ahead); a reading is valid when

@@ -4,7 +4,10 @@ What of the kit holds answers, in every copy a run could read: what a student's 
 The answers are the kit's reference nodes (the modules of scan_pkg's console scripts), the
 controllers they run (``scan_pkg.behaviors``) and the worked examples (``examples/``); and the
 grader's own answer key in sim_bridge (GRADER_KEYS, :func:`grader_key_files`), which every run
-sees empty, the kit's own nodes' too (none of them reads it). A
+in bubblewrap sees empty, the kit's own nodes' too (none of them reads it). Without namespaces
+(PARTLY sandboxed) the key stays readable: the grader imports it as whatever user runs it, and
+mode bits that closed it to a run's uid would close it to that user too; it holds what the
+handout's own sample code prints (the range ahead, five region minima), no behaviour. A
 copy of them lies wherever the kit was built or installed: a venv's site folder (an
 autograder's), setuptools' ``build/lib`` and ``*.egg-info`` beside a package that ``pip
 install FOLDER`` built, colcon's ``build/`` and ``install/``, git's history, Python's bytecode
