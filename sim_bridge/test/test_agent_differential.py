@@ -20,7 +20,6 @@ import pytest
 from rclpy.serialization import deserialize_message
 from rosbags.rosbag2 import Reader
 from sim_bridge.runner.node_output import console_pattern
-from sim_bridge.runner.run import run_simulation
 
 FIXTURES = Path(__file__).parent / 'fixtures' / 'differential'
 PLAIN_RUN = Path(__file__).parent / 'plain_rclpy_run.py'
@@ -59,13 +58,21 @@ def live(tmp_path: Path, name: str) -> tuple[list[tuple], list[Twist]]:
     return console_lines(done.stdout.splitlines()), messages
 
 
-def stepped(tmp_path: Path, name: str, monkeypatch) -> tuple[list[tuple], list[Twist]]:
-    """Run the node file in a stepped run; return its console lines and its /cmd_vel."""
-    monkeypatch.setenv('RCUTILS_CONSOLE_OUTPUT_FORMAT', CONSOLE_FORMAT)
+def stepped(tmp_path: Path, name: str) -> tuple[list[tuple], list[Twist]]:
+    """
+    Run the node file in a stepped run; return its console lines and its /cmd_vel.
+
+    The run is a process of its own: rcutils reads RCUTILS_CONSOLE_OUTPUT_FORMAT once per
+    process, so this test's format would otherwise be every later test's.
+    """
     out = tmp_path / 'stepped'
-    result = run_simulation('obstacles', [str(FIXTURES / name)], duration_s=6.0, out_dir=out,
-                            quiet=True, plot=False)
-    assert result.metrics['node_errors'] == []
+    done = subprocess.run(
+        [sys.executable, '-m', 'sim_bridge.commands.run', '--world', 'obstacles', '--node',
+         str(FIXTURES / name), '--duration', '6', '--out', str(out), '--quiet', '--no-plot'],
+        capture_output=True, text=True, timeout=LIVE_TIMEOUT_S,
+        env=dict(os.environ, RCUTILS_CONSOLE_OUTPUT_FORMAT=CONSOLE_FORMAT))
+    assert done.returncode == 0, done.stderr
+    assert json.loads((out / 'metrics.json').read_text())['node_errors'] == []
     entries = [json.loads(line) for line in (out / 'log.jsonl').read_text().splitlines()]
     with Reader(out / 'run') as bag:
         connections = [c for c in bag.connections if c.topic == '/cmd_vel']
@@ -80,9 +87,9 @@ def stepped(tmp_path: Path, name: str, monkeypatch) -> tuple[list[tuple], list[T
     'multithreaded.py',    # MultiThreadedExecutor, spin_until_future_complete
     'busy_poll_ticks.py',  # main() polling time.time() while a thread spins: paced
 ])
-def test_a_node_says_and_publishes_the_same_live_and_stepped(tmp_path, monkeypatch, name):
+def test_a_node_says_and_publishes_the_same_live_and_stepped(tmp_path, name):
     live_lines, live_messages = live(tmp_path, name)
-    stepped_lines, stepped_messages = stepped(tmp_path, name, monkeypatch)
+    stepped_lines, stepped_messages = stepped(tmp_path, name)
     assert len(live_messages) == 10 and len(live_lines) >= 5  # the file ran to its end
     assert stepped_lines == live_lines
     assert stepped_messages == live_messages

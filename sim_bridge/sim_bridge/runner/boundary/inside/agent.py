@@ -106,6 +106,10 @@ class Lockstep(ProxyNode):
         #: :meth:`pace`); the wall time (ns) the last step was delivered at.
         self.main_inside = 0
         self.main_left = (monotonic_ns(), 0)
+        #: Whether main() ever waited in the agent (spun, slept): a main() that never did, nor
+        #: read the clock, with no thread spinning, is still starting (stuck in a constructor,
+        #: say), which the trusted side's watchdog names, so it is never paced.
+        self.main_entered = False
         self.paced_from: tuple[tuple[int, int], int, int] | None = None
         self.step_wall_ns = monotonic_ns()
         self.clock_lock = threading.Lock()
@@ -181,6 +185,7 @@ class Lockstep(ProxyNode):
             yield
             return
         self.main_inside += 1
+        self.main_entered = True
         try:
             yield
         finally:
@@ -210,7 +215,8 @@ class Lockstep(ProxyNode):
         """
         Step the run while main()'s own code keeps the main thread from the agent (a thread).
 
-        Once it has been BUSY_MAIN_S away (wall time) with nodes made, sim time follows the
+        Once it has been BUSY_MAIN_S away (wall time) with nodes made, and main() has waited
+        in the agent before, or reads the clock, or another thread spins, sim time follows the
         wall clock from then on, never ahead of it: steps of PACE_STEP_S at most, or to the
         nodes' next timer, each message delivered at its time; the threads that spin handle
         it as ever. A main() that polls the clock gets to read it after each step (SEE_S of
@@ -248,6 +254,7 @@ class Lockstep(ProxyNode):
         left = self.main_left
         wall_ns = monotonic_ns()
         if (self.main_inside or not self.nodes
+                or not (self.spinners or self.main_reads or self.main_entered)
                 or wall_ns - left[0] < BUSY_MAIN_S * NANOSECONDS_PER_SECOND):
             return None
         if self.paced_from is None or self.paced_from[0] != left:
