@@ -17,7 +17,7 @@ from sim_bridge.grading.gradescope import build, SCENARIOS_DIR
 def main(argv: list[str] | None = None) -> int:
     """Build autograder.zip (the ``build`` command); return 0, or 2 with a one-line error."""
     parser = argparse.ArgumentParser(
-        prog='python -m sim_bridge.commands.autograder',
+        prog='./lab autograder',
         description="Build Gradescope's autograder.zip: the kit, the scenarios, setup.sh and "
         'run_autograder.')
     commands = parser.add_subparsers(dest='command', required=True)

@@ -69,9 +69,8 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
                              "task's), typed as --ros-args -p types it (repeatable)")
     parser.add_argument('--record', type=Path, metavar='OUT_DIR',
                         help="keep a stepped run's outputs in OUT_DIR (recording, log lines "
-                             'with their sim time, metrics, plot): python -m '
-                             'sim_bridge.commands.video '
-                             'OUT_DIR makes its video')
+                             'with their sim time, metrics, plot): ./lab video OUT_DIR '
+                             'makes its video')
     return parser.parse_args(argv)
 
 
@@ -114,8 +113,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             recorder.line(stream, line)
     with recorder:
         status = run_live(specs, args.duration, on_line=keep)
-    print_line(log_line('INFO', LOGGER, f'recorded in {args.record}: python -m '
-                                        'sim_bridge.commands.video '
+    print_line(log_line('INFO', LOGGER, f'recorded in {args.record}: ./lab video '
                                         f'{args.record} --names "..." makes its video'))
     return status
 
