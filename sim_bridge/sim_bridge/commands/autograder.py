@@ -1,9 +1,9 @@
 """
 ``./lab autograder SCENARIO... [-o autograder.zip]``: build Gradescope's autograder.zip.
 
-``python -m sim_bridge.commands.autograder build SCENARIO... -o autograder.zip`` packs the kit,
+``./lab autograder SCENARIO... -o autograder.zip`` packs the kit,
 the chosen scenario files, ``setup.sh`` and ``run_autograder`` (what each holds and does:
-sim_bridge.grading.gradescope, and the README's Gradescope section).
+sim_bridge.grading.gradescope, and docs/instructors.md, Gradescope).
 """
 
 import argparse

@@ -6,7 +6,7 @@ Run a lab task live: the simulator and the task's node as two ROS 2 processes, a
 starts what ``ros2 launch sim_bridge lab.launch.py task:=TASK`` starts on a ROS 2 machine, on a
 machine that has only Python (launch and launch_ros are not on PyPI):
 
-- ``sim_bridge-1``: ``python -m sim_bridge.bridge --ros-args --params-file <sim.yaml>
+- ``sim_bridge-1``: ``python -m sim_bridge.ros.bridge --ros-args --params-file <sim.yaml>
   -p world:=W -p gui:=... -p real_time_factor:=F [-p robot:=NAME -p robot_pose:=[X, Y, YAW]]``,
   the simulator (with the robot model NAME spawned at the pose) stepping its physics on its
   own steady-clock timer, publishing /scan, /odom and /clock;
