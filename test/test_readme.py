@@ -1,8 +1,9 @@
 """
 The README and docs/ document what the code does, and its commands work.
 
-Every driving-node parameter is listed (docs/students.md); ``./lab test PYTEST_OPTIONS`` (pytest alone over the
-three test folders) collects, and ``./lab test`` prints its one-line total, pass or fail.
+Every driving-node parameter is listed (docs/students.md); ``./lab test PYTEST_OPTIONS``
+(pytest alone over the three test folders) collects, and ``./lab test`` prints its one-line
+total, pass or fail.
 """
 
 import os

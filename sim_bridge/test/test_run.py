@@ -1022,9 +1022,9 @@ def test_two_runs_at_once_and_a_live_bridge_beside_them_do_not_hear_each_other(t
     # A live simulator on the same domain, with discovery on, and a listener counting what
     # reaches /cmd_vel there: the runs' commands must not.
     live = subprocess.Popen(
-        [sys.executable, '-m', 'sim_bridge.ros.bridge', '--ros-args', '-p', 'world:=wall_follow_box',
-         '-p', 'real_time_factor:=2.0'], env=env, stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL)
+        [sys.executable, '-m', 'sim_bridge.ros.bridge', '--ros-args',
+         '-p', 'world:=wall_follow_box', '-p', 'real_time_factor:=2.0'],
+        env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     listener = subprocess.Popen([sys.executable, str(FIXTURES / 'topic_counter.py'), '8'],
                                 env=env, stdout=subprocess.PIPE, text=True)
     try:

@@ -80,7 +80,7 @@ def task_name(text: str) -> str:
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     """Parse the command line; a bad one is one line on stderr (exit status 2)."""
     parser = OneLineParser(prog='./lab video', description=__doc__.strip().splitlines()[0],
-                           epilog="./lab video OUT_DIR --names \"...\" [-o FILE.mp4] [--speed N]: "
+                           epilog='./lab video OUT_DIR --names "..." [-o FILE.mp4] [--speed N]: '
                            "the video of a finished run's output folder instead (./lab video "
                            'OUT_DIR --help)')
     parser.add_argument('task', type=task_name, metavar='TASK',
