@@ -1,4 +1,4 @@
-"""Every test process keeps its ROS 2 traffic to itself (README, How a run works)."""
+"""Every test process keeps its ROS 2 traffic to itself (docs/internals.md, How a run works)."""
 
 from sim_bridge.common.run_environment import keep_dds_in_process
 

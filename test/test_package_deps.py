@@ -150,7 +150,7 @@ def test_modules_without_a_key_are_in_requirements():
 
 
 def test_the_ros_machine_s_pip_file_has_what_rosdep_installs_with_pip_or_cannot():
-    """On Ubuntu 24.04 rosdep's pip rules fail (PEP 668): the venv gets them (README)."""
+    """On Ubuntu 24.04 rosdep's pip rules fail (PEP 668): the venv gets them (docs/install.md)."""
     declared_keys = set().union(*(keys for package in PACKAGES
                                   for keys in declared(package).values()))
     pip_rules = {record[2] for record in key_records()

@@ -1,8 +1,9 @@
 """
-The README documents what the code does, and its commands work.
+The README and docs/ document what the code does, and its commands work.
 
-Every driving-node parameter is listed; ``./lab test PYTEST_OPTIONS`` (pytest alone over the
-three test folders) collects, and ``./lab test`` prints its one-line total, pass or fail.
+Every driving-node parameter is listed (docs/students.md); ``./lab test PYTEST_OPTIONS``
+(pytest alone over the three test folders) collects, and ``./lab test`` prints its one-line
+total, pass or fail.
 """
 
 import os
@@ -17,10 +18,10 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 @pytest.mark.parametrize('node', ['wanderbot', 'wall_follow'])
-def test_readme_lists_every_parameter_of_the_driving_nodes(node):
+def test_the_students_page_lists_every_parameter_of_the_driving_nodes(node):
     shipped = yaml.safe_load((ROOT / 'scan_pkg' / 'params' / f'{node}.yaml').read_text())
-    readme = (ROOT / 'README.md').read_text()
-    section = readme[readme.index(f'`{node}` parameters'):]
+    students = (ROOT / 'docs' / 'students.md').read_text()
+    section = students[students.index(f'`{node}` parameters'):]
     for name in shipped[node]['ros__parameters']:
         assert f'`{name}`' in section, name
 

@@ -1,5 +1,5 @@
 """
-Every test process keeps its ROS 2 traffic to itself (README, How a run works).
+Every test process keeps its ROS 2 traffic to itself (docs/internals.md, How a run works).
 
 ``shared_python``: a Python with this one's packages that every user can run (a run's uid
 without namespaces sees the host's folders). ``answer_hunt``: the hostile node that names the

@@ -124,7 +124,7 @@ def main(args=None):
 
 @pytest.mark.parametrize('node', ['too big', 'crashes', 'not submitted', 'passes'])
 def test_a_class_exits_1_for_every_kind_of_failed_run_alike(tmp_path, node):
-    """README: 0 when every run passed, 1 when any failed, whatever made it fail."""
+    """docs/instructors.md: 0 when every run passed, 1 when any failed, whatever made it fail."""
     submissions = tmp_path / 'class'
     if node == 'too big':
         class_folder(submissions, ana=None)

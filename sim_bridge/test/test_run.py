@@ -481,8 +481,8 @@ def test_without_field_checks_the_int_goes_out_as_jazzy_sends_it(tmp_path, run_m
     assert status == 0
     commands = read_bag(tmp_path / 'run')['/cmd_vel']
     assert len(commands) == 2 * SCAN_RATE
-    # The int 0 is sent as the double whose bits are 0: 0.0 (5 would be 5e-324: README, Running
-    # and grading in one process).
+    # The int 0 is sent as the double whose bits are 0: 0.0 (5 would be 5e-324: docs/students.md,
+    # Field checks).
     assert [twist.angular.z for _, twist in commands] == [0.0] * len(commands)
     assert os.environ.get('ROS_PYTHON_CHECK_FIELDS') is None
 
@@ -1052,9 +1052,9 @@ def test_two_runs_at_once_and_a_live_bridge_beside_them_do_not_hear_each_other(t
     # A live simulator on the same domain, with discovery on, and a listener counting what
     # reaches /cmd_vel there: the runs' commands must not.
     live = subprocess.Popen(
-        [sys.executable, '-m', 'sim_bridge.bridge', '--ros-args', '-p', 'world:=wall_follow_box',
-         '-p', 'real_time_factor:=2.0'], env=env, stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL)
+        [sys.executable, '-m', 'sim_bridge.ros.bridge', '--ros-args',
+         '-p', 'world:=wall_follow_box', '-p', 'real_time_factor:=2.0'],
+        env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     listener = subprocess.Popen([sys.executable, str(FIXTURES / 'topic_counter.py'), '8'],
                                 env=env, stdout=subprocess.PIPE, text=True)
     try:

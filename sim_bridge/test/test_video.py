@@ -501,3 +501,14 @@ def test_the_graders_video_of_a_counterclockwise_scenario_draws_the_robot_where_
     (column, row), = FrameRenderer(footage, '').world.pixels(expected[-1:])
     centre = drawn_robot_centre(frames[-1], tolerance=40)
     assert np.hypot(centre[0] - column, centre[1] - row) < 6.0, (centre, column, row)
+
+
+@pytest.mark.parametrize('task', ['4', 'task4', 'wall_follow'])
+def test_lab_video_takes_a_task_first_and_a_run_folder_otherwise(task, tmp_path, capsys):
+    """``./lab video`` (the console script lab_video too) is one command for both videos."""
+    with pytest.raises(SystemExit) as exited:  # a task: the handout's video, its rules
+        video_command.main([task, '--names', NAMES, '--out', str(tmp_path / 'refused')])
+    assert exited.value.code == 2
+    assert capsys.readouterr().err.startswith('error: --names without --node')
+    assert video_command.main([str(tmp_path)]) == 2  # a folder: a finished run's video
+    assert 'metrics.json' in capsys.readouterr().err

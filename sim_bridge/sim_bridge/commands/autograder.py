@@ -1,9 +1,9 @@
 """
 ``./lab autograder SCENARIO... [-o autograder.zip]``: build Gradescope's autograder.zip.
 
-``python -m sim_bridge.commands.autograder build SCENARIO... -o autograder.zip`` packs the kit,
+``./lab autograder SCENARIO... -o autograder.zip`` packs the kit,
 the chosen scenario files, ``setup.sh`` and ``run_autograder`` (what each holds and does:
-sim_bridge.grading.gradescope, and the README's Gradescope section).
+sim_bridge.grading.gradescope, and docs/instructors.md, Gradescope).
 """
 
 import argparse
@@ -17,7 +17,7 @@ from sim_bridge.grading.gradescope import build, SCENARIOS_DIR
 def main(argv: list[str] | None = None) -> int:
     """Build autograder.zip (the ``build`` command); return 0, or 2 with a one-line error."""
     parser = argparse.ArgumentParser(
-        prog='python -m sim_bridge.commands.autograder',
+        prog='./lab autograder',
         description="Build Gradescope's autograder.zip: the kit, the scenarios, setup.sh and "
         'run_autograder.')
     commands = parser.add_subparsers(dest='command', required=True)

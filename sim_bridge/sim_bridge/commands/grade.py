@@ -77,7 +77,7 @@ def report_names(out: Path, submissions: Path | None = None,
 def build_parser() -> argparse.ArgumentParser:
     """Return the command-line parser of the grader."""
     parser = argparse.ArgumentParser(
-        prog='python -m sim_bridge.grade',
+        prog='./lab grade',
         description='Run scenario files in the simulator and judge their criteria.')
     parser.add_argument('scenarios', nargs='+', metavar='SCENARIO',
                         help='a scenario file, or a folder of them (e.g. scenarios/)')

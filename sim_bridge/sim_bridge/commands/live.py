@@ -6,7 +6,7 @@ X Y YAW]] [--duration S] [--gui] [--rtf F]`` (``./lab live``)
 starts what ``ros2 launch sim_bridge lab.launch.py task:=TASK`` starts on a ROS 2 machine, on a
 machine that has only Python (launch and launch_ros are not on PyPI):
 
-- ``sim_bridge-1``: ``python -m sim_bridge.bridge --ros-args --params-file <sim.yaml>
+- ``sim_bridge-1``: ``python -m sim_bridge.ros.bridge --ros-args --params-file <sim.yaml>
   -p world:=W -p gui:=... -p real_time_factor:=F [-p robot:=NAME -p robot_pose:=[X, Y, YAW]]``,
   the simulator (with the robot model NAME spawned at the pose) stepping its physics on its
   own steady-clock timer, publishing /scan, /odom and /clock;
@@ -76,9 +76,8 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
                              "task's), typed as --ros-args -p types it (repeatable)")
     parser.add_argument('--record', type=Path, metavar='OUT_DIR',
                         help="keep a stepped run's outputs in OUT_DIR (recording, log lines "
-                             'with their sim time, metrics, plot): python -m '
-                             'sim_bridge.commands.video '
-                             'OUT_DIR makes its video')
+                             'with their sim time, metrics, plot): ./lab video OUT_DIR '
+                             'makes its video')
     return parser.parse_args(argv)
 
 
@@ -121,8 +120,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             recorder.line(stream, line)
     with recorder:
         status = run_live(specs, args.duration, on_line=keep)
-    print_line(log_line('INFO', LOGGER, f'recorded in {args.record}: python -m '
-                                        'sim_bridge.commands.video '
+    print_line(log_line('INFO', LOGGER, f'recorded in {args.record}: ./lab video '
                                         f'{args.record} --names "..." makes its video'))
     return status
 

@@ -1,5 +1,5 @@
 """
-Close a recording cut short: ``python -m sim_bridge.commands.record recover BAG``.
+Close a recording cut short: ``./lab record recover BAG``.
 
 A bag whose recording ended without closing (a crash, ``kill -9``) keeps its ``metadata.yaml``
 (written when the recording began) and the MCAP chunks that reached its file; ``recover``
@@ -15,8 +15,8 @@ import yaml
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m sim_bridge.commands.record recover BAG``: close a bag that was cut short."""
-    parser = argparse.ArgumentParser(prog='python -m sim_bridge.commands.record')
+    """``./lab record recover BAG``: close a bag that was cut short."""
+    parser = argparse.ArgumentParser(prog='./lab record')
     commands = parser.add_subparsers(dest='command', required=True)
     recover_command = commands.add_parser('recover',
                                           help='close a bag whose recording was cut short')

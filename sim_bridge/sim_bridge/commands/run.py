@@ -70,7 +70,7 @@ def terminal_progress() -> Callable[[float, float], None]:
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     """Parse the runner's command line."""
     parser = argparse.ArgumentParser(
-        prog='python -m sim_bridge.run', description=__doc__.strip().splitlines()[0],
+        prog='./lab run', description=__doc__.strip().splitlines()[0],
         epilog='TARGET: a console script (wall_follow), a module (scan_pkg.wall_follow) or a '
                '.py file, optionally followed by :ClassName. Arguments from --ros-args on go '
                "to the nodes unchanged, as after ros2 run's executable.")

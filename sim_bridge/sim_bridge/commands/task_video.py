@@ -1,7 +1,7 @@
 """
 The handout's video of a lab task in one command: ``./lab video TASK --node FILE --names "..."``.
 
-``python -m sim_bridge.commands.task_video TASK --node FILE --names "Ada Lovelace 123, ..."
+``./lab video TASK --node FILE --names "Ada Lovelace 123, ..."
 [--direction cw|ccw] [--speed N] [--out DIR] [-o FILE]`` runs the student's node FILE in the
 first seed of the task's shipped scenario (sim_bridge.live.lab_tasks.TASK_SCENARIOS, with its
 ``drive:`` segments where it has them, as the grader runs it), its outputs in ``--out`` (default
@@ -79,7 +79,10 @@ def task_name(text: str) -> str:
 
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     """Parse the command line; a bad one is one line on stderr (exit status 2)."""
-    parser = OneLineParser(prog='./lab video', description=__doc__.strip().splitlines()[0])
+    parser = OneLineParser(prog='./lab video', description=__doc__.strip().splitlines()[0],
+                           epilog='./lab video OUT_DIR --names "..." [-o FILE.mp4] [--speed N]: '
+                           "the video of a finished run's output folder instead (./lab video "
+                           'OUT_DIR --help)')
     parser.add_argument('task', type=task_name, metavar='TASK',
                         help=f"{', '.join(TASK_SCENARIOS)}, or the handout's task number")
     parser.add_argument('--node', type=Path, metavar='FILE',
