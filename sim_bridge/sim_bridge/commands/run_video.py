@@ -3,22 +3,9 @@ Render a finished run as a video: the robot in its world beside the nodes' termi
 
 ``./lab video OUT_DIR --names "Ada Lovelace 123, ..." [-o labscan_task4.mp4] [--speed N]
 [--fps F]`` (sim_bridge.commands.video hands it a finished run's folder) reads what a run left
-in its output folder and writes an H.264 MP4 (yuv420p, faststart: it plays in a browser and in
-common players):
-
-- ``params.yaml``: the simulator's world, robot model and start pose (the ``sim_bridge`` entry);
-- ``run/``: the rosbag2 recording, its ``/odom`` (the robot's pose, the simulator's ground
-  truth) and ``/scan`` (every lidar scan);
-- ``log.jsonl``: the nodes' console lines with the simulated time each was written;
-- ``metrics.json``: the run's simulated length, its collisions and the command of each node.
-
-Frames are at simulated time: a 76 s run is a 76 s video at ``speed`` 1, 19 s at 4. Each frame
-shows the world from above as the robot could hit it (drawn once by sim_bridge.plot, then the
-moving parts drawn on a copy), the path so far, the robot's outline, the beams of the last scan
-and the simulated clock; beside it a terminal with the node's command at its top and the console
-lines that were written by then, scrolling as a terminal does; the names on a banner over both.
-Rendering uses matplotlib's Agg canvas and Pillow (no display), the encoder is the FFmpeg that
-imageio-ffmpeg ships on PyPI. Pure: no rclpy.
+in its output folder (``params.yaml``, the recording ``run/``, ``log.jsonl``, ``metrics.json``)
+and writes an H.264 MP4 that plays in a browser and in common players; what each frame shows,
+and from which of those files, is :mod:`sim_bridge.media.video`'s. Pure: no rclpy.
 """
 
 import argparse
