@@ -292,7 +292,9 @@ class Lockstep(ProxyNode):
 
         Each step delivered is handled (every callback it makes ready, handed out one at a
         time) before the thread parks with nothing ready; the main thread waits for that
-        (:meth:`_drain_threads`). A timeout lasts its simulated time.
+        (:meth:`_drain_threads`). A timeout lasts its simulated time. A parked thread wakes
+        when its executor or its context shuts down, as rclpy's wait does: at once for the
+        context (:meth:`shutdown_seen`), within LOOK_S of wall time for the executor.
         """
         from rclpy.executors import TimeoutException
         timeout = getattr(timeout_sec, 'timeout', timeout_sec)
@@ -320,7 +322,13 @@ class Lockstep(ProxyNode):
                 self.spinners[thread] = seen
                 self.time_passed.notify_all()
                 self.time_passed.wait_for(lambda: self.steps > seen or (
-                    deadline is not None and self.now_ns >= deadline))
+                    deadline is not None and self.now_ns >= deadline) or (
+                    executor._is_shutdown or not executor.context.ok()), LOOK_S)
+
+    def shutdown_seen(self) -> None:
+        """Wake the threads parked in a wait: their context shut down (see thread_wait)."""
+        with self.time_passed:
+            self.time_passed.notify_all()
 
     def hand_over(self) -> None:
         """

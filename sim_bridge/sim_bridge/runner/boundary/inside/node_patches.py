@@ -230,5 +230,6 @@ def install(lockstep) -> None:
     def note_shutdown() -> None:
         lockstep.shutdown_where = lockstep.code.stack_origin(traceback.extract_stack()[:-1])
         lockstep.shutdown_in = lockstep.running
+        lockstep.shutdown_seen()
     lockstep.note_shutdown = note_shutdown  # the context keeps a weak reference to methods
     rclpy.utilities.get_default_context().on_shutdown(note_shutdown)
