@@ -7,6 +7,7 @@ skipped where the machine has none; the tests of the dedicated uid also run with
 namespaces (the 'uid' mode, as in a Docker container that refuses them).
 """
 
+import dataclasses
 import json
 import os
 from pathlib import Path
@@ -487,6 +488,25 @@ def test_without_isolation_the_sandbox_says_so(monkeypatch):
             assert box.isolation.startswith('NOT sandboxed: bubblewrap is not installed')
     finally:
         isolation_mode.cache_clear()
+
+
+@needs_namespaces
+def test_bubblewrap_found_off_a_runs_path_is_run_by_its_own_path(tmp_path, monkeypatch):
+    # An instructor's bwrap in a folder of their own PATH (~/bin, say): a run's launcher has
+    # a PATH of its own, so the grader runs bwrap by the path it found.
+    program, called = tmp_path / 'bwrap', tmp_path / 'called'
+    program.write_text(f'#!/bin/sh\necho called > {called}\nexec {shutil.which("bwrap")} "$@"\n')
+    program.chmod(0o755)
+    mode = dataclasses.replace(isolation_mode(), bwrap_program=str(program))
+    monkeypatch.setattr(sandbox_module, 'isolation_mode', lambda: mode)
+    with Sandbox(hostile('sleeper')) as box, tempfile.TemporaryFile() as output:
+        process = box.popen([sys.executable, '-c', "print('ran')"],
+                            clean_environment(box.scratch), stdout=output,
+                            stderr=subprocess.STDOUT)
+        assert process.wait(RUN_TIMEOUT_S) == 0
+        output.seek(0)
+        assert output.read().decode() == 'ran\n'
+    assert called.read_text() == 'called\n'
 
 
 @pytest.mark.parametrize('python', ['uid'], indirect=True)

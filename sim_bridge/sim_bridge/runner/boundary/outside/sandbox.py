@@ -148,10 +148,16 @@ class SandboxLimits:
 
 @dataclass(frozen=True)
 class IsolationMode:
-    """How this machine isolates runs: ``kind`` ('bwrap-root', 'bwrap-user', 'uid', 'none')."""
+    """
+    How this machine isolates runs: ``kind`` ('bwrap-root', 'bwrap-user', 'uid', 'none').
+
+    ``bwrap_program`` is the path of the bubblewrap program found on this process's PATH (run by its
+    path: a run's launcher has a PATH of its own).
+    """
 
     kind: str
     why: str = ''
+    bwrap_program: str = ''
 
     @property
     def bwrap(self) -> bool:
@@ -182,7 +188,8 @@ def isolation_mode() -> IsolationMode:
             why = f'bwrap did not run ({error})'
         else:
             if done.returncode == 0:
-                return IsolationMode('bwrap-root' if root else 'bwrap-user')
+                return IsolationMode('bwrap-root' if root else 'bwrap-user',
+                                     bwrap_program=bwrap)
             why = 'bwrap cannot make namespaces here: ' + (
                 done.stderr.strip().splitlines() or [f'exit status {done.returncode}'])[-1]
     return IsolationMode('uid' if root else 'none', why)
@@ -357,7 +364,8 @@ class Sandbox:
         info_read = info_write = None
         if self.mode.bwrap:
             info_read, info_write = os.pipe()
-            command = ['bwrap', *self.bwrap_arguments(info_write), '--', *command]
+            command = [self.mode.bwrap_program, *self.bwrap_arguments(info_write), '--',
+                       *command]
         if self.cgroup is not None:
             command = self.cgroup.joining(command)
         try:
