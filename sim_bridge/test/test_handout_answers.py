@@ -225,17 +225,25 @@ def test_a_careful_wanderbot_that_stops_turns_and_never_collides_gets_full_marks
     assert task['marks'] == 3.0, lost(task)
 
 
-@pytest.mark.skipif(not COLCON.is_file(), reason='colcon is not installed beside this Python')
-def test_the_handouts_scan_pkg_builds_beside_sim_bridge_and_its_own_node_runs(tmp_path):
-    # The student's workspace: src/sim_bridge (the kit's) and src/scan_pkg (their own).
-    shutil.copytree(WORKSPACE / 'sim_bridge', tmp_path / 'src' / 'sim_bridge',
+@pytest.fixture(scope='module')
+def student_workspace(tmp_path_factory) -> Path:
+    """Build the student's workspace: src/sim_bridge (the kit's) and src/scan_pkg (their own)."""
+    if not COLCON.is_file():
+        pytest.skip('colcon is not installed beside this Python')
+    root = tmp_path_factory.mktemp('student_workspace')
+    shutil.copytree(WORKSPACE / 'sim_bridge', root / 'src' / 'sim_bridge',
                     ignore=shutil.ignore_patterns('__pycache__', '*.egg-info'))
-    make_student_package(tmp_path / 'src' / 'scan_pkg')
+    make_student_package(root / 'src' / 'scan_pkg')
     build = subprocess.run(
         [str(COLCON), '--log-base', 'log', 'build', '--build-base', 'build', '--install-base',
-         'install'], cwd=tmp_path, capture_output=True, text=True, timeout=600)
+         'install'], cwd=root, capture_output=True, text=True, timeout=600)
     assert build.returncode == 0, build.stdout + build.stderr
-    install = tmp_path / 'install'
+    return root
+
+
+def test_the_handouts_scan_pkg_builds_beside_sim_bridge_and_its_own_node_runs(
+        student_workspace):
+    install = student_workspace / 'install'
     # What sourcing install/setup.bash puts first: the workspace's packages, the student's
     # scan_pkg (taking the kit's name) with them.
     [student] = install.glob('scan_pkg/lib/python*/site-packages')
@@ -244,12 +252,12 @@ def test_the_handouts_scan_pkg_builds_beside_sim_bridge_and_its_own_node_runs(tm
     prefixes = [str(install / 'scan_pkg'), str(install / 'sim_bridge')]
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(python_path),
                AMENT_PREFIX_PATH=os.pathsep.join(prefixes))
-    out = tmp_path / 'out'
+    out = student_workspace / 'run_out'
     run = subprocess.run(
         [sys.executable, '-c', RUN_WITHOUT_KITS_SCAN_PKG, '--world', 'obstacles', '--node',
          'scan_ahead',
          '--duration', '2', '--out', str(out), '--no-record', '--no-plot', '--quiet'],
-        cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
+        cwd=student_workspace, env=env, capture_output=True, text=True, timeout=600)
     assert run.returncode == 0, run.stdout + run.stderr
     assert json.loads((out / 'metrics.json').read_text())['node_errors'] == []
     texts = [json.loads(line).get('text', '') for line in
@@ -258,3 +266,25 @@ def test_the_handouts_scan_pkg_builds_beside_sim_bridge_and_its_own_node_runs(tm
     # The handout's own words (str() of the reading), not the kit's answer ('1.23 m').
     assert ranges and all(re.fullmatch(r'Range ahead: \d+\.\d{3,}', text) for text in ranges), \
         texts[:5]
+
+
+def test_lab_check_in_the_students_built_workspace_grades_their_sources_as_the_ta_page_says(
+        student_workspace):
+    # ``./lab check ~/ros2_ws`` after ``colcon build``: the copies colcon put in build/ and
+    # install/ are not the student's files; src/scan_pkg/scan_pkg's are, and are graded.
+    out = student_workspace / 'check_out'
+    check = subprocess.run(
+        [sys.executable, '-m', 'sim_bridge.commands.check', str(student_workspace),
+         '--scenario', str(WORKSPACE / 'scenarios' / 'scan_ahead.yaml'),
+         '--scenario', str(WORKSPACE / 'scenarios' / 'scan_around.yaml'), '--out', str(out)],
+        capture_output=True, text=True, timeout=600)
+    assert check.returncode == 1, check.stdout + check.stderr  # a point lost
+    lines = check.stdout.splitlines()
+    for node in ('scan_ahead', 'scan_around'):
+        assert f'note: {node}.py: graded src/scan_pkg/scan_pkg/{node}.py' in lines, lines
+    assert '  task 1: 2/2' in lines and '  task 3: 1/2' in lines, lines
+    # The lost point in the words of the TA's page (the student's report.json).
+    [task_3] = [task for task in json.loads((out / 'report.json').read_text())['marks']['tasks']
+                if task['task'] == '3']
+    [(point, why)] = lost(task_3).items()
+    assert f'    lost 1 of 1, {point}: {why}' in lines, lines
