@@ -11,8 +11,11 @@ DDS traffic stays in the test process (conftest.py).
 import copy
 from dataclasses import replace
 import math
+import os
 from pathlib import Path
 import shutil
+import subprocess
+import sys
 import time
 
 from geometry_msgs.msg import PointStamped, TransformStamped, Twist, TwistStamped
@@ -792,6 +795,26 @@ def test_world_parameter_takes_a_path_anywhere(session, tmp_path):
 def test_unknown_world_raises_naming_the_shipped_worlds(session):
     with pytest.raises(FileNotFoundError, match='no_such_world.*wall_follow_box'):
         session.bridge(world='no_such_world')
+
+
+@pytest.mark.parametrize('parameter, said', [
+    ('world:=5', "parameter 'world' to '5' of type 'INTEGER', expecting type 'STRING'"),
+    ('world:=no_such_world', "unknown world 'no_such_world': shipped worlds are obstacles"),
+    ('robot_pose:=[1.0]', "parameter 'robot_pose' must be [x, y, yaw]"),
+    ('world:={broken}', 'broken.world: invalid XML: mismatched tag'),
+])
+def test_the_simulator_node_refuses_a_bad_start_in_one_line(tmp_path, parameter, said):
+    # ros2 run sim_bridge sim_bridge --ros-args -p ...: its own process, its main().
+    broken = tmp_path / 'broken.world'
+    broken.write_text('<sdf version="1.6"><world name="w"><model name="m"><link name="l">'
+                      '</model></world></sdf>')
+    done = subprocess.run(
+        [sys.executable, '-m', 'sim_bridge.ros.bridge', '--ros-args', '-p',
+         parameter.format(broken=broken)], capture_output=True, text=True, timeout=120,
+        env=dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE='OFF'))
+    assert done.returncode == 1
+    [line] = [line for line in done.stderr.splitlines() if not line.startswith('[INFO]')]
+    assert line.startswith('sim_bridge: cannot start: ') and said in line, done.stderr
 
 
 def test_robot_pose_parameter_places_the_robot(session):

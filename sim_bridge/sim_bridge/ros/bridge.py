@@ -29,6 +29,7 @@ from array import array
 from fractions import Fraction
 from functools import partial
 import math
+import sys
 
 from geometry_msgs.msg import PointStamped, TransformStamped, Twist, TwistStamped
 from nav_msgs.msg import Odometry
@@ -36,6 +37,7 @@ import numpy as np
 import rclpy
 from rclpy.clock import Clock as RclpyClock, ClockType
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
+from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -50,6 +52,7 @@ except ImportError:  # tf2_ros is part of a ROS 2 installation, not of the PyPI 
     StaticTransformBroadcaster = TransformBroadcaster = None
 
 from sim_bridge.common.message_types import message_type_name
+from sim_bridge.common.text import one_line
 from sim_bridge.ros.rviz import publish_scene
 from sim_bridge.simulation.geometry import quaternion_from_euler
 from sim_bridge.simulation.robot import DiffDriveConfig, DriveLimits, pose_from
@@ -577,10 +580,18 @@ class SimBridge(Node):
 
 
 def main(args=None):
-    """Spin the simulator until Ctrl-C, which also ends it cleanly while the world is loading."""
+    """
+    Spin the simulator until Ctrl-C, which also ends it cleanly while the world is loading.
+
+    A bad parameter (``-p world:=5``), an unknown world, or a world or robot file it cannot
+    load ends the process with one line naming it (exit status 1), never a traceback.
+    """
     rclpy.init(args=args)
     try:
-        node = SimBridge()
+        try:
+            node = SimBridge()
+        except (OSError, ValueError, LookupError, ParameterException) as error:
+            sys.exit(f'sim_bridge: cannot start: {one_line(str(error))}')
         try:
             rclpy.spin(node)
         finally:
