@@ -151,8 +151,8 @@ class IsolationMode:
     """
     How this machine isolates runs: ``kind`` ('bwrap-root', 'bwrap-user', 'uid', 'none').
 
-    ``bwrap_program`` is the path of the bubblewrap program found on this process's PATH (run by its
-    path: a run's launcher has a PATH of its own).
+    ``bwrap_program`` is the path of the bubblewrap program found on this process's PATH (run
+    by its path: a run's launcher has a PATH of its own).
     """
 
     kind: str
