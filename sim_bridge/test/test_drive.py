@@ -6,6 +6,7 @@ from pathlib import Path
 import pytest
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import get_typestore, Stores
+from run_warnings import run_warnings
 from sim_bridge.common.errors import RunError
 from sim_bridge.grading.scenario import scenario_from_dict, ScenarioError
 from sim_bridge.ros.drive import DriveError, DrivePlan, parse_drive, Segment
@@ -73,7 +74,7 @@ def test_a_segment_that_never_came_near_its_obstacle_is_a_warning(tmp_path):
                             quiet=True, plot=False, record=False,
                             drive=[{'duration': 2.0, 'linear': 0.2,
                                     'until': {'within_m': 0.4, 'of': 'cylinder'}}])
-    assert result.metrics['warnings'] == [
+    assert run_warnings(result.metrics) == [
         'drive[0]: ended after its 2 s with the robot never within 0.4 m of cylinder']
 
 

@@ -17,6 +17,7 @@ import textwrap
 
 import pytest
 from rosbags.rosbag2 import Reader
+from run_warnings import run_warnings
 from sim_bridge.commands.run import main
 from sim_bridge.common.errors import RunError
 from sim_bridge.runner.boundary.inside.node_main import prepare
@@ -178,12 +179,12 @@ def test_a_run_names_the_topics_nothing_is_at_the_other_end_of(tmp_path):
         '/scan: --remap /robot/scan:=/scan)',
         'cruiser publishes /robot/cmd_vel: nothing subscribes to it (the simulator subscribes '
         'to /cmd_vel: --remap /robot/cmd_vel:=/cmd_vel)']
-    assert metrics['warnings'] == warnings and metrics['distance_m'] == 0.0
+    assert run_warnings(metrics) == warnings and metrics['distance_m'] == 0.0
     assert all(f'warning: {warning}' in console for warning in warnings)
     # The rules it names connect it: it drives, and nothing is left to warn of.
     metrics, _ = run_file(tmp_path, 'namespaced_loop.py', 3.0, '--no-record', '--remap',
                           '/robot/scan:=/scan', '--remap', '/robot/cmd_vel:=/cmd_vel')
-    assert metrics['warnings'] == [] and metrics['distance_m'] > 0.3
+    assert run_warnings(metrics) == [] and metrics['distance_m'] > 0.3
 
 
 def test_gui_without_a_display_is_refused_in_one_line_before_anything_starts(
@@ -238,7 +239,7 @@ def test_a_node_that_ends_itself_in_its_main_loop_ends_the_run_with_every_output
     assert metrics['ended_by'] == (
         "node 'timed_drive_loop' shut ROS down (rclpy.shutdown()) in its main() at "
         f"{FIXTURES / 'timed_drive_loop.py'}:25: rclpy.shutdown()")
-    assert metrics['warnings'] == [f"{metrics['ended_by']}: the run ended at 2 s of its 20 s"]
+    assert run_warnings(metrics) == [f"{metrics['ended_by']}: the run ended at 2 s of its 20 s"]
     assert metrics['sim_time_s'] == pytest.approx(2.0)  # its 2 s of driving, exactly
     assert 'done driving' in console
     out = tmp_path / 'out'
@@ -293,7 +294,7 @@ def test_ros_args_after_the_target_reach_a_stepped_node_unchanged(tmp_path, caps
 def test_ros_args_after_the_target_reach_a_main_loop_unchanged(tmp_path):
     metrics, _ = run_file(tmp_path, 'namespaced_loop.py', 3.0, '--no-record', '--ros-args',
                           '-r', '/robot/scan:=/scan', '-r', '/robot/cmd_vel:=/cmd_vel')
-    assert metrics['warnings'] == [] and metrics['distance_m'] > 0.3
+    assert run_warnings(metrics) == [] and metrics['distance_m'] > 0.3
 
 
 def test_a_class_of_both_styles_is_graded_each_run_in_its_child(tmp_path):
@@ -345,7 +346,7 @@ def test_a_parameter_a_main_loops_node_does_not_declare_is_a_warning(tmp_path):
                           '--param', 'cruiser:speed=0.2', '--param', 'cruiser:sped=0.2',
                           '--param', 'ghost:speed=0.2')
     # Read from the node's process, as `ros2 param list` would list them.
-    assert metrics['warnings'] == [
+    assert run_warnings(metrics) == [
         'parameters given for node(s) ghost, but the nodes are sim_bridge, cruiser; they were '
         'ignored',
         "node 'cruiser' did not declare parameter 'sped' (given by --param or the params "
@@ -359,7 +360,7 @@ def test_a_run_measures_the_wall_distance_against_the_nodes_own_distance(tmp_pat
     result = run_simulation('wall_follow_box', [wall_follow.__file__], duration_s=3.0, seed=1,
                             params={'wall_follow': {'distance': 0.6}}, out_dir=tmp_path,
                             quiet=True, record=False, plot=False)
-    assert result.metrics['node_errors'] == [] and result.metrics['warnings'] == []
+    assert result.metrics['node_errors'] == [] and run_warnings(result.metrics) == []
     assert result.metrics['wall_distance_m']['setpoint'] == 0.6
 
 

@@ -23,6 +23,7 @@ import numpy as np
 import pytest
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import get_typestore, Stores
+from run_warnings import run_warnings
 from sim_bridge.commands.run import main
 from sim_bridge.common.errors import RunError, UserInterrupt
 from sim_bridge.grading.scenario import scenario_from_dict
@@ -609,7 +610,7 @@ def test_a_node_spinning_its_own_executor_in_a_callback_leaves_mains_spin_as_on_
 
 def assert_warned(out_dir, stderr, warnings):
     """Check a run's warnings: in metrics.json and as ``warning:`` lines on stderr, in order."""
-    assert load_metrics(out_dir)['warnings'] == warnings
+    assert run_warnings(load_metrics(out_dir)) == warnings
     assert [line[len('warning: '):] for line in stderr.splitlines()
             if line.startswith('warning: ')] == warnings
 
@@ -634,7 +635,7 @@ def test_parameters_for_a_node_that_is_not_running_are_a_warning_as_ros_ignores_
                             'wall_follow:distance=0.6', '--duration', '0.2', '--no-record',
                             '--no-plot', '--out', str(tmp_path))
     assert status == 0
-    assert load_metrics(tmp_path)['warnings'] == [
+    assert run_warnings(load_metrics(tmp_path)) == [
         'parameters given for node(s) wall_follow, but the nodes are sim_bridge, scan_ahead; '
         'they were ignored']
 
@@ -649,7 +650,7 @@ def test_a_node_on_other_topics_drives_with_remapping_rules(tmp_path, run_main):
         '--duration', '10', '--quiet', '--no-plot', '--out', str(tmp_path))
     assert status == 0
     metrics = load_metrics(tmp_path)
-    assert metrics['distance_m'] > 1.0 and metrics['warnings'] == []
+    assert metrics['distance_m'] > 1.0 and run_warnings(metrics) == []
     assert 'warning' not in stderr
     # Recorded under the simulator's name: the runner's own nodes are not remapped.
     assert len(read_bag(tmp_path / 'run')['/cmd_vel']) > 10
@@ -687,7 +688,7 @@ def test_the_simulator_is_not_remapped(tmp_path, run_main):
     assert status == 0
     metrics = load_metrics(tmp_path)
     assert metrics['distance_m'] < 0.01
-    assert metrics['warnings'] == [
+    assert run_warnings(metrics) == [
         'wall_follow publishes /wall_follow/cmd_vel: nothing subscribes to it (the simulator '
         'subscribes to /cmd_vel: --remap /wall_follow/cmd_vel:=/cmd_vel)']
 
@@ -710,13 +711,13 @@ def test_a_students_wall_follower_is_graded_by_the_scenarios_params_remaps_and_s
     assert wall['setpoint'] == 0.5 and isinstance(wall['mae'], float)
     # target_distance reached the node (its default is 0.8 m).
     assert wall['mean'] == pytest.approx(0.5, abs=0.1)
-    assert report.metrics['warnings'] == [
+    assert run_warnings(report.metrics) == [
         "no node declared parameter 'distance' (given for every node, /**); it was ignored"]
     assert report.passed
 
 
 def test_a_run_with_only_declared_parameters_has_no_warnings(wall_follow_runs):
-    assert load_metrics(wall_follow_runs['first'])['warnings'] == []
+    assert run_warnings(load_metrics(wall_follow_runs['first'])) == []
 
 
 def test_a_node_that_shuts_ros_down_ends_the_run_with_every_output(tmp_path, run_main):
@@ -729,7 +730,7 @@ def test_a_node_that_shuts_ros_down_ends_the_run_with_every_output(tmp_path, run
     ended_by = ("node 'quitter' shut ROS down (rclpy.shutdown()) in its timer callback at "
                 f'{node_file}:26: rclpy.shutdown()')
     assert metrics['ended_by'] == ended_by and metrics['node_errors'] == []
-    assert metrics['warnings'] == [f'{ended_by}: the run ended at 1 s of its 3 s']
+    assert run_warnings(metrics) == [f'{ended_by}: the run ended at 1 s of its 3 s']
     assert f'warning: {ended_by}' in stderr and ended_by in stdout
     assert metrics['sim_time_s'] == pytest.approx(1.0)
     assert metrics['distance_m'] == pytest.approx(0.2 * 0.9, abs=0.03)
@@ -829,7 +830,7 @@ def test_what_the_world_does_not_simulate_is_said_once_and_kept_in_the_metrics(
     assert stderr.count('ignored: 1 light') == 1
     metrics = load_metrics(tmp_path)
     assert metrics['ignored'] == 'ignored: 1 light'
-    assert metrics['warnings'] == []
+    assert run_warnings(metrics) == []
 
 
 def test_start_pose_inside_an_obstacle_cannot_start(tmp_path):
