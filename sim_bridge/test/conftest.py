@@ -3,7 +3,8 @@ Every test process keeps its ROS 2 traffic to itself (docs/internals.md, How a r
 
 ``shared_python``: a Python with this one's packages that every user can run (a run's uid
 without namespaces sees the host's folders). ``answer_hunt``: the hostile node that names the
-files it can read holding an answer of the kit.
+files it can read holding an answer of the kit. ``run_warnings``: a run's own warnings, without
+the machine's sandbox warning.
 """
 
 import importlib.util
@@ -70,3 +71,20 @@ def answer_hunt():
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
+
+
+#: How a run's warning about the machine begins where runs are not fully sandboxed
+#: (node_sandbox.isolation_warning): as root without bubblewrap, as a user without it.
+SANDBOX_WARNINGS = ('runs PARTLY sandboxed: ', 'runs NOT sandboxed: ')
+
+
+@pytest.fixture
+def run_warnings():
+    """
+    Return a function that gives a run's own warnings: the machine's sandbox warning left out.
+
+    That one says what the machine allows, the same for every run there; a test of a run's
+    warnings compares the others.
+    """
+    return lambda warnings: [warning for warning in warnings
+                             if not warning.startswith(SANDBOX_WARNINGS)]

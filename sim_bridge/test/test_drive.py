@@ -6,7 +6,6 @@ from pathlib import Path
 import pytest
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import get_typestore, Stores
-from run_warnings import run_warnings
 from sim_bridge.common.errors import RunError
 from sim_bridge.grading.scenario import scenario_from_dict, ScenarioError
 from sim_bridge.ros.drive import DriveError, DrivePlan, parse_drive, Segment
@@ -68,13 +67,13 @@ def test_the_plan_holds_each_segment_for_its_duration_or_until_near_the_obstacle
     assert plan.missed == []
 
 
-def test_a_segment_that_never_came_near_its_obstacle_is_a_warning(tmp_path):
+def test_a_segment_that_never_came_near_its_obstacle_is_a_warning(tmp_path, run_warnings):
     # The cylinder is off to the left: 2 s straight ahead never come within 0.4 m of it.
     result = run_simulation('obstacles', ['scan_ahead'], duration_s=3.0, out_dir=tmp_path,
                             quiet=True, plot=False, record=False,
                             drive=[{'duration': 2.0, 'linear': 0.2,
                                     'until': {'within_m': 0.4, 'of': 'cylinder'}}])
-    assert run_warnings(result.metrics) == [
+    assert run_warnings(result.metrics['warnings']) == [
         'drive[0]: ended after its 2 s with the robot never within 0.4 m of cylinder']
 
 

@@ -15,7 +15,6 @@ from types import SimpleNamespace
 
 import pytest
 
-from run_warnings import run_warnings
 from sim_bridge.commands import grade
 from sim_bridge.commands.grade import main
 from sim_bridge.common import paths
@@ -391,7 +390,7 @@ def test_measured_values_read_with_their_units(tmp_path, runs):
         'c/seed_1', 'min_clearance_m', '>=', '0.05', '0.000', 'm', 'FAIL']
 
 
-def test_warnings_are_shown_and_fail_nothing(tmp_path, runs):
+def test_warnings_are_shown_and_fail_nothing(tmp_path, runs, run_warnings):
     warning = "node 'wall_follow' was given parameters it does not declare: speed"
 
     def simulate_with_a_warning(world, targets, **options):
@@ -404,7 +403,7 @@ def test_warnings_are_shown_and_fail_nothing(tmp_path, runs):
     assert lines[2].split() == ['box_ccw/seed_1', 'warning:', *warning.split(), 'warn']
     write_report([report], tmp_path / 'report.json')
     [run] = json.loads((tmp_path / 'report.json').read_text())['runs']
-    assert run_warnings(run['metrics']) == [warning]
+    assert run_warnings(run['metrics']['warnings']) == [warning]
 
 
 @pytest.mark.parametrize('params, start, shown', [

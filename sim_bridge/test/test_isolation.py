@@ -18,7 +18,6 @@ import time
 
 import pytest
 
-from run_warnings import run_warnings
 from sim_bridge.common import paths
 from sim_bridge.grading import isolate, limits
 from sim_bridge.grading.batch import BatchProgress, grade_runs
@@ -73,7 +72,7 @@ def batch(tmp_path_factory):
     return {report.run.scenario.name: report for report in reports}
 
 
-def test_the_passing_run_passes_beside_every_failure(batch):
+def test_the_passing_run_passes_beside_every_failure(batch, run_warnings):
     assert len(batch) == 9
     assert batch['passing'].passed, batch['passing'].error
     # A callback sleeping an hour sleeps an hour of simulated time, as on Gazebo: the 2 s run
@@ -81,7 +80,8 @@ def test_the_passing_run_passes_beside_every_failure(batch):
     assert [name for name, report in batch.items() if report.passed] == ['passing', 'sleep']
     assert (batch['passing'].out_dir / 'metrics.json').is_file()
     assert (batch['passing'].out_dir / RESULT_NAME).is_file()
-    assert not run_warnings(batch['passing'].metrics)  # the runner's own threads are not named
+    # The runner's own threads are not named.
+    assert not run_warnings(batch['passing'].metrics['warnings'])
 
 
 def test_a_callback_that_never_returns_is_stopped_with_its_outputs(batch):
@@ -404,12 +404,12 @@ def test_a_process_a_node_starts_in_a_session_of_its_own_ends_with_the_run(
     assert [pid for pid in host_pids(started) if process_exists(pid)] == []
 
 
-def test_a_thread_a_node_leaves_running_ends_with_the_run_and_is_named(tmp_path):
+def test_a_thread_a_node_leaves_running_ends_with_the_run_and_is_named(tmp_path, run_warnings):
     [report] = grade_runs(
         jobs_of(tmp_path, [scenario('threaded', str(FIXTURES / 'thread_node.py'))]),
         limits=Limits(stall_s=STALL_S), quiet=True, record=False, plot=False)
     assert report.passed, report.error
-    [warning] = run_warnings(report.metrics)
+    [warning] = run_warnings(report.metrics['warnings'])
     assert re.fullmatch(r"node thread 'Thread-\d+ \(control_loop\)', in control_loop at "
                         r'thread_node\.py:\d+ was still running when the run ended; it was '
                         r'stopped \(.*\)', warning), warning

@@ -17,7 +17,6 @@ import textwrap
 
 import pytest
 from rosbags.rosbag2 import Reader
-from run_warnings import run_warnings
 from sim_bridge.commands.run import main
 from sim_bridge.common.errors import RunError
 from sim_bridge.runner.boundary.inside.node_main import prepare
@@ -172,19 +171,19 @@ def test_ctrl_c_stops_a_run_and_writes_its_outputs(tmp_path):
     assert metrics['sim_time_s'] < 600
 
 
-def test_a_run_names_the_topics_nothing_is_at_the_other_end_of(tmp_path):
+def test_a_run_names_the_topics_nothing_is_at_the_other_end_of(tmp_path, run_warnings):
     metrics, console = run_file(tmp_path, 'namespaced_loop.py', 2.0, '--no-record')
     warnings = [
         'cruiser subscribes to /robot/scan: nothing publishes it (the simulator publishes '
         '/scan: --remap /robot/scan:=/scan)',
         'cruiser publishes /robot/cmd_vel: nothing subscribes to it (the simulator subscribes '
         'to /cmd_vel: --remap /robot/cmd_vel:=/cmd_vel)']
-    assert run_warnings(metrics) == warnings and metrics['distance_m'] == 0.0
+    assert run_warnings(metrics['warnings']) == warnings and metrics['distance_m'] == 0.0
     assert all(f'warning: {warning}' in console for warning in warnings)
     # The rules it names connect it: it drives, and nothing is left to warn of.
     metrics, _ = run_file(tmp_path, 'namespaced_loop.py', 3.0, '--no-record', '--remap',
                           '/robot/scan:=/scan', '--remap', '/robot/cmd_vel:=/cmd_vel')
-    assert run_warnings(metrics) == [] and metrics['distance_m'] > 0.3
+    assert run_warnings(metrics['warnings']) == [] and metrics['distance_m'] > 0.3
 
 
 def test_gui_without_a_display_is_refused_in_one_line_before_anything_starts(
@@ -233,13 +232,15 @@ def test_a_ros_module_missing_in_a_node_file_says_where_it_comes_from(tmp_path, 
             ) in error['error']
 
 
-def test_a_node_that_ends_itself_in_its_main_loop_ends_the_run_with_every_output(tmp_path):
+def test_a_node_that_ends_itself_in_its_main_loop_ends_the_run_with_every_output(
+        tmp_path, run_warnings):
     metrics, console = run_file(tmp_path, 'timed_drive_loop.py', 20.0, plot=True)
     assert metrics['node_errors'] == []
     assert metrics['ended_by'] == (
         "node 'timed_drive_loop' shut ROS down (rclpy.shutdown()) in its main() at "
         f"{FIXTURES / 'timed_drive_loop.py'}:25: rclpy.shutdown()")
-    assert run_warnings(metrics) == [f"{metrics['ended_by']}: the run ended at 2 s of its 20 s"]
+    assert run_warnings(metrics['warnings']) == [
+        f"{metrics['ended_by']}: the run ended at 2 s of its 20 s"]
     assert metrics['sim_time_s'] == pytest.approx(2.0)  # its 2 s of driving, exactly
     assert 'done driving' in console
     out = tmp_path / 'out'
@@ -291,10 +292,10 @@ def test_ros_args_after_the_target_reach_a_stepped_node_unchanged(tmp_path, caps
         "error: rcl cannot read the nodes' arguments: Couldn't parse remap rule: '-r bad'\n")
 
 
-def test_ros_args_after_the_target_reach_a_main_loop_unchanged(tmp_path):
+def test_ros_args_after_the_target_reach_a_main_loop_unchanged(tmp_path, run_warnings):
     metrics, _ = run_file(tmp_path, 'namespaced_loop.py', 3.0, '--no-record', '--ros-args',
                           '-r', '/robot/scan:=/scan', '-r', '/robot/cmd_vel:=/cmd_vel')
-    assert run_warnings(metrics) == [] and metrics['distance_m'] > 0.3
+    assert run_warnings(metrics['warnings']) == [] and metrics['distance_m'] > 0.3
 
 
 def test_a_class_of_both_styles_is_graded_each_run_in_its_child(tmp_path):
@@ -340,13 +341,13 @@ def test_turtlebot3_scan_code_in_a_main_loop_gets_the_scans_geometry(tmp_path):
     assert result.metrics['node_errors'] == [] and result.metrics['distance_m'] > 0.2
 
 
-def test_a_parameter_a_main_loops_node_does_not_declare_is_a_warning(tmp_path):
+def test_a_parameter_a_main_loops_node_does_not_declare_is_a_warning(tmp_path, run_warnings):
     remaps = ('--remap', '/robot/scan:=/scan', '--remap', '/robot/cmd_vel:=/cmd_vel')
     metrics, _ = run_file(tmp_path, 'namespaced_loop.py', 3.0, '--no-record', *remaps,
                           '--param', 'cruiser:speed=0.2', '--param', 'cruiser:sped=0.2',
                           '--param', 'ghost:speed=0.2')
     # Read from the node's process, as `ros2 param list` would list them.
-    assert run_warnings(metrics) == [
+    assert run_warnings(metrics['warnings']) == [
         'parameters given for node(s) ghost, but the nodes are sim_bridge, cruiser; they were '
         'ignored',
         "node 'cruiser' did not declare parameter 'sped' (given by --param or the params "
@@ -354,13 +355,13 @@ def test_a_parameter_a_main_loops_node_does_not_declare_is_a_warning(tmp_path):
     assert 0.1 < metrics['distance_m'] < 0.65  # 3 s at 0.2 m/s at most, not its 0.3 m/s
 
 
-def test_a_run_measures_the_wall_distance_against_the_nodes_own_distance(tmp_path):
+def test_a_run_measures_the_wall_distance_against_the_nodes_own_distance(tmp_path, run_warnings):
     # No setpoint given: the node's `distance` parameter, as its process says it is.
     from scan_pkg import wall_follow
     result = run_simulation('wall_follow_box', [wall_follow.__file__], duration_s=3.0, seed=1,
                             params={'wall_follow': {'distance': 0.6}}, out_dir=tmp_path,
                             quiet=True, record=False, plot=False)
-    assert result.metrics['node_errors'] == [] and run_warnings(result.metrics) == []
+    assert result.metrics['node_errors'] == [] and run_warnings(result.metrics['warnings']) == []
     assert result.metrics['wall_distance_m']['setpoint'] == 0.6
 
 

@@ -23,7 +23,6 @@ import numpy as np
 import pytest
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import get_typestore, Stores
-from run_warnings import run_warnings
 from sim_bridge.commands.run import main
 from sim_bridge.common.errors import RunError, UserInterrupt
 from sim_bridge.grading.scenario import scenario_from_dict
@@ -608,14 +607,19 @@ def test_a_node_spinning_its_own_executor_in_a_callback_leaves_mains_spin_as_on_
     assert 'timer call 1' in lines and 'timer call 2' not in lines
 
 
-def assert_warned(out_dir, stderr, warnings):
+def assert_warned(out_dir, stderr, warnings, run_warnings):
     """Check a run's warnings: in metrics.json and as ``warning:`` lines on stderr, in order."""
-    assert run_warnings(load_metrics(out_dir)) == warnings
-    assert [line[len('warning: '):] for line in stderr.splitlines()
-            if line.startswith('warning: ')] == warnings
+    assert run_warnings(load_metrics(out_dir)['warnings']) == warnings
+    assert run_warnings(warned(stderr)) == warnings
 
 
-def test_a_parameter_no_node_declared_is_a_warning(tmp_path, run_main):
+def warned(stderr: str) -> list[str]:
+    """Return the ``warning:`` lines of a run's stderr, without their prefix."""
+    return [line[len('warning: '):] for line in stderr.splitlines()
+            if line.startswith('warning: ')]
+
+
+def test_a_parameter_no_node_declared_is_a_warning(tmp_path, run_main, run_warnings):
     status, _, stderr = run_main(
         '--world', 'wall_follow_box', '--node', 'wall_follow', '--param', 'wall_follow:nosuch=1',
         '--param', 'wall_follow:distance=0.6', '--param', 'sim_bridge:nosuch_either=true',
@@ -626,16 +630,16 @@ def test_a_parameter_no_node_declared_is_a_warning(tmp_path, run_main):
         'file); it was ignored',
         "node 'sim_bridge' did not declare parameter 'nosuch_either' (given by --param or the "
         'params file); it was ignored']
-    assert_warned(tmp_path, stderr, warnings)
+    assert_warned(tmp_path, stderr, warnings, run_warnings)
 
 
 def test_parameters_for_a_node_that_is_not_running_are_a_warning_as_ros_ignores_them(
-        tmp_path, run_main):
+        tmp_path, run_main, run_warnings):
     status, _, _ = run_main('--world', 'wall_follow_box', '--node', 'scan_ahead', '--param',
                             'wall_follow:distance=0.6', '--duration', '0.2', '--no-record',
                             '--no-plot', '--out', str(tmp_path))
     assert status == 0
-    assert run_warnings(load_metrics(tmp_path)) == [
+    assert run_warnings(load_metrics(tmp_path)['warnings']) == [
         'parameters given for node(s) wall_follow, but the nodes are sim_bridge, scan_ahead; '
         'they were ignored']
 
@@ -644,14 +648,14 @@ HUSKY_FOLLOWER = str(FIXTURES / 'husky_wall_follower.py')
 HUSKY_REMAPS = ('--remap', '/robot/scan:=/scan', '--remap', '/husky/cmd_vel:=/cmd_vel')
 
 
-def test_a_node_on_other_topics_drives_with_remapping_rules(tmp_path, run_main):
+def test_a_node_on_other_topics_drives_with_remapping_rules(tmp_path, run_main, run_warnings):
     status, _, stderr = run_main(
         '--world', 'wall_follow_box', '--node', HUSKY_FOLLOWER, *HUSKY_REMAPS,
         '--duration', '10', '--quiet', '--no-plot', '--out', str(tmp_path))
     assert status == 0
     metrics = load_metrics(tmp_path)
-    assert metrics['distance_m'] > 1.0 and run_warnings(metrics) == []
-    assert 'warning' not in stderr
+    assert metrics['distance_m'] > 1.0 and run_warnings(metrics['warnings']) == []
+    assert run_warnings(warned(stderr)) == []
     # Recorded under the simulator's name: the runner's own nodes are not remapped.
     assert len(read_bag(tmp_path / 'run')['/cmd_vel']) > 10
 
@@ -667,7 +671,7 @@ def test_a_remapping_rule_can_name_the_node(tmp_path, run_main):
 
 
 def test_topics_nothing_is_at_the_other_end_of_are_warned_with_the_rule_to_fix_them(
-        tmp_path, run_main):
+        tmp_path, run_main, run_warnings):
     status, _, stderr = run_main(
         '--world', 'wall_follow_box', '--node', HUSKY_FOLLOWER, '--duration', '1',
         '--no-record', '--no-plot', '--out', str(tmp_path))
@@ -677,10 +681,10 @@ def test_topics_nothing_is_at_the_other_end_of_are_warned_with_the_rule_to_fix_t
         'publishes /scan: --remap /robot/scan:=/scan)',
         'wall_follower_node publishes /husky/cmd_vel: nothing subscribes to it (the simulator '
         'subscribes to /cmd_vel: --remap /husky/cmd_vel:=/cmd_vel)']
-    assert_warned(tmp_path, stderr, warnings)
+    assert_warned(tmp_path, stderr, warnings, run_warnings)
 
 
-def test_the_simulator_is_not_remapped(tmp_path, run_main):
+def test_the_simulator_is_not_remapped(tmp_path, run_main, run_warnings):
     status, _, _ = run_main(
         '--world', 'wall_follow_box', '--node', 'wall_follow', '--remap',
         '/cmd_vel:=/wall_follow/cmd_vel', '--duration', '3', '--quiet', '--no-record',
@@ -688,13 +692,13 @@ def test_the_simulator_is_not_remapped(tmp_path, run_main):
     assert status == 0
     metrics = load_metrics(tmp_path)
     assert metrics['distance_m'] < 0.01
-    assert run_warnings(metrics) == [
+    assert run_warnings(metrics['warnings']) == [
         'wall_follow publishes /wall_follow/cmd_vel: nothing subscribes to it (the simulator '
         'subscribes to /cmd_vel: --remap /wall_follow/cmd_vel:=/cmd_vel)']
 
 
 def test_a_students_wall_follower_is_graded_by_the_scenarios_params_remaps_and_setpoint(
-        tmp_path):
+        tmp_path, run_warnings):
     from sim_bridge.grading.runs import run_scenario
     scenario = scenario_from_dict({
         'world': 'wall_follow_box', 'nodes': ['wall_follow'], 'duration': 30,
@@ -711,16 +715,17 @@ def test_a_students_wall_follower_is_graded_by_the_scenarios_params_remaps_and_s
     assert wall['setpoint'] == 0.5 and isinstance(wall['mae'], float)
     # target_distance reached the node (its default is 0.8 m).
     assert wall['mean'] == pytest.approx(0.5, abs=0.1)
-    assert run_warnings(report.metrics) == [
+    assert run_warnings(report.metrics['warnings']) == [
         "no node declared parameter 'distance' (given for every node, /**); it was ignored"]
     assert report.passed
 
 
-def test_a_run_with_only_declared_parameters_has_no_warnings(wall_follow_runs):
-    assert run_warnings(load_metrics(wall_follow_runs['first'])) == []
+def test_a_run_with_only_declared_parameters_has_no_warnings(wall_follow_runs, run_warnings):
+    assert run_warnings(load_metrics(wall_follow_runs['first'])['warnings']) == []
 
 
-def test_a_node_that_shuts_ros_down_ends_the_run_with_every_output(tmp_path, run_main):
+def test_a_node_that_shuts_ros_down_ends_the_run_with_every_output(
+        tmp_path, run_main, run_warnings):
     node_file = FIXTURES / 'quitter.py'
     status, stdout, stderr = run_main('--world', 'obstacles', '--node', str(node_file),
                                       '--duration', '3', '--out', str(tmp_path))
@@ -730,7 +735,7 @@ def test_a_node_that_shuts_ros_down_ends_the_run_with_every_output(tmp_path, run
     ended_by = ("node 'quitter' shut ROS down (rclpy.shutdown()) in its timer callback at "
                 f'{node_file}:26: rclpy.shutdown()')
     assert metrics['ended_by'] == ended_by and metrics['node_errors'] == []
-    assert run_warnings(metrics) == [f'{ended_by}: the run ended at 1 s of its 3 s']
+    assert run_warnings(metrics['warnings']) == [f'{ended_by}: the run ended at 1 s of its 3 s']
     assert f'warning: {ended_by}' in stderr and ended_by in stdout
     assert metrics['sim_time_s'] == pytest.approx(1.0)
     assert metrics['distance_m'] == pytest.approx(0.2 * 0.9, abs=0.03)
@@ -821,7 +826,7 @@ def test_robot_and_robot_pose_spawn_a_model_the_run_is_scored_with(tmp_path, run
 
 
 def test_what_the_world_does_not_simulate_is_said_once_and_kept_in_the_metrics(
-        tmp_path, run_main, monkeypatch):
+        tmp_path, run_main, monkeypatch, run_warnings):
     world = replace(World.load('obstacles'), ignored='ignored: 1 light')
     monkeypatch.setattr(World, 'load', lambda *args, **kwargs: world)
     status, _, stderr = run_main('--world', 'obstacles', '--node', 'scan_ahead', '--duration',
@@ -830,7 +835,7 @@ def test_what_the_world_does_not_simulate_is_said_once_and_kept_in_the_metrics(
     assert stderr.count('ignored: 1 light') == 1
     metrics = load_metrics(tmp_path)
     assert metrics['ignored'] == 'ignored: 1 light'
-    assert run_warnings(metrics) == []
+    assert run_warnings(metrics['warnings']) == []
 
 
 def test_start_pose_inside_an_obstacle_cannot_start(tmp_path):

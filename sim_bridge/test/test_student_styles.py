@@ -12,7 +12,6 @@ import json
 from pathlib import Path
 
 import pytest
-from run_warnings import run_warnings
 from sim_bridge.runner.run import run_simulation
 
 FIXTURES = Path(__file__).parent / 'fixtures'
@@ -59,7 +58,7 @@ def test_an_avoider_on_a_helper_base_class_runs_the_class_main_constructs(tmp_pa
 
 
 @pytest.mark.parametrize('name', ['plain_node_in_function.py', 'two_nodes_in_main.py'])
-def test_a_cautious_driver_in_main_drives_up_to_the_cube_and_stops(tmp_path, name):
+def test_a_cautious_driver_in_main_drives_up_to_the_cube_and_stops(tmp_path, name, run_warnings):
     result = run_simulation('obstacles', [str(FIXTURES / name)], duration_s=12.0,
                             out_dir=tmp_path, quiet=True, record=False, plot=False)
     metrics = result.metrics
@@ -68,7 +67,7 @@ def test_a_cautious_driver_in_main_drives_up_to_the_cube_and_stops(tmp_path, nam
     # The cube's face is 2.0 m ahead: it stops 0.6 m before it, and stays there; the two
     # nodes' own topic (gap_ahead) has both its ends, so nothing is warned of.
     assert 1.0 < metrics['distance_m'] < 1.85 and metrics['max_stationary_s'] > 2.0
-    assert run_warnings(metrics) == []
+    assert run_warnings(metrics['warnings']) == []
 
 
 def test_a_node_spun_in_a_thread_handles_every_scan_before_main_goes_on(tmp_path):
