@@ -256,6 +256,28 @@ def test_children_can_be_interrupted_even_when_started_with_sigint_ignored():
     assert '[child-1] True' in lines
 
 
+def test_a_live_run_started_with_sigint_ignored_still_stops_at_ctrl_c():
+    # `./lab live wall_follow &` in a script: SIGINT ignored from the start, as launch
+    # overrides with a handler of its own.
+    code = ('import sys\n'
+            'from sim_bridge.runner import processes\n'
+            "sys.exit(processes.run_live([processes.ProcessSpec('sleeper', (sys.executable, "
+            "'-c', 'import time; time.sleep(60)'))]))\n")
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        parent = subprocess.Popen([sys.executable, '-c', code], env=live_env(),
+                                  stdout=subprocess.PIPE, text=True)
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    try:
+        assert 'process started' in parent.stdout.readline()
+        parent.send_signal(signal.SIGINT)
+        output = parent.communicate(timeout=TIMEOUT_S)[0]
+    finally:
+        parent.kill()
+    assert 'user interrupted with ctrl-c (SIGINT)' in output
+
+
 def running(pid: int) -> bool:
     """Tell whether process ``pid`` runs (exists and is no zombie waiting to be reaped)."""
     try:

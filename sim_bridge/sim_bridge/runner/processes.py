@@ -386,10 +386,12 @@ def run_live(specs: Sequence[ProcessSpec], duration_s: float | None = None, *,
 
     Return 0 when every process ended cleanly when asked to, 1 when one ended early (the last
     line names it) or any did not end cleanly. SIGTERM and SIGHUP stop the run as Ctrl-C does
-    (in the main thread).
+    (in the main thread); Ctrl-C stops it even when it was started with SIGINT ignored (in
+    the background), as launch's own handler does.
     """
     handlers = {}
     if threading.current_thread() is threading.main_thread():
+        handlers[signal.SIGINT] = signal.signal(signal.SIGINT, signal.default_int_handler)
         for signal_number in (signal.SIGTERM, signal.SIGHUP):
             handlers[signal_number] = signal.signal(signal_number, _raise_interrupt)
     ended = None
