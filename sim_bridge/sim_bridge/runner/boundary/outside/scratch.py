@@ -15,6 +15,11 @@ from sim_bridge.common.run_environment import NO_SHARED_MEMORY
 from sim_bridge.runner.boundary.outside.sandbox_view import (
     is_within, KIT_PACKAGE, python_roots, SYSTEM_PATHS)
 
+#: What a sourced ROS 2 Jazzy (its setup.bash) puts in a node's environment under ``ros2 run``,
+#: given to runs on the PyPI path too (a node may branch on ``ROS_DISTRO``); a sourced
+#: installation's own values pass instead.
+ROS_JAZZY_VARIABLES = {'ROS_DISTRO': 'jazzy', 'ROS_VERSION': '2', 'ROS_PYTHON_VERSION': '3'}
+
 
 def clean_environment(scratch: Path, extra: Mapping[str, str] = {},
                       library: Sequence[Path] = ()) -> dict[str, str]:
@@ -26,7 +31,8 @@ def clean_environment(scratch: Path, extra: Mapping[str, str] = {},
     kit's package and of the ``library`` packages (where a run sees those packages alone:
     they are imported from where the grader imports them, whatever else is installed); ROS 2
     discovery is OFF (a run's DDS stays in its processes), without Fast DDS's shared memory
-    (NO_SHARED_MEMORY), and ROS_LOCALHOST_ONLY unset.
+    (NO_SHARED_MEMORY), and ROS_LOCALHOST_ONLY unset; ROS_DISTRO and its kin as a sourced
+    Jazzy sets them (ROS_JAZZY_VARIABLES).
     ``extra`` is added last (it may override).
     """
     roots = [*python_roots(), *SYSTEM_PATHS]
@@ -45,8 +51,8 @@ def clean_environment(scratch: Path, extra: Mapping[str, str] = {},
             kept[:0] = dict.fromkeys(str(package.parent) for package in [KIT_PACKAGE, *library])
         if kept:
             env[name] = os.pathsep.join(kept)
-    for name in ('ROS_DISTRO', 'ROS_VERSION', 'ROS_PYTHON_VERSION', 'RMW_IMPLEMENTATION',
-                 '_ROS_WHEELS_BOOTSTRAP_COMPLETE'):
+    env.update(ROS_JAZZY_VARIABLES)
+    for name in (*ROS_JAZZY_VARIABLES, 'RMW_IMPLEMENTATION', '_ROS_WHEELS_BOOTSTRAP_COMPLETE'):
         if name in os.environ:
             env[name] = os.environ[name]
     env.update(extra)
