@@ -227,8 +227,8 @@ def test_the_environment_is_clean_and_keeps_dds_in_the_run(tmp_path, monkeypatch
     monkeypatch.delenv('ROS_DISTRO', raising=False)  # the PyPI path: no ROS 2 sourced
     env = clean_environment(tmp_path, {'ROS_DOMAIN_ID': '7'})
     # As under ros2 run on Jazzy: ROBOTIS's nodes pick Jazzy's TwistStamped by ROS_DISTRO.
-    assert (env['ROS_DISTRO'], env['ROS_VERSION'], env['ROS_PYTHON_VERSION']) == ('jazzy', '2',
-                                                                                   '3')
+    distro = (env['ROS_DISTRO'], env['ROS_VERSION'], env['ROS_PYTHON_VERSION'])
+    assert distro == ('jazzy', '2', '3')
     assert 'LAB_SECRET' not in env and 'ROS_LOCALHOST_ONLY' not in env
     assert env['ROS_AUTOMATIC_DISCOVERY_RANGE'] == 'OFF'
     assert env['HOME'] == env['TMPDIR'] == str(tmp_path)
