@@ -149,6 +149,10 @@ class SimBridge(Node):
     arguments go to rclpy's Node.
     """
 
+    #: What its start raises for bad input (a parameter of the wrong type or value, an unknown
+    #: world, a world or robot file it cannot load): its message says what, in one line.
+    START_ERRORS = (OSError, ValueError, LookupError, ParameterException)
+
     def __init__(self, *, stepped: bool = False, **kwargs):
         super().__init__('sim_bridge', **kwargs)
         world = self.load_world()
@@ -590,7 +594,7 @@ def main(args=None):
     try:
         try:
             node = SimBridge()
-        except (OSError, ValueError, LookupError, ParameterException) as error:
+        except SimBridge.START_ERRORS as error:
             sys.exit(f'sim_bridge: cannot start: {one_line(str(error))}')
         try:
             rclpy.spin(node)

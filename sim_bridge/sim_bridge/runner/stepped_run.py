@@ -15,6 +15,7 @@ import traceback
 from typing import Any, Callable, Iterable, Iterator, Sequence
 
 from sim_bridge.common.errors import OutputsFull, RunError, RunStopped
+from sim_bridge.common.text import one_line
 from sim_bridge.runner.boundary.outside import link
 from sim_bridge.runner.boundary.outside.link import Agent, AgentFailure, AgentStartError, Lockstep
 from sim_bridge.runner.boundary.outside.node_sandbox import node_limits, NodeSandbox, say_isolation
@@ -133,9 +134,9 @@ class LockstepRun:
                 stepped=True, use_global_arguments=False, cli_args=self.bridge_arguments,
                 start_parameter_services=False, enable_rosout=False,
                 parameter_overrides=[NO_TYPE_DESCRIPTION_SERVICE])
-        except self.rclpy.exceptions.InvalidParameterTypeException as error:
-            raise RunError(f'{BRIDGE_NODE}: {error}') from None
-        except Exception as error:  # noqa: B902 a bad parameter, a world it cannot load
+        except bridge_class.START_ERRORS as error:  # bad input, said in its message
+            raise RunError(f'{BRIDGE_NODE}: {one_line(str(error))}') from None
+        except Exception as error:  # noqa: B902 a fault of its own: where it was raised
             raise RunError(f'{BRIDGE_NODE}: {describe(error)}') from None
         self.executor.add_node(self.bridge)
         self.executor.own_nodes.add(self.bridge)
