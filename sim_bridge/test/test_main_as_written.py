@@ -110,6 +110,14 @@ def run_file(tmp_path: Path, name: str, duration_s: float = 3.0, *options: str,
     return metrics, done.stdout + done.stderr
 
 
+def test_a_main_loop_that_yields_with_sleep_0_reaches_its_second(tmp_path):
+    # Each time.sleep(0) waits for the simulator's next step (as any sleep, to the step at or
+    # after its end): the loop runs at the simulator's pace and ends, never stuck at 0 s.
+    metrics, console = run_file(tmp_path, 'yielding_loop.py', 5.0)
+    assert metrics['node_errors'] == [] and 'drove for 1.0 s' in console
+    assert metrics['sim_time_s'] == pytest.approx(1.0, abs=0.05)
+
+
 @pytest.mark.parametrize('name, printed', [
     ('spin_once_loop.py', 'loop driver started'),
     ('function_node.py', 'mover is moving'),
