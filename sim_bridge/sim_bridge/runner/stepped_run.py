@@ -129,12 +129,13 @@ class LockstepRun:
 
     def start_simulator(self, bridge_class: type):
         """Start the SimBridge node, stepped, and return it; RunError when it cannot start."""
+        from sim_bridge.ros.bridge import START_ERRORS  # imported with bridge_class
         try:
             self.bridge = bridge_class(
                 stepped=True, use_global_arguments=False, cli_args=self.bridge_arguments,
                 start_parameter_services=False, enable_rosout=False,
                 parameter_overrides=[NO_TYPE_DESCRIPTION_SERVICE])
-        except bridge_class.START_ERRORS as error:  # bad input, said in its message
+        except START_ERRORS as error:  # bad input, said in its message
             raise RunError(f'{BRIDGE_NODE}: {one_line(str(error))}') from None
         except Exception as error:  # noqa: B902 a fault of its own: where it was raised
             raise RunError(f'{BRIDGE_NODE}: {describe(error)}') from None
