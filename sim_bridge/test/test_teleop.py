@@ -358,7 +358,12 @@ def test_send_cmd_vel_times_sends_that_many_commands_then_a_stop():
 @pytest.mark.parametrize('ending', [signal.SIGINT, signal.SIGTERM], ids=['SIGINT', 'SIGTERM'])
 def test_send_cmd_vel_at_a_rate_sends_a_stop_on_ctrl_c_or_sigterm(ending):
     listener = Listener()
-    sender = send_cmd_vel('--rate', '20', '--linear', '-0.1')
+    # Started as in a script's background (SIGINT ignored): Ctrl-C still stops it.
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        sender = send_cmd_vel('--rate', '20', '--linear', '-0.1')
+    finally:
+        signal.signal(signal.SIGINT, previous)
     try:
         assert listener.wait_for(lambda: len(listener.commands) >= 3, 20)
         sender.send_signal(ending)

@@ -171,8 +171,10 @@ class CmdVelSender(Node):
 def main(args=None):
     argv = sys.argv if args is None else args
     arguments = parse_arguments(remove_ros_args(args=argv)[1:])
-    # Ctrl-C raises KeyboardInterrupt while the context can still send the stop command.
-    signal.signal(signal.SIGTERM, signal.default_int_handler)  # as Ctrl-C: stop, then exit
+    # Ctrl-C raises KeyboardInterrupt while the context can still send the stop command, even
+    # when started with SIGINT ignored (in the background); SIGTERM as Ctrl-C: stop, then exit.
+    for signal_number in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signal_number, signal.default_int_handler)
     rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.NO)
     node = CmdVelSender(arguments)
     status = 0
