@@ -17,11 +17,15 @@ def test_check_prints_each_tasks_marks_and_every_lost_point_in_the_pages_words(
     out = tmp_path / 'out'
     status = check.main([str(folder), '--out', str(out), '--jobs', '1',
                          '--scenario', str(scenarios_dir() / 'scan_ahead.yaml'),
-                         '--scenario', str(scenarios_dir() / 'scan_around.yaml')])
+                         '--scenario', str(scenarios_dir() / 'scan_around.yaml'),
+                         '--scenario', str(scenarios_dir() / 'closest_obstacle.yaml')])
     lines = capsys.readouterr().out.splitlines()
     assert status == 1
     start = lines.index('marks 2/4')
-    assert lines[start + 1:start + 3] == ['  task 1: 2/2', '  task 3: 0/2']
+    tasks = [line for line in lines[start:] if line.startswith('  ') and ':' in line
+             and not line.startswith('    ')]
+    # The guide's closest_obstacle is graded and carries no marks (was a TypeError).
+    assert tasks == ['  task 1: 2/2', '  task 3: 0/2', '  extra: no marks']
     lost = [line for line in lines[start:] if line.startswith('    lost ')]
     assert len(lost) == 2 and all('not submitted: no scan_around.py' in line for line in lost)
     page = (out / 'report.html').read_text(encoding='utf-8')

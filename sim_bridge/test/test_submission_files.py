@@ -44,6 +44,21 @@ def test_node_files_are_found_at_the_top_in_a_folder_or_in_the_handouts_package(
     assert {path.read_text() for path in found.files.values()} == {'# mine'}
 
 
+def test_the_kits_sim_bridge_beside_the_students_package_is_not_their_work(tmp_path):
+    # The handout's workspace: src/scan_pkg (theirs) and src/sim_bridge (the kit's, with its
+    # worked examples, one a node named closest_obstacle).
+    workspace = hand_in(tmp_path / 'ros2_ws', {
+        'src/scan_pkg/package.xml': '<package format="3"><name>scan_pkg</name></package>',
+        'src/scan_pkg/scan_pkg/wanderbot.py': '# mine',
+        'src/sim_bridge/package.xml': '<package format="3">\n  <name>sim_bridge</name>\n',
+        'src/sim_bridge/examples/closest_obstacle_from_zero.py':
+            "import rclpy\nrclpy.create_node('closest_obstacle')\n",
+        'src/sim_bridge/examples/wall_follow.py': '# the kit'})
+    found = find_node_files(workspace, [*WANTED, 'closest_obstacle.py'], tmp_path / 'scratch')
+    assert found.files == {'wanderbot.py': workspace / 'src/scan_pkg/scan_pkg/wanderbot.py'}
+    assert not [seen for seen in found.seen if 'sim_bridge' in seen]
+
+
 def test_a_zip_of_the_package_is_unpacked_and_searched(tmp_path):
     submission = tmp_path / 'sub'
     submission.mkdir()

@@ -41,6 +41,9 @@ def marks_lines(marks: dict[str, Any]) -> list[str]:
     """Return the lines that say each task's marks and why each lost point was lost."""
     lines = [f"marks {marks['total']:g}/{marks['max']:g}"]
     for task in marks['tasks']:
+        if task['max'] is None:  # graded, carrying no marks (the guide's closest_obstacle)
+            lines.append(f"  {task['task']}: no marks")
+            continue
         lines.append(f"  task {task['task']}: {task['marks']:g}/{task['max']:g}")
         for point in task['points']:
             if point['marks'] < point['max']:

@@ -6,16 +6,18 @@ package layout (``scan_pkg/scan_pkg/wanderbot.py`` beside ``setup.py``), or in a
 those. :func:`find_node_files` finds each wanted file: the shallowest of that name, a zip
 unpacked first (bounded: no path outside its folder, no link, at most MAX_MEMBERS files and
 MAX_UNPACKED_BYTES in all, each at most MAX_FILE_BYTES), colcon's ``build/``, ``install/`` and
-``log/`` and hidden folders left out. A node with no file of its name gets the one file the
-student meant for it (:mod:`sim_bridge.grading.node_names`: ``wall_follower.py``, a file whose
-node is named so, a ``setup.py`` entry point), and a note says so; several such files are
-listed, none graded. :func:`missing_text` says what was found when a file is missing. Plain
-files and folders: no rclpy.
+``log/``, hidden folders and a copy of the kit's ``sim_bridge`` package left out. A node with
+no file of its name gets the one file the student meant for it
+(:mod:`sim_bridge.grading.node_names`: ``wall_follower.py``, a file whose node is named so, a
+``setup.py`` entry point), and a note says so; several such files are listed, none graded.
+:func:`missing_text` says what was found when a file is missing. Plain files and folders: no
+rclpy.
 """
 
 from dataclasses import dataclass, field
 import os
 from pathlib import Path, PurePosixPath
+import re
 import shutil
 import stat
 from typing import BinaryIO
@@ -29,6 +31,9 @@ SKIPPED = frozenset({'build', 'install', 'log', '__pycache__', '__MACOSX', 'venv
                      'node_modules'})
 #: How deep below the submission's top a node file is looked for.
 MAX_DEPTH = 6
+#: A package.xml naming the kit's simulator package, and how much of one is read (bytes).
+KIT_PACKAGE_NAME = re.compile(r'<name>\s*sim_bridge\s*</name>')
+PACKAGE_XML_BYTES = 64 * 1024
 #: Bounds of what a zip may unpack to: files, bytes in all and in one file.
 MAX_MEMBERS = 2000
 MAX_UNPACKED_BYTES = 64 * 2 ** 20
@@ -107,13 +112,34 @@ class _Bounded:
         return data
 
 
+def is_kit_package(folder: Path) -> bool:
+    """
+    Tell whether ``folder`` is a copy of the kit's sim_bridge package (its package.xml says so).
+
+    The handout's workspace holds one beside the student's scan_pkg (``src/sim_bridge``): its
+    worked examples are the kit's, never the student's nodes.
+    """
+    try:
+        with open(folder / 'package.xml', 'rb') as manifest:
+            head = manifest.read(PACKAGE_XML_BYTES).decode('utf-8', 'replace')
+    except OSError:
+        return False
+    return KIT_PACKAGE_NAME.search(head) is not None
+
+
 def _walk(top: Path, label: str) -> list[tuple[int, str, Path]]:
-    """Return (depth, shown path, path) of the files below ``top``, skipped folders left out."""
+    """
+    Return (depth, shown path, path) of the files below ``top``, skipped folders left out.
+
+    Skipped: SKIPPED, hidden folders, a copy of the kit's sim_bridge package, and what lies
+    deeper than MAX_DEPTH.
+    """
     files = []
     for folder, subfolders, names in os.walk(top):
         depth = len(Path(folder).relative_to(top).parts)
         subfolders[:] = sorted(name for name in subfolders if name not in SKIPPED
-                               and not name.startswith('.') and depth < MAX_DEPTH)
+                               and not name.startswith('.') and depth < MAX_DEPTH
+                               and not is_kit_package(Path(folder) / name))
         for name in sorted(names):
             path = Path(folder) / name
             shown = (Path(label) / path.relative_to(top)).as_posix()
