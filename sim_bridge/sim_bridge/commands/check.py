@@ -18,6 +18,7 @@ from typing import Any, Sequence
 
 from sim_bridge.commands import grade
 from sim_bridge.common.paths import output_folder, scenarios_dir
+from sim_bridge.grading.marks import format_marks
 from sim_bridge.grading.runs import REPORT_NAME
 
 
@@ -39,17 +40,18 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
 
 def marks_lines(marks: dict[str, Any]) -> list[str]:
     """Return the lines that say each task's marks and why each lost point was lost."""
-    lines = [f"marks {marks['total']:g}/{marks['max']:g}"]
+    lines = [f"marks {format_marks(marks['total'])}/{format_marks(marks['max'])}"]
     for task in marks['tasks']:
         if task['max'] is None:  # graded, carrying no marks (the guide's closest_obstacle)
             lines.append(f"  {task['task']}: no marks")
             continue
-        lines.append(f"  task {task['task']}: {task['marks']:g}/{task['max']:g}")
+        lines.append(f"  task {task['task']}: {format_marks(task['marks'])}/"
+                     f"{format_marks(task['max'])}")
         for point in task['points']:
             if point['marks'] < point['max']:
                 why = f": {point['why']}" if point['why'] else ''
-                lines.append(f"    lost {point['max'] - point['marks']:g} of "
-                             f"{point['max']:g}, {point['point']}{why}")
+                lines.append(f"    lost {format_marks(point['max'] - point['marks'])} of "
+                             f"{format_marks(point['max'])}, {point['point']}{why}")
     return lines
 
 
