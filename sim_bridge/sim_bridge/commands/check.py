@@ -4,12 +4,15 @@ A student's check before handing in: their own nodes on the shipped scenarios, a
 ``./lab check [FOLDER]`` grades the node files in FOLDER (default: the current folder) on every
 scenario the kit ships (``scenarios/``), exactly as the instructor's grader does
 (:mod:`sim_bridge.commands.grade` with ``--submission FOLDER``: each node sandboxed, stepped on
-simulated time), then prints each task's marks and, for each point it lost, the words of the
-TA's page. It writes no recording or plot; the report pages are in ``--out``. Exit status: 0
-when every point was earned, 1 when one was lost, 2 when the check could not run.
+simulated time), then prints which files it graded, each task's marks and, for each point it
+lost, the words of the TA's page (the grader's table of runs is on the pages). It writes no
+recording or plot; the report pages are in ``--out``. Exit status: 0 when every point was
+earned, 1 when one was lost, 2 when the check could not run.
 """
 
 import argparse
+import contextlib
+import io
 import json
 import os
 from pathlib import Path
@@ -62,17 +65,23 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f'error: {args.folder} is not a folder of node files', file=sys.stderr)
         return 2
     scenarios = args.scenarios or [str(scenarios_dir())]
-    status = grade.main([*scenarios, '--submission', str(args.folder), '--out', str(args.out),
-                         '--jobs', str(max(1, args.jobs)), '--no-record', '--no-plot',
-                         '--quiet'])
+    # The grader's table of runs is the TA's; the student gets its notes (which file was
+    # graded) and the marks, unless there are no marks to give.
+    graded = io.StringIO()
+    with contextlib.redirect_stdout(graded):
+        status = grade.main([*scenarios, '--submission', str(args.folder), '--out',
+                             str(args.out), '--jobs', str(max(1, args.jobs)), '--no-record',
+                             '--no-plot', '--quiet'])
     try:
         report = json.loads((args.out / REPORT_NAME).read_text(encoding='utf-8'))
     except (OSError, ValueError):
-        return 2 if status == 0 else status
+        report = {}
     marks = report.get('marks')
     if not marks:
-        return status
-    print('\n'.join(marks_lines(marks)))
+        print(graded.getvalue(), end='')
+        return status or 2
+    notes = [line for line in graded.getvalue().splitlines() if line.startswith('note: ')]
+    print('\n'.join([*notes, *marks_lines(marks)]))
     print(f"pages: {args.out / 'report.html'}")
     return 0 if marks['total'] >= marks['max'] else 1
 
