@@ -110,6 +110,19 @@ def run_file(tmp_path: Path, name: str, duration_s: float = 3.0, *options: str,
     return metrics, done.stdout + done.stderr
 
 
+def test_a_node_drawing_unseeded_random_numbers_does_the_same_at_every_run(tmp_path):
+    # As the handout's wanderbot: random.uniform never seeded, a set iterated. Two gradings of
+    # one file give one set of marks.
+    printed = []
+    for run in ('first', 'second'):
+        (tmp_path / run).mkdir()
+        run_file(tmp_path / run, 'random_turner.py', 2.0)
+        lines = (tmp_path / run / 'out' / 'log.jsonl').read_text().splitlines()
+        printed.append([json.loads(line)['text'] for line in lines
+                        if json.loads(line).get('text', '').startswith('drew ')])
+    assert len(printed[0]) == 4 and printed[0] == printed[1]
+
+
 def test_a_main_loop_that_yields_with_sleep_0_reaches_its_second(tmp_path):
     # Each time.sleep(0) waits for the simulator's next step (as any sleep, to the step at or
     # after its end): the loop runs at the simulator's pace and ends, never stuck at 0 s.

@@ -43,7 +43,9 @@ Besides: a proxy node ``_lab_agent_proxy`` in the nodes' context (it takes what 
 publishes what the simulator sends); a daemon thread ``lab_pacer`` that steps the run while
 main()'s own code keeps the main thread busy (busy_poll_ticks; agent's docstring); SIGUSR1 and
 faulthandler's SIGUSR2 handlers (the trusted side asks a stuck process where it is);
-``ROS_AUTOMATIC_DISCOVERY_RANGE=OFF``; line-buffered stdout. Not patched: ``time.perf_counter``,
+``ROS_AUTOMATIC_DISCOVERY_RANGE=OFF``; line-buffered stdout; Python's ``random`` seeded (0)
+and ``PYTHONHASHSEED=0``, so that a node drawing random turns, or iterating a set, is marked the
+same at every grading (a node's own ``random.seed`` wins). Not patched: ``time.perf_counter``,
 ``time.process_time``, ``datetime`` (they measure the code's own work), ROS time (the
 simulator's /clock).
 """

@@ -32,14 +32,15 @@ def clean_environment(scratch: Path, extra: Mapping[str, str] = {},
     they are imported from where the grader imports them, whatever else is installed); ROS 2
     discovery is OFF (a run's DDS stays in its processes), without Fast DDS's shared memory
     (NO_SHARED_MEMORY), and ROS_LOCALHOST_ONLY unset; ROS_DISTRO and its kin as a sourced
-    Jazzy sets them (ROS_JAZZY_VARIABLES).
+    Jazzy sets them (ROS_JAZZY_VARIABLES); PYTHONHASHSEED fixed, so that a set's order is the
+    same at every run.
     ``extra`` is added last (it may override).
     """
     roots = [*python_roots(), *SYSTEM_PATHS]
     bin_folder = os.path.dirname(sys.executable)
     env = {'PATH': os.pathsep.join([bin_folder, '/usr/local/bin', '/usr/bin', '/bin']),
            'HOME': str(scratch), 'TMPDIR': str(scratch), 'LANG': 'C.UTF-8',
-           'PYTHONUNBUFFERED': '1', 'PYTHONDONTWRITEBYTECODE': '1',
+           'PYTHONUNBUFFERED': '1', 'PYTHONDONTWRITEBYTECODE': '1', 'PYTHONHASHSEED': '0',
            'ROS_AUTOMATIC_DISCOVERY_RANGE': 'OFF', **NO_SHARED_MEMORY,
            'OPENBLAS_NUM_THREADS': '1', 'OMP_NUM_THREADS': '1'}
     if sys.prefix != sys.base_prefix:
