@@ -58,10 +58,9 @@ from sim_bridge.simulation.robot import DiffDriveConfig, DriveLimits, pose_from
 from sim_bridge.simulation.sdf_frames import relative_pose
 from sim_bridge.simulation.sdf_lidar import LidarConfig
 from sim_bridge.simulation.simulator import Simulator
-from sim_bridge.simulation.update_schedule import UpdateSchedule
+from sim_bridge.simulation.update_schedule import NANOSECONDS_PER_SECOND, UpdateSchedule
 from sim_bridge.simulation.world import World
 
-NANOSECONDS_PER_SECOND = 10 ** 9
 #: Hz, when neither the world (its physics step) nor the physics_rate parameter sets one: ten
 #: times a lab lidar's rate (Gazebo's own default step, 1 ms, would be 1000 Hz).
 DEFAULT_PHYSICS_RATE = 100.0
